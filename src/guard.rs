@@ -1,0 +1,107 @@
+//! The foldover guard: the exact orientation of every triangle.
+//!
+//! The paper's condition `det(∇U) > 0` (Eq. 3) is what must hold; its
+//! sufficient pointwise form (Eq. 5/7), checked at constraint points only, lets
+//! folds through (32 of 74 cases in algorithm.md). uvpin instead checks the
+//! sign of every triangle's area, virtual hole triangles included, with an
+//! exact orientation predicate.
+
+use glam::DVec2;
+
+/// Twice the signed area of `(a, b, c)` with an exact sign: positive when the
+/// triangle is counter-clockwise in layout coordinates (y up).
+#[inline]
+pub fn orientation(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+    use robust::{Coord, orient2d};
+    orient2d(Coord { x: a.x, y: a.y }, Coord { x: b.x, y: b.y }, Coord { x: c.x, y: c.y })
+}
+
+/// `true` when every triangle has strictly positive area (Eq. 3 holds on every triangle).
+pub fn all_positive(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool {
+    first_non_positive(layout, triangles).is_none()
+}
+
+/// The first triangle whose area is zero or negative.
+pub fn first_non_positive(layout: &[DVec2], triangles: &[[u32; 3]]) -> Option<usize> {
+    triangles.iter().position(|t| {
+        let [a, b, c] = t.map(|v| layout[v as usize]);
+        // Fast filter: clearly positive without the exact predicate.
+        let det = (b - a).perp_dot(c - a);
+        let bound = 1e-12 * ((b - a).length_squared() + (c - a).length_squared());
+        !(det > bound || (det.abs() <= bound && orientation(a, b, c) > 0.0))
+    })
+}
+
+/// Flipped and zero-area triangle counts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct OrientationCounts {
+    pub flipped: usize,
+    pub zero_area: usize,
+}
+
+impl OrientationCounts {
+    pub fn is_clean(&self) -> bool {
+        self.flipped == 0 && self.zero_area == 0
+    }
+}
+
+/// Counts triangles with negative and zero area in layout coordinates (y up).
+pub fn count_orientations(layout: &[DVec2], triangles: &[[u32; 3]]) -> OrientationCounts {
+    let mut counts = OrientationCounts::default();
+    for t in triangles {
+        let [a, b, c] = t.map(|v| layout[v as usize]);
+        let o = orientation(a, b, c);
+        if o < 0.0 {
+            counts.flipped += 1;
+        } else if o == 0.0 {
+            counts.zero_area += 1;
+        }
+    }
+    counts
+}
+
+/// Counts on glTF texture coordinates exactly as stored (f32, v down): a
+/// triangle keeps its orientation when `(u1−u0)(v2−v0) − (u2−u0)(v1−v0) < 0`.
+pub fn count_uv_orientations(uvs: &[[f32; 2]], triangles: &[[u32; 3]]) -> OrientationCounts {
+    let mut counts = OrientationCounts::default();
+    for t in triangles {
+        let [a, b, c] = t.map(|v| {
+            let p = uvs[v as usize];
+            DVec2::new(p[0] as f64, p[1] as f64)
+        });
+        let o = orientation(a, b, c);
+        if o > 0.0 {
+            counts.flipped += 1;
+        } else if o == 0.0 {
+            counts.zero_area += 1;
+        }
+    }
+    counts
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn detects_flips_and_slivers_exactly() {
+        let layout = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0), DVec2::new(2.0, 0.0)];
+        assert!(all_positive(&layout, &[[0, 1, 2]]));
+        assert_eq!(first_non_positive(&layout, &[[0, 1, 2], [0, 2, 1]]), Some(1));
+        // Exactly collinear: zero, not positive.
+        assert_eq!(first_non_positive(&layout, &[[0, 1, 3]]), Some(0));
+        let c = count_orientations(&layout, &[[0, 1, 2], [0, 2, 1], [0, 1, 3]]);
+        assert_eq!(c, OrientationCounts { flipped: 1, zero_area: 1 });
+        // A tiny but positive triangle passes.
+        let tiny = vec![DVec2::new(0.5, 0.5), DVec2::new(0.5 + 1e-15, 0.5), DVec2::new(0.5, 0.5 + 1e-15)];
+        assert!(all_positive(&tiny, &[[0, 1, 2]]));
+    }
+
+    #[test]
+    fn uv_orientation_is_mirrored() {
+        // (x, y) CCW ⇒ (u, v) = (x, 1 − y) has negative signed area.
+        let uvs = [[0.0f32, 1.0], [1.0, 1.0], [0.0, 0.0]];
+        assert!(count_uv_orientations(&uvs, &[[0, 1, 2]]).is_clean());
+        assert_eq!(count_uv_orientations(&uvs, &[[0, 2, 1]]).flipped, 1);
+    }
+}

@@ -1,0 +1,30 @@
+//! # uvpin — constrained, fold-free texture mapping
+//!
+//! Gives a 3D mesh texture coordinates so that chosen vertices land exactly on
+//! chosen texture positions, and no triangle ever flips. It starts from the
+//! paper *Constrained Texture Mapping and Foldover-free Condition*
+//! (`../shared/paper/`); `../shared/design/algorithm.md` has the measured
+//! facts behind each departure from it.
+//!
+//! | paper | what | where |
+//! |---|---|---|
+//! | §III.B | outer boundary loop → unit square, corners, arc length | [`param::boundary::map_outer_boundary`] |
+//! | Eq. 2 | force densities `q = 1 − len/max_len + ε` | [`param::bar_net::force_densities`] |
+//! | Eq. 1 | bar-net equilibrium `D x = −D_f x_f` (holes fan-filled) | [`param::bar_net::BarNet`] |
+//! | Eq. 3 | foldover-free condition `det ∇U > 0`, checked exactly per triangle | [`guard`] |
+//! | Eq. 6 | thin-plate-spline displacement | [`rbf::tps::ThinPlateSpline`] |
+//! | §IV.B loop | interpolated stepping with step halving | [`rbf::stepping`] |
+//! | §V.B | Sander L2 / L∞ stretch | [`metrics::sander_stretch`] |
+//!
+//! The core modules are plain functions over plain data. The ECS layer
+//! ([`ecs`]) holds charts as `bevy_ecs` entities and runs one core function per
+//! system; [`solve::solve_file`] runs that schedule to convergence.
+
+pub mod guard;
+pub mod mesh;
+pub mod metrics;
+pub mod param;
+pub mod rbf;
+pub mod sparse;
+#[doc(hidden)]
+pub mod testing;

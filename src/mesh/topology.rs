@@ -1,0 +1,325 @@
+//! Topology of one chart: edge manifoldness, consistent orientation, boundary
+//! loops (outer loop = longest in 3D), and the disk check that makes the
+//! force-density embedding of §III fold-free.
+
+use super::TriMesh;
+use thiserror::Error;
+
+/// Why a chart cannot be parameterised. Every variant names the offending
+/// vertices or triangles (chart-local indices unless stated otherwise).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum TopologyError {
+    #[error("triangle {triangle} repeats a vertex ({a}, {b}, {c}): it has no area in any layout")]
+    DegenerateTriangle { triangle: usize, a: u32, b: u32, c: u32 },
+    #[error("triangle {triangle} refers to vertex {vertex}, but the chart has only {n_vertices} vertices")]
+    VertexOutOfRange { triangle: usize, vertex: u32, n_vertices: usize },
+    #[error("non-manifold edge ({a}, {b}): shared by {n_triangles} triangles (at most 2 allowed), e.g. triangles {triangles:?}")]
+    NonManifoldEdge { a: u32, b: u32, n_triangles: usize, triangles: Vec<usize> },
+    #[error("edge ({a}, {b}) is used in the same direction by triangles {t0} and {t1}: their windings disagree (the surface is not consistently oriented)")]
+    InconsistentOrientation { a: u32, b: u32, t0: usize, t1: usize },
+    #[error("non-manifold vertex {vertex}: its triangles form {n_fans} separate fans (a bow-tie)")]
+    NonManifoldVertex { vertex: u32, n_fans: usize },
+    #[error("the chart is closed (no boundary edges): cut it open so it has a boundary to map onto the square")]
+    Closed,
+    #[error("the chart is not a disk: genus {genus} with {n_loops} boundary loops; cut handles open first")]
+    NotADisk { genus: i64, n_loops: usize },
+    #[error("the outer boundary has only {n} vertices; at least 4 are needed for the square's corners")]
+    TooFewBoundaryVertices { n: usize },
+    #[error("the chart has no triangles")]
+    Empty,
+}
+
+/// Topology of a manifold, consistently oriented chart with at least one boundary.
+#[derive(Debug, Clone)]
+pub struct Topology {
+    /// Boundary loops, each following the faces' winding (the face lies to the
+    /// left of each boundary edge `loop[i] → loop[i+1]`). `loops[outer]` is the
+    /// longest loop in 3D; the others are holes.
+    pub loops: Vec<Vec<u32>>,
+    /// Index into `loops` of the outer loop.
+    pub outer: usize,
+    /// 3D length of each loop.
+    pub loop_lengths: Vec<f64>,
+    /// Every undirected edge once, `(min, max)`.
+    pub edges: Vec<[u32; 2]>,
+    /// `true` for edges with one triangle (same order as `edges`).
+    pub edge_is_boundary: Vec<bool>,
+}
+
+impl Topology {
+    /// Checks `mesh` and finds its boundary loops.
+    ///
+    /// # Errors
+    /// Any [`TopologyError`]: repeated vertex in a triangle, edge with > 2
+    /// triangles or inconsistent winding, bow-tie vertex, closed surface, genus
+    /// > 0, outer loop with fewer than 4 vertices.
+    pub fn build(mesh: &TriMesh) -> Result<Self, TopologyError> {
+        let n = mesh.n_vertices();
+        if mesh.triangles.is_empty() {
+            return Err(TopologyError::Empty);
+        }
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let [a, b, c] = *tri;
+            for &v in tri {
+                if v as usize >= n {
+                    return Err(TopologyError::VertexOutOfRange { triangle: t, vertex: v, n_vertices: n });
+                }
+            }
+            if a == b || b == c || a == c {
+                return Err(TopologyError::DegenerateTriangle { triangle: t, a, b, c });
+            }
+        }
+        // Half-edges sorted by undirected key: (key, triangle, forward?).
+        let mut half: Vec<(u64, u32, bool)> = Vec::with_capacity(mesh.triangles.len() * 3);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
+                half.push((key, t as u32, a < b));
+            }
+        }
+        half.sort_unstable();
+        let mut edges = Vec::with_capacity(half.len() / 2 + 8);
+        let mut edge_is_boundary = Vec::with_capacity(half.len() / 2 + 8);
+        // next boundary vertex along the winding, per vertex.
+        let mut boundary_next: Vec<u32> = vec![u32::MAX; n];
+        // Corner fans: union-find over (triangle, corner) joined across interior edges.
+        let mut fans = UnionFind::new(mesh.triangles.len() * 3);
+        let corner = |t: u32, v: u32| -> usize {
+            let tri = mesh.triangles[t as usize];
+            let k = tri.iter().position(|&x| x == v).expect("vertex of triangle");
+            t as usize * 3 + k
+        };
+        let mut i = 0;
+        while i < half.len() {
+            let mut j = i + 1;
+            while j < half.len() && half[j].0 == half[i].0 {
+                j += 1;
+            }
+            let key = half[i].0;
+            let (lo, hi) = ((key >> 32) as u32, key as u32);
+            match j - i {
+                1 => {
+                    let (_, _, fwd) = half[i];
+                    let (a, b) = if fwd { (lo, hi) } else { (hi, lo) };
+                    if boundary_next[a as usize] != u32::MAX {
+                        return Err(TopologyError::NonManifoldVertex { vertex: a, n_fans: 2 });
+                    }
+                    boundary_next[a as usize] = b;
+                    edges.push([lo, hi]);
+                    edge_is_boundary.push(true);
+                }
+                2 => {
+                    let (_, t0, f0) = half[i];
+                    let (_, t1, f1) = half[i + 1];
+                    if f0 == f1 {
+                        return Err(TopologyError::InconsistentOrientation {
+                            a: if f0 { lo } else { hi },
+                            b: if f0 { hi } else { lo },
+                            t0: t0 as usize,
+                            t1: t1 as usize,
+                        });
+                    }
+                    fans.union(corner(t0, lo), corner(t1, lo));
+                    fans.union(corner(t0, hi), corner(t1, hi));
+                    edges.push([lo, hi]);
+                    edge_is_boundary.push(false);
+                }
+                k => {
+                    return Err(TopologyError::NonManifoldEdge {
+                        a: lo,
+                        b: hi,
+                        n_triangles: k,
+                        triangles: half[i..j].iter().map(|h| h.1 as usize).take(4).collect(),
+                    });
+                }
+            }
+            i = j;
+        }
+        // Every vertex's corners must form one fan.
+        let mut fan_of: Vec<u32> = vec![u32::MAX; n];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for (k, &v) in tri.iter().enumerate() {
+                let root = fans.find(t * 3 + k) as u32;
+                let slot = &mut fan_of[v as usize];
+                if *slot == u32::MAX {
+                    *slot = root;
+                } else if *slot != root {
+                    return Err(TopologyError::NonManifoldVertex { vertex: v, n_fans: 2 });
+                }
+            }
+        }
+        // Boundary loops.
+        let mut loops = Vec::new();
+        let mut visited = vec![false; n];
+        for start in 0..n {
+            if boundary_next[start] == u32::MAX || visited[start] {
+                continue;
+            }
+            let mut lp = Vec::new();
+            let mut v = start as u32;
+            while !visited[v as usize] {
+                visited[v as usize] = true;
+                lp.push(v);
+                v = boundary_next[v as usize];
+                debug_assert!(v != u32::MAX, "open boundary chain");
+            }
+            loops.push(lp);
+        }
+        if loops.is_empty() {
+            return Err(TopologyError::Closed);
+        }
+        let loop_lengths: Vec<f64> = loops.iter().map(|l| loop_length(mesh, l)).collect();
+        let outer = (0..loops.len())
+            .max_by(|&a, &b| loop_lengths[a].total_cmp(&loop_lengths[b]))
+            .expect("non-empty");
+        // Euler characteristic of the used vertices: V - E + F = 2 - 2g - b.
+        let used = fan_of.iter().filter(|&&f| f != u32::MAX).count() as i64;
+        let chi = used - edges.len() as i64 + mesh.triangles.len() as i64;
+        let genus2 = 2 - loops.len() as i64 - chi;
+        if genus2 != 0 {
+            return Err(TopologyError::NotADisk { genus: genus2 / 2, n_loops: loops.len() });
+        }
+        if loops[outer].len() < 4 {
+            return Err(TopologyError::TooFewBoundaryVertices { n: loops[outer].len() });
+        }
+        Ok(Topology { loops, outer, loop_lengths, edges, edge_is_boundary })
+    }
+
+    /// The outer boundary loop (longest in 3D).
+    pub fn outer_loop(&self) -> &[u32] {
+        &self.loops[self.outer]
+    }
+
+    /// The inner loops (holes), in loop order.
+    pub fn holes(&self) -> impl Iterator<Item = &Vec<u32>> {
+        self.loops.iter().enumerate().filter(move |(i, _)| *i != self.outer).map(|(_, l)| l)
+    }
+}
+
+/// 3D length of a closed vertex loop.
+pub fn loop_length(mesh: &TriMesh, lp: &[u32]) -> f64 {
+    (0..lp.len())
+        .map(|i| mesh.positions[lp[i] as usize].distance(mesh.positions[lp[(i + 1) % lp.len()] as usize]))
+        .sum()
+}
+
+/// Disjoint sets with path halving and union by size.
+#[derive(Debug, Clone)]
+pub struct UnionFind {
+    parent: Vec<u32>,
+    size: Vec<u32>,
+}
+
+impl UnionFind {
+    pub fn new(n: usize) -> Self {
+        UnionFind { parent: (0..n as u32).collect(), size: vec![1; n] }
+    }
+    pub fn find(&mut self, mut x: usize) -> usize {
+        while self.parent[x] as usize != x {
+            let p = self.parent[x] as usize;
+            self.parent[x] = self.parent[p];
+            x = self.parent[x] as usize;
+        }
+        x
+    }
+    pub fn union(&mut self, a: usize, b: usize) {
+        let (mut ra, mut rb) = (self.find(a), self.find(b));
+        if ra == rb {
+            return;
+        }
+        if self.size[ra] < self.size[rb] {
+            std::mem::swap(&mut ra, &mut rb);
+        }
+        self.parent[rb] = ra as u32;
+        self.size[ra] += self.size[rb];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::grid_mesh;
+    use glam::DVec3;
+
+    #[test]
+    fn grid_has_one_loop_of_perimeter_length() {
+        let mesh = grid_mesh(5, 4);
+        let topo = Topology::build(&mesh).unwrap();
+        assert_eq!(topo.loops.len(), 1);
+        assert_eq!(topo.outer_loop().len(), 2 * (5 - 1) + 2 * (4 - 1));
+        assert!((topo.loop_lengths[0] - 2.0 * (1.0 + 1.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tetrahedron_is_closed() {
+        let mesh = TriMesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]],
+        };
+        assert_eq!(Topology::build(&mesh).unwrap_err(), TopologyError::Closed);
+    }
+
+    #[test]
+    fn three_triangles_on_one_edge_are_non_manifold() {
+        let mesh = TriMesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::NEG_Y, DVec3::Z],
+            triangles: vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]],
+        };
+        match Topology::build(&mesh).unwrap_err() {
+            TopologyError::NonManifoldEdge { a: 0, b: 1, n_triangles: 3, .. } => {}
+            e => panic!("unexpected {e:?}"),
+        }
+    }
+
+    #[test]
+    fn flipped_neighbour_is_inconsistent() {
+        let mesh = TriMesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1.0, 1.0, 0.0)],
+            triangles: vec![[0, 1, 2], [1, 2, 3]],
+        };
+        assert!(matches!(Topology::build(&mesh).unwrap_err(), TopologyError::InconsistentOrientation { .. }));
+    }
+
+    #[test]
+    fn bow_tie_vertex_is_rejected() {
+        let mesh = TriMesh {
+            positions: vec![
+                DVec3::ZERO,
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(1.0, 1.0, 0.0),
+                DVec3::new(-1.0, 0.0, 0.0),
+                DVec3::new(-1.0, -1.0, 0.0),
+            ],
+            triangles: vec![[0, 1, 2], [0, 3, 4]],
+        };
+        assert!(matches!(Topology::build(&mesh).unwrap_err(), TopologyError::NonManifoldVertex { vertex: 0, .. }));
+    }
+
+    #[test]
+    fn cylinder_is_not_a_disk_but_annulus_is_fine() {
+        // A grid with a hole: remove the two triangles of the centre quad.
+        let mut mesh = grid_mesh(4, 4);
+        mesh.triangles.retain(|t| {
+            let c = t.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / 3.0;
+            !(c.x > 1.0 / 3.0 && c.x < 2.0 / 3.0 && c.y > 1.0 / 3.0 && c.y < 2.0 / 3.0)
+        });
+        let topo = Topology::build(&mesh).unwrap();
+        assert_eq!(topo.loops.len(), 2);
+        assert_eq!(topo.holes().count(), 1);
+        // Glue the left and right columns: a cylinder (two boundary loops, genus 0) is fine
+        // topologically, but a torus-like identification of both sides is not a disk.
+        let mut tube = grid_mesh(5, 3);
+        let nx = 5;
+        for t in &mut tube.triangles {
+            for v in t.iter_mut() {
+                if *v as usize % nx == nx - 1 {
+                    *v -= (nx - 1) as u32;
+                }
+            }
+        }
+        // A tube has 2 loops and genus 0 (an annulus): accepted as outer loop + hole.
+        let topo = Topology::build(&tube).unwrap();
+        assert_eq!(topo.loops.len(), 2);
+    }
+}

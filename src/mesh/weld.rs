@@ -1,0 +1,170 @@
+//! Welding of glTF vertices into charts.
+//!
+//! glTF splits vertices wherever any attribute differs (normals at creases, UVs
+//! at seams). uvpin welds vertices that share their position and, when the
+//! primitive already has UVs in the written set, the same UV: the connected
+//! components of the welded triangles are the charts. A chart is solved or kept
+//! as a whole.
+
+use super::TriMesh;
+use super::topology::UnionFind;
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// Geometry of one TRIANGLES primitive as read from the file.
+#[derive(Debug, Clone, Default)]
+pub struct PrimitiveGeometry {
+    /// Primitive index inside its glTF mesh.
+    pub index: usize,
+    pub positions: Vec<[f32; 3]>,
+    /// Triangle list indices (length divisible by 3, every index < positions.len()).
+    pub indices: Vec<u32>,
+    /// Existing UVs of the written set, if the primitive has that set.
+    pub uvs: Option<Vec<[f32; 2]>>,
+}
+
+/// All primitives of a mesh, welded.
+#[derive(Debug, Clone)]
+pub struct WeldedMesh {
+    /// Welded vertices and triangles of every primitive, in primitive order.
+    pub mesh: TriMesh,
+    /// Per primitive (same order as the input), the welded id of each glTF vertex.
+    pub vertex_of: Vec<Vec<u32>>,
+    /// Chart id of every welded vertex; `None` for vertices no triangle uses.
+    pub chart_of_vertex: Vec<Option<u32>>,
+    /// Number of charts.
+    pub n_charts: usize,
+}
+
+/// A chart cut out of a [`WeldedMesh`], with chart-local vertex numbering.
+#[derive(Debug, Clone)]
+pub struct Chart {
+    pub id: u32,
+    pub mesh: TriMesh,
+    /// Chart-local vertex → welded vertex.
+    pub welded_ids: Vec<u32>,
+    /// Welded vertex → chart-local vertex (only for this chart's vertices).
+    pub local_of: HashMap<u32, u32>,
+}
+
+fn weld_key(p: [f32; 3], uv: Option<[f32; 2]>) -> [u32; 6] {
+    // +0.0 and -0.0 are the same position.
+    let bits = |x: f32| if x == 0.0 { 0 } else { x.to_bits() };
+    match uv {
+        Some([u, v]) => [bits(p[0]), bits(p[1]), bits(p[2]), bits(u), bits(v), 1],
+        None => [bits(p[0]), bits(p[1]), bits(p[2]), 0, 0, 0],
+    }
+}
+
+/// Welds the primitives' vertices (same position, and same UV when the
+/// primitive has UVs in the written set) and labels connected components.
+/// Inputs must already be validated (finite positions, indices in range).
+pub fn weld(primitives: &[PrimitiveGeometry]) -> WeldedMesh {
+    let mut ids: HashMap<[u32; 6], u32> = HashMap::new();
+    let mut positions = Vec::new();
+    let mut vertex_of = Vec::with_capacity(primitives.len());
+    let mut triangles = Vec::new();
+    for prim in primitives {
+        let mut map = Vec::with_capacity(prim.positions.len());
+        for (i, p) in prim.positions.iter().enumerate() {
+            let key = weld_key(*p, prim.uvs.as_ref().map(|u| u[i]));
+            let id = *ids.entry(key).or_insert_with(|| {
+                positions.push(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+                (positions.len() - 1) as u32
+            });
+            map.push(id);
+        }
+        for t in prim.indices.chunks_exact(3) {
+            triangles.push([map[t[0] as usize], map[t[1] as usize], map[t[2] as usize]]);
+        }
+        vertex_of.push(map);
+    }
+    let mut uf = UnionFind::new(positions.len());
+    for t in &triangles {
+        uf.union(t[0] as usize, t[1] as usize);
+        uf.union(t[1] as usize, t[2] as usize);
+    }
+    let mut chart_of_root: HashMap<usize, u32> = HashMap::new();
+    let mut chart_of_vertex = vec![None; positions.len()];
+    for t in &triangles {
+        let root = uf.find(t[0] as usize);
+        let next = chart_of_root.len() as u32;
+        let c = *chart_of_root.entry(root).or_insert(next);
+        for &v in t {
+            chart_of_vertex[v as usize] = Some(c);
+        }
+    }
+    WeldedMesh { n_charts: chart_of_root.len(), mesh: TriMesh { positions, triangles }, vertex_of, chart_of_vertex }
+}
+
+impl WeldedMesh {
+    /// Cuts chart `id` out with its own vertex numbering (welded order).
+    pub fn chart(&self, id: u32) -> Chart {
+        let mut local_of = HashMap::new();
+        let mut welded_ids = Vec::new();
+        for (v, c) in self.chart_of_vertex.iter().enumerate() {
+            if *c == Some(id) {
+                local_of.insert(v as u32, welded_ids.len() as u32);
+                welded_ids.push(v as u32);
+            }
+        }
+        let positions = welded_ids.iter().map(|&v| self.mesh.positions[v as usize]).collect();
+        let triangles = self
+            .mesh
+            .triangles
+            .iter()
+            .filter(|t| self.chart_of_vertex[t[0] as usize] == Some(id))
+            .map(|t| t.map(|v| local_of[&v]))
+            .collect();
+        Chart { id, mesh: TriMesh { positions, triangles }, welded_ids, local_of }
+    }
+
+    /// Number of triangles and vertices in each chart.
+    pub fn chart_sizes(&self) -> Vec<(usize, usize)> {
+        let mut sizes = vec![(0usize, 0usize); self.n_charts];
+        for c in self.chart_of_vertex.iter().flatten() {
+            sizes[*c as usize].0 += 1;
+        }
+        for t in &self.mesh.triangles {
+            if let Some(c) = self.chart_of_vertex[t[0] as usize] {
+                sizes[c as usize].1 += 1;
+            }
+        }
+        sizes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad(offset: f32, uv: Option<f32>) -> PrimitiveGeometry {
+        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]
+            .into_iter()
+            .map(|p: [f32; 3]| [p[0] + offset, p[1], p[2]])
+            .collect();
+        PrimitiveGeometry {
+            index: 0,
+            positions,
+            indices: vec![0, 1, 2, 0, 2, 3],
+            uvs: uv.map(|u| vec![[u, 0.0], [u, 0.0], [u, 1.0], [u, 1.0]]),
+        }
+    }
+
+    #[test]
+    fn shared_positions_weld_across_primitives() {
+        let w = weld(&[quad(0.0, None), quad(1.0, None)]);
+        assert_eq!(w.mesh.n_vertices(), 6);
+        assert_eq!(w.n_charts, 1);
+    }
+
+    #[test]
+    fn different_uvs_split_charts() {
+        let w = weld(&[quad(0.0, Some(0.0)), quad(1.0, Some(0.5))]);
+        assert_eq!(w.mesh.n_vertices(), 8);
+        assert_eq!(w.n_charts, 2);
+        let c = w.chart(1);
+        assert_eq!(c.mesh.n_triangles(), 2);
+        assert_eq!(c.welded_ids, vec![4, 5, 6, 7]);
+    }
+}

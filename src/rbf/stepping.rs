@@ -1,0 +1,246 @@
+//! Interpolated constraint stepping (§IV.B, the loop after Eq. 7) with the
+//! exact foldover guard and step halving.
+//!
+//! Each iteration fits the thin-plate spline of Eq. 6 that moves every
+//! constrained vertex a fraction `t` of its remaining way to its target
+//! (outer-boundary anchors held with zero displacement, so the boundary stays
+//! on the square), applies it to every free vertex, and asks the guard. A fold
+//! halves `t`; an accepted step resets `t = 1`. The path **stalls** when two
+//! iterations in a row need ≥ `stall_halvings` halvings, when no step survives
+//! `max_halvings` halvings, or at `max_iterations` (algorithm.md: halving never
+//! rescued a stalled run, so stop early and report).
+
+use super::tps::{ThinPlateSpline, TpsError};
+use glam::DVec2;
+
+/// Stepping limits. Defaults in each field's doc.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SteppingOptions {
+    /// Accepted spline steps at most (default 100).
+    pub max_iterations: u32,
+    /// Halvings of one step before the path is declared stalled (default 20).
+    pub max_halvings: u32,
+    /// An iteration needing at least this many halvings is "heavy" (default 6).
+    pub stall_halvings: u32,
+    /// This many heavy iterations in a row is a stall (default 2).
+    pub stall_iterations: u32,
+    /// Outer-boundary vertices used as zero-displacement spline centres, at most (default 48).
+    pub max_boundary_centres: usize,
+    /// A constraint is reached when its residual is at most this, in texture units (default 1e-9).
+    pub tolerance: f64,
+}
+
+impl SteppingOptions {
+    pub const DEFAULT: SteppingOptions = SteppingOptions {
+        max_iterations: 100,
+        max_halvings: 20,
+        stall_halvings: 6,
+        stall_iterations: 2,
+        max_boundary_centres: 48,
+        tolerance: 1e-9,
+    };
+}
+
+impl Default for SteppingOptions {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The fixed data of one chart's stepping.
+#[derive(Debug, Clone, Default)]
+pub struct StepProblem {
+    /// Constrained vertices (filled-chart ids; never on the outer boundary).
+    pub constraint_vertices: Vec<u32>,
+    /// Their targets in layout coordinates (same order).
+    pub targets: Vec<DVec2>,
+    /// Outer-boundary vertices used as zero-displacement centres.
+    pub anchors: Vec<u32>,
+    /// Vertices the spline moves: everything but the outer boundary, virtual hole vertices included.
+    pub movable: Vec<u32>,
+}
+
+impl StepProblem {
+    /// Distance of each constrained vertex from its target.
+    pub fn residuals(&self, layout: &[DVec2]) -> Vec<f64> {
+        self.constraint_vertices.iter().zip(&self.targets).map(|(&v, t)| layout[v as usize].distance(*t)).collect()
+    }
+
+    pub fn max_residual(&self, layout: &[DVec2]) -> f64 {
+        self.residuals(layout).into_iter().fold(0.0, f64::max)
+    }
+}
+
+/// Evenly spaced subset (by loop index) of `outer_loop`, at most `max` vertices
+/// (all of them when the loop is shorter), always including `must` vertices.
+pub fn pick_anchors(outer_loop: &[u32], max: usize, must: &[u32]) -> Vec<u32> {
+    let n = outer_loop.len();
+    let mut anchors: Vec<u32> = if n <= max {
+        outer_loop.to_vec()
+    } else {
+        (0..max).map(|k| outer_loop[k * n / max]).collect()
+    };
+    for &v in must {
+        if !anchors.contains(&v) {
+            anchors.push(v);
+        }
+    }
+    anchors
+}
+
+/// Candidate layout for a step of fraction `t` (Eq. 6): each constrained
+/// vertex `p_i` moves to `p_i + t (target_i − p_i)` (exactly onto its target
+/// when `t = 1`), anchors stay, and every movable vertex moves by the spline.
+///
+/// # Errors
+/// A [`TpsError`] when the centres make the spline system singular.
+pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<Vec<DVec2>, TpsError> {
+    let mut centres = Vec::with_capacity(problem.constraint_vertices.len() + problem.anchors.len());
+    let mut displacements = Vec::with_capacity(centres.capacity());
+    for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
+        let p = layout[v as usize];
+        centres.push(p);
+        displacements.push((target - p) * t);
+    }
+    for &v in &problem.anchors {
+        centres.push(layout[v as usize]);
+        displacements.push(DVec2::ZERO);
+    }
+    let spline = ThinPlateSpline::fit(&centres, &displacements)?;
+    let mut candidate = layout.to_vec();
+    for &v in &problem.movable {
+        candidate[v as usize] = layout[v as usize] + spline.displacement(layout[v as usize]);
+    }
+    for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
+        let p = layout[v as usize];
+        candidate[v as usize] = if t == 1.0 { target } else { p + (target - p) * t };
+    }
+    Ok(candidate)
+}
+
+/// Where the spline path stands.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case", tag = "phase", content = "reason")]
+pub enum SteppingPhase {
+    Stepping,
+    /// Every constraint within tolerance.
+    Reached,
+    /// The spline path cannot go on; the reason in words.
+    Stalled(String),
+}
+
+/// Progress of the stepping loop; advanced by [`SteppingState::record_guard`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SteppingState {
+    pub phase: SteppingPhase,
+    /// Accepted steps so far.
+    pub iterations: u32,
+    /// Fraction of the remaining way the next proposal tries.
+    pub t: f64,
+    pub halvings_this_iteration: u32,
+    pub total_halvings: u32,
+    heavy_streak: u32,
+}
+
+impl SteppingState {
+    /// Starts stepping, or is already `Reached` when every residual is within tolerance.
+    pub fn start(problem: &StepProblem, layout: &[DVec2], options: &SteppingOptions) -> Self {
+        let phase = if problem.max_residual(layout) <= options.tolerance {
+            SteppingPhase::Reached
+        } else {
+            SteppingPhase::Stepping
+        };
+        SteppingState { phase, iterations: 0, t: 1.0, halvings_this_iteration: 0, total_halvings: 0, heavy_streak: 0 }
+    }
+
+    pub fn is_stepping(&self) -> bool {
+        self.phase == SteppingPhase::Stepping
+    }
+
+    /// Records the guard's verdict on the proposal at `self.t`. On acceptance
+    /// `max_residual` is the accepted layout's largest residual.
+    pub fn record_guard(&mut self, accepted: bool, max_residual: f64, options: &SteppingOptions) {
+        if !self.is_stepping() {
+            return;
+        }
+        if !accepted {
+            self.halvings_this_iteration += 1;
+            self.total_halvings += 1;
+            self.t *= 0.5;
+            if self.halvings_this_iteration > options.max_halvings {
+                self.phase = SteppingPhase::Stalled(format!(
+                    "no fold-free step found after {} halvings (step < 2^-{})",
+                    options.max_halvings, options.max_halvings
+                ));
+            }
+            return;
+        }
+        self.iterations += 1;
+        if self.halvings_this_iteration >= options.stall_halvings {
+            self.heavy_streak += 1;
+        } else {
+            self.heavy_streak = 0;
+        }
+        self.halvings_this_iteration = 0;
+        self.t = 1.0;
+        if max_residual <= options.tolerance {
+            self.phase = SteppingPhase::Reached;
+        } else if self.heavy_streak >= options.stall_iterations {
+            self.phase = SteppingPhase::Stalled(format!(
+                "{} iterations in a row needed ≥ {} halvings",
+                options.stall_iterations, options.stall_halvings
+            ));
+        } else if self.iterations >= options.max_iterations {
+            self.phase = SteppingPhase::Stalled(format!("iteration cap of {} reached", options.max_iterations));
+        }
+    }
+
+    /// Records a proposal that could not be made (singular spline system).
+    pub fn record_failure(&mut self, error: &TpsError) {
+        self.phase = SteppingPhase::Stalled(format!("spline system: {error}"));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn halving_then_acceptance_then_reached() {
+        let o = SteppingOptions::DEFAULT;
+        let problem = StepProblem { constraint_vertices: vec![0], targets: vec![DVec2::ONE], ..Default::default() };
+        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
+        assert!(s.is_stepping());
+        s.record_guard(false, 0.0, &o);
+        assert_eq!((s.t, s.total_halvings), (0.5, 1));
+        s.record_guard(true, 0.5, &o);
+        assert_eq!((s.t, s.iterations, s.halvings_this_iteration), (1.0, 1, 0));
+        s.record_guard(true, 0.0, &o);
+        assert_eq!(s.phase, SteppingPhase::Reached);
+    }
+
+    #[test]
+    fn two_heavy_iterations_stall() {
+        let o = SteppingOptions::DEFAULT;
+        let problem = StepProblem { constraint_vertices: vec![0], targets: vec![DVec2::ONE], ..Default::default() };
+        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
+        for _ in 0..2 {
+            for _ in 0..6 {
+                s.record_guard(false, 0.0, &o);
+            }
+            s.record_guard(true, 0.3, &o);
+        }
+        assert!(matches!(s.phase, SteppingPhase::Stalled(_)), "{:?}", s.phase);
+        assert_eq!(s.total_halvings, 12);
+    }
+
+    #[test]
+    fn anchors_are_subsampled_but_keep_required_vertices() {
+        let lp: Vec<u32> = (0..100).collect();
+        let a = pick_anchors(&lp, 10, &[33]);
+        assert_eq!(a.len(), 11);
+        assert!(a.contains(&33) && a.contains(&0));
+        assert_eq!(pick_anchors(&lp[..8], 10, &[3]), lp[..8].to_vec());
+    }
+}

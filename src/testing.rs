@@ -1,0 +1,116 @@
+//! Procedural meshes for tests and benchmarks (no third-party data).
+
+use crate::mesh::TriMesh;
+use glam::DVec3;
+
+/// A `nx × ny` vertex grid over the unit square in the z = 0 plane, each quad
+/// split into two triangles, counter-clockwise seen from +z. Vertex `i + j·nx`
+/// sits at `(i/(nx-1), j/(ny-1), 0)`.
+pub fn grid_mesh(nx: usize, ny: usize) -> TriMesh {
+    assert!(nx >= 2 && ny >= 2);
+    let mut positions = Vec::with_capacity(nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            positions.push(DVec3::new(i as f64 / (nx - 1) as f64, j as f64 / (ny - 1) as f64, 0.0));
+        }
+    }
+    let mut triangles = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
+    for j in 0..ny - 1 {
+        for i in 0..nx - 1 {
+            let v = (i + j * nx) as u32;
+            let (r, u, ur) = (v + 1, v + nx as u32, v + nx as u32 + 1);
+            // Alternate the diagonal so the grid has no preferred direction.
+            if (i + j) % 2 == 0 {
+                triangles.push([v, r, ur]);
+                triangles.push([v, ur, u]);
+            } else {
+                triangles.push([v, r, u]);
+                triangles.push([r, ur, u]);
+            }
+        }
+    }
+    TriMesh { positions, triangles }
+}
+
+/// Deterministic xorshift64* generator for property tests.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        let mut x = self.0;
+        x ^= x >> 12;
+        x ^= x << 25;
+        x ^= x >> 27;
+        self.0 = x;
+        x.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    /// Uniform in [0, 1).
+    pub fn f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in [lo, hi).
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.f64()
+    }
+    /// Uniform integer in [0, n).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+}
+
+/// A random, curved disk-like patch: a jittered `n × n` grid lifted onto a
+/// bumpy height field, with up to `n_holes` holes punched around random
+/// interior vertices (each hole removes the triangles of one vertex's fan, so
+/// the result stays manifold). Unused vertices are dropped.
+pub fn random_disk(rng: &mut Rng, n: usize, n_holes: usize) -> TriMesh {
+    let mut mesh = grid_mesh(n, n);
+    let h = 1.0 / (n - 1) as f64;
+    let (a, b, c) = (rng.range(-0.4, 0.4), rng.range(-0.4, 0.4), rng.range(1.0, 4.0));
+    for (i, p) in mesh.positions.iter_mut().enumerate() {
+        let (ix, iy) = (i % n, i / n);
+        if ix > 0 && iy > 0 && ix < n - 1 && iy < n - 1 {
+            p.x += rng.range(-0.3, 0.3) * h;
+            p.y += rng.range(-0.3, 0.3) * h;
+        }
+        p.z = a * (c * p.x).sin() + b * (c * p.y).cos() * p.x;
+    }
+    // Punch holes at interior vertices at least 3 rings from the border and each other.
+    let mut centres: Vec<(usize, usize)> = Vec::new();
+    for _ in 0..n_holes * 4 {
+        if centres.len() == n_holes || n < 8 {
+            break;
+        }
+        let (ix, iy) = (3 + rng.below(n - 6), 3 + rng.below(n - 6));
+        if centres.iter().all(|&(x, y)| x.abs_diff(ix) > 3 || y.abs_diff(iy) > 3) {
+            centres.push((ix, iy));
+        }
+    }
+    let removed: Vec<u32> = centres.iter().map(|&(x, y)| (x + y * n) as u32).collect();
+    mesh.triangles.retain(|t| !t.iter().any(|v| removed.contains(v)));
+    compact(mesh)
+}
+
+/// Drops vertices that no triangle uses, renumbering the rest in order.
+pub fn compact(mesh: TriMesh) -> TriMesh {
+    let mut new_id = vec![u32::MAX; mesh.positions.len()];
+    let mut positions = Vec::new();
+    for t in &mesh.triangles {
+        for &v in t {
+            if new_id[v as usize] == u32::MAX {
+                new_id[v as usize] = 0;
+            }
+        }
+    }
+    for (v, id) in new_id.iter_mut().enumerate() {
+        if *id == 0 {
+            *id = positions.len() as u32;
+            positions.push(mesh.positions[v]);
+        }
+    }
+    let triangles = mesh.triangles.iter().map(|t| t.map(|v| new_id[v as usize])).collect();
+    TriMesh { positions, triangles }
+}
