@@ -20,6 +20,7 @@
 //! ([`ecs`]) holds charts as `bevy_ecs` entities and runs one core function per
 //! system; [`solve::solve_file`] runs that schedule to convergence.
 
+pub mod constraints;
 pub mod guard;
 pub mod mesh;
 pub mod metrics;

@@ -1,0 +1,640 @@
+//! The constraint file (`*.uvpin.ron`): which asset, which feature vertices go
+//! where in the texture, optional corners and solver options.
+//!
+//! ```ron
+//! (
+//!     asset: "face.glb",                 // relative to this file
+//!     constraints: [
+//!         (vertex: 1021, uv: (0.42, 0.61), label: "left eye, outer corner"),
+//!         (near: (0.03, 1.62, 0.11), px: (310, 412)),
+//!     ],
+//!     corners: (top_left: 5, bottom_left: 17, bottom_right: 230, top_right: 301),
+//! )
+//! ```
+//! Every error names the file, line and column, and the field.
+
+use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
+use crate::rbf::stepping::SteppingOptions;
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Which mesh of the asset: its index or its name.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum MeshSelector {
+    Index(usize),
+    Name(String),
+}
+
+/// One constraint: a vertex (by id or nearest to a 3D point) and its target
+/// (in texture coordinates or in pixels of `image_size`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintSpec {
+    /// glTF vertex index in `primitive` (default: the file's `primitive`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vertex: Option<u32>,
+    /// Or: the vertex nearest to this 3D point (mesh coordinates).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub near: Option<DVec3>,
+    /// Target in glTF texture coordinates: (0, 0) is the image's top-left, v down.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uv: Option<DVec2>,
+    /// Or: target in pixels of the file's `image_size`, (0, 0) = top-left corner
+    /// of the image; pixel (i, j)'s centre is (i + 0.5, j + 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub px: Option<DVec2>,
+    /// A name for reports ("left eye, outer corner").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
+    /// Primitive that `vertex` indexes (default: the file's `primitive`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub primitive: Option<usize>,
+}
+
+/// The outer-boundary vertices that go to the texture's corners (glTF vertex
+/// ids in the file's `primitive`). Following the outer loop in the faces'
+/// winding they must come top_left → bottom_left → bottom_right → top_right.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CornerSpec {
+    pub top_left: u32,
+    pub bottom_left: u32,
+    pub bottom_right: u32,
+    pub top_right: u32,
+}
+
+impl CornerSpec {
+    pub fn as_array(&self) -> [u32; 4] {
+        [self.top_left, self.bottom_left, self.bottom_right, self.top_right]
+    }
+}
+
+/// The whole constraint file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintFile {
+    /// The glTF (.glb/.gltf) or .obj file, relative to the constraint file.
+    pub asset: String,
+    /// Mesh of the asset, by index or name (default: 0, the first).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<MeshSelector>,
+    /// Primitive that `vertex` ids and `corners` refer to (default 0).
+    #[serde(default)]
+    pub primitive: usize,
+    /// The UV set written, TEXCOORD_<uv_set> (default 0).
+    #[serde(default)]
+    pub uv_set: u32,
+    /// Image size in pixels (width, height), for `px` targets.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image_size: Option<(u32, u32)>,
+    pub constraints: Vec<ConstraintSpec>,
+    /// Corner vertices (default: chosen automatically at arc-length quarters).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corners: Option<CornerSpec>,
+    /// Spline stepping limits (see [`SteppingOptions`] for the defaults).
+    #[serde(default)]
+    pub solver: SteppingOptions,
+}
+
+#[derive(Debug, Error)]
+pub enum ConstraintFileError {
+    #[error("{path}: cannot read the constraint file: {source}")]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error("{path}:{line}:{column}: {message}")]
+    Syntax { path: PathBuf, line: usize, column: usize, message: String },
+    #[error("{path}:{line}:{column}: {field}: {message}")]
+    Invalid { path: PathBuf, line: usize, column: usize, field: String, message: String },
+}
+
+/// A parsed constraint file with the source positions of its parts, so that
+/// errors found later (against the asset) still point into the file.
+#[derive(Debug, Clone)]
+pub struct LoadedConstraints {
+    pub path: PathBuf,
+    pub file: ConstraintFile,
+    /// (line, column) of each element of `constraints`.
+    pub item_positions: Vec<(usize, usize)>,
+    /// (line, column) of the `corners` value, or of the file start.
+    pub corners_position: (usize, usize),
+    /// (line, column) of the `asset` value.
+    pub asset_position: (usize, usize),
+}
+
+/// A constraint resolved against the asset.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResolvedConstraint {
+    /// Index in the file's `constraints` list.
+    pub index: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
+    pub primitive: usize,
+    /// glTF vertex index in `primitive`.
+    pub vertex: u32,
+    /// Welded vertex id (internal).
+    #[serde(skip)]
+    pub welded: u32,
+    /// Target in glTF texture coordinates.
+    pub target_uv: DVec2,
+    /// For `near` constraints: how far the chosen vertex is from the point.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub snapped_distance: Option<f64>,
+}
+
+impl LoadedConstraints {
+    /// Reads and parses a constraint file.
+    ///
+    /// # Errors
+    /// Unreadable file; RON syntax errors and unknown or missing fields (with
+    /// line:column); a constraint with both or neither of `vertex`/`near` or
+    /// `uv`/`px`; `px` without `image_size`; a target outside the unit square;
+    /// one vertex given two different targets.
+    pub fn load(path: &Path) -> Result<Self, ConstraintFileError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ConstraintFileError::Read { path: path.to_path_buf(), source })?;
+        Self::parse(path, &text)
+    }
+
+    /// Parses constraint-file text; `path` is used for messages and to resolve `asset`.
+    pub fn parse(path: &Path, text: &str) -> Result<Self, ConstraintFileError> {
+        let options = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        let file: ConstraintFile = options.from_str(text).map_err(|e| ConstraintFileError::Syntax {
+            path: path.to_path_buf(),
+            line: e.span.start.line,
+            column: e.span.start.col,
+            message: e.code.to_string(),
+        })?;
+        let scan = scan_positions(text);
+        let mut item_positions = scan.items;
+        item_positions.resize(file.constraints.len(), scan.constraints.unwrap_or((1, 1)));
+        let loaded = LoadedConstraints {
+            path: path.to_path_buf(),
+            item_positions,
+            corners_position: scan.corners.unwrap_or((1, 1)),
+            asset_position: scan.asset.unwrap_or((1, 1)),
+            file,
+        };
+        loaded.validate()?;
+        Ok(loaded)
+    }
+
+    /// The asset's path (relative paths are relative to the constraint file).
+    pub fn asset_path(&self) -> PathBuf {
+        let asset = Path::new(&self.file.asset);
+        if asset.is_absolute() {
+            asset.to_path_buf()
+        } else {
+            self.path.parent().unwrap_or(Path::new(".")).join(asset)
+        }
+    }
+
+    /// An error located at constraint `index`.
+    pub fn error_at(&self, index: usize, field: &str, message: impl Into<String>) -> ConstraintFileError {
+        let (line, column) = self.item_positions.get(index).copied().unwrap_or((1, 1));
+        ConstraintFileError::Invalid {
+            path: self.path.clone(),
+            line,
+            column,
+            field: format!("constraints[{index}].{field}"),
+            message: message.into(),
+        }
+    }
+
+    /// An error located at the `corners` value.
+    pub fn corners_error(&self, message: impl Into<String>) -> ConstraintFileError {
+        let (line, column) = self.corners_position;
+        ConstraintFileError::Invalid {
+            path: self.path.clone(),
+            line,
+            column,
+            field: "corners".into(),
+            message: message.into(),
+        }
+    }
+
+    /// An error located at the `asset` value.
+    pub fn asset_error(&self, field: &str, message: impl Into<String>) -> ConstraintFileError {
+        let (line, column) = self.asset_position;
+        ConstraintFileError::Invalid {
+            path: self.path.clone(),
+            line,
+            column,
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    /// Target of constraint `c` in texture coordinates (after validation).
+    fn target_uv(&self, c: &ConstraintSpec) -> DVec2 {
+        match (c.uv, c.px, self.file.image_size) {
+            (Some(uv), _, _) => uv,
+            (None, Some(px), Some((w, h))) => DVec2::new(px.x / w as f64, px.y / h as f64),
+            _ => unreachable!("validated"),
+        }
+    }
+
+    fn validate(&self) -> Result<(), ConstraintFileError> {
+        let f = &self.file;
+        if let Some((w, h)) = f.image_size
+            && (w == 0 || h == 0)
+        {
+            return Err(self.asset_error("image_size", format!("image size must be positive, got ({w}, {h})")));
+        }
+        let tol = self.file.solver.tolerance;
+        if !(tol.is_finite() && tol > 0.0) {
+            return Err(self.asset_error("solver.tolerance", format!("must be a positive number, got {tol}")));
+        }
+        for (i, c) in f.constraints.iter().enumerate() {
+            match (c.vertex, c.near) {
+                (None, None) => return Err(self.error_at(i, "vertex", "give `vertex: <id>` or `near: (x, y, z)`")),
+                (Some(_), Some(_)) => return Err(self.error_at(i, "near", "give either `vertex` or `near`, not both")),
+                (None, Some(p)) if !p.is_finite() => {
+                    return Err(self.error_at(i, "near", format!("not a finite point: {p:?}")));
+                }
+                _ => {}
+            }
+            match (c.uv, c.px) {
+                (None, None) => return Err(self.error_at(i, "uv", "give a target: `uv: (u, v)` or `px: (x, y)`")),
+                (Some(_), Some(_)) => return Err(self.error_at(i, "px", "give either `uv` or `px`, not both")),
+                (None, Some(_)) if f.image_size.is_none() => {
+                    return Err(self.error_at(i, "px", "pixel targets need `image_size: (width, height)` in the file"));
+                }
+                _ => {}
+            }
+            let field = if c.uv.is_some() { "uv" } else { "px" };
+            let t = self.target_uv(c);
+            if !(t.is_finite() && t.x >= 0.0 && t.x <= 1.0 && t.y >= 0.0 && t.y <= 1.0) {
+                return Err(self.error_at(
+                    i,
+                    field,
+                    format!("target ({}, {}) in texture coordinates is outside the unit square [0, 1] × [0, 1]", t.x, t.y),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Resolves every constraint against the asset's primitives (the ones of
+    /// the selected mesh, in mesh order) and their welding.
+    ///
+    /// Duplicates that name the same welded vertex with the same target are
+    /// merged; with different targets they are an error.
+    ///
+    /// # Errors
+    /// Primitive or vertex id out of range (with the valid range), a vertex
+    /// used by no triangle, conflicting duplicates.
+    pub fn resolve(
+        &self,
+        primitives: &[PrimitiveGeometry],
+        welded: &WeldedMesh,
+    ) -> Result<Vec<ResolvedConstraint>, ConstraintFileError> {
+        let mut out: Vec<ResolvedConstraint> = Vec::new();
+        for (i, c) in self.file.constraints.iter().enumerate() {
+            let prim_index = c.primitive.unwrap_or(self.file.primitive);
+            let (prim_pos, vertex, snapped) = match (c.vertex, c.near) {
+                (Some(v), _) => {
+                    let p = self.primitive_position(primitives, prim_index, Some(i))?;
+                    let n = primitives[p].positions.len();
+                    if v as usize >= n {
+                        return Err(self.error_at(
+                            i,
+                            "vertex",
+                            format!("vertex {v} is out of range: primitive {prim_index} has vertices 0..{n} (0 to {})", n.saturating_sub(1)),
+                        ));
+                    }
+                    (p, v, None)
+                }
+                (None, Some(point)) => {
+                    let candidates: Vec<usize> = match c.primitive {
+                        Some(pi) => vec![self.primitive_position(primitives, pi, Some(i))?],
+                        None => (0..primitives.len()).collect(),
+                    };
+                    let mut best = (usize::MAX, 0u32, f64::INFINITY);
+                    for p in candidates {
+                        let prim = &primitives[p];
+                        let used = used_vertices(prim);
+                        for (v, pos) in prim.positions.iter().enumerate() {
+                            if !used[v] {
+                                continue;
+                            }
+                            let d = DVec3::new(pos[0] as f64, pos[1] as f64, pos[2] as f64).distance(point);
+                            if d < best.2 {
+                                best = (p, v as u32, d);
+                            }
+                        }
+                    }
+                    if best.0 == usize::MAX {
+                        return Err(self.error_at(i, "near", "the mesh has no vertices to snap to"));
+                    }
+                    (best.0, best.1, Some(best.2))
+                }
+                (None, None) => unreachable!("validated"),
+            };
+            let w = welded.vertex_of[prim_pos][vertex as usize];
+            if welded.chart_of_vertex[w as usize].is_none() {
+                return Err(self.error_at(i, "vertex", format!("vertex {vertex} is used by no triangle")));
+            }
+            let target_uv = self.target_uv(c);
+            if let Some(prev) = out.iter().find(|r| r.welded == w) {
+                if prev.target_uv == target_uv {
+                    continue;
+                }
+                return Err(self.error_at(
+                    i,
+                    if c.uv.is_some() { "uv" } else { "px" },
+                    format!(
+                        "vertex {vertex} (primitive {}) is already constrained by constraints[{}] to ({}, {}); a vertex can have only one target",
+                        primitives[prim_pos].index, prev.index, prev.target_uv.x, prev.target_uv.y
+                    ),
+                ));
+            }
+            out.push(ResolvedConstraint {
+                index: i,
+                label: c.label.clone(),
+                primitive: primitives[prim_pos].index,
+                vertex,
+                welded: w,
+                target_uv,
+                snapped_distance: snapped,
+            });
+        }
+        Ok(out)
+    }
+
+    /// Position in `primitives` of glTF primitive `index`.
+    fn primitive_position(
+        &self,
+        primitives: &[PrimitiveGeometry],
+        index: usize,
+        item: Option<usize>,
+    ) -> Result<usize, ConstraintFileError> {
+        primitives.iter().position(|p| p.index == index).ok_or_else(|| {
+            let msg = format!(
+                "primitive {index} does not exist (the mesh has TRIANGLES primitives {:?})",
+                primitives.iter().map(|p| p.index).collect::<Vec<_>>()
+            );
+            match item {
+                Some(i) => self.error_at(i, "primitive", msg),
+                None => self.asset_error("primitive", msg),
+            }
+        })
+    }
+
+    /// The corner vertices as welded ids.
+    ///
+    /// # Errors
+    /// A corner id out of range of the file's `primitive`.
+    pub fn resolve_corners(
+        &self,
+        primitives: &[PrimitiveGeometry],
+        welded: &WeldedMesh,
+    ) -> Result<Option<[u32; 4]>, ConstraintFileError> {
+        let Some(corners) = self.file.corners else { return Ok(None) };
+        let p = self.primitive_position(primitives, self.file.primitive, None)?;
+        let n = primitives[p].positions.len();
+        let mut out = [0u32; 4];
+        for (k, v) in corners.as_array().into_iter().enumerate() {
+            if v as usize >= n {
+                return Err(self.corners_error(format!(
+                    "{}: vertex {v} is out of range: primitive {} has vertices 0..{n}",
+                    crate::param::boundary::CORNER_NAMES[k],
+                    self.file.primitive
+                )));
+            }
+            out[k] = welded.vertex_of[p][v as usize];
+        }
+        Ok(Some(out))
+    }
+}
+
+fn used_vertices(prim: &PrimitiveGeometry) -> Vec<bool> {
+    let mut used = vec![false; prim.positions.len()];
+    for &i in &prim.indices {
+        used[i as usize] = true;
+    }
+    used
+}
+
+/// Source positions found by [`scan_positions`].
+#[derive(Debug, Default)]
+struct ScannedPositions {
+    asset: Option<(usize, usize)>,
+    constraints: Option<(usize, usize)>,
+    items: Vec<(usize, usize)>,
+    corners: Option<(usize, usize)>,
+}
+
+/// Finds where the top-level `asset`, `constraints` (and each of its
+/// elements) and `corners` values start (1-based line and column). Only run
+/// on text RON already accepted, so it can be simple: it skips comments and
+/// strings and tracks bracket depth.
+fn scan_positions(text: &str) -> ScannedPositions {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = ScannedPositions::default();
+    let (mut line, mut col) = (1usize, 1usize);
+    let mut depth = 0usize;
+    let mut i = 0;
+    let mut ident = String::new();
+    let mut pending: Option<String> = None; // top-level field whose value comes next
+    let mut in_constraints_list = false;
+    let mut list_depth = 0usize;
+    let advance = |c: char, line: &mut usize, col: &mut usize| {
+        if c == '\n' {
+            *line += 1;
+            *col = 1;
+        } else {
+            *col += 1;
+        }
+    };
+    while i < chars.len() {
+        let c = chars[i];
+        if c == '/' && chars.get(i + 1) == Some(&'/') {
+            while i < chars.len() && chars[i] != '\n' {
+                advance(chars[i], &mut line, &mut col);
+                i += 1;
+            }
+            continue;
+        }
+        if c == '/' && chars.get(i + 1) == Some(&'*') {
+            let mut nest = 0;
+            while i < chars.len() {
+                if chars[i] == '/' && chars.get(i + 1) == Some(&'*') {
+                    nest += 1;
+                    advance(chars[i], &mut line, &mut col);
+                    i += 1;
+                } else if chars[i] == '*' && chars.get(i + 1) == Some(&'/') {
+                    nest -= 1;
+                    advance(chars[i], &mut line, &mut col);
+                    i += 1;
+                    if nest == 0 {
+                        advance(chars[i], &mut line, &mut col);
+                        i += 1;
+                        break;
+                    }
+                }
+                advance(chars[i], &mut line, &mut col);
+                i += 1;
+            }
+            continue;
+        }
+        let here = (line, col);
+        if let Some(field) = pending.take_if(|_| !c.is_whitespace() && c != ':') {
+            match field.as_str() {
+                "asset" => out.asset = Some(here),
+                "corners" => out.corners = Some(here),
+                "constraints" => {
+                    out.constraints = Some(here);
+                    if c == '[' {
+                        in_constraints_list = true;
+                        list_depth = depth + 1;
+                    }
+                }
+                _ => {}
+            }
+        }
+        if c == '"' {
+            advance(c, &mut line, &mut col);
+            i += 1;
+            while i < chars.len() && chars[i] != '"' {
+                if chars[i] == '\\' {
+                    advance(chars[i], &mut line, &mut col);
+                    i += 1;
+                }
+                if i < chars.len() {
+                    advance(chars[i], &mut line, &mut col);
+                    i += 1;
+                }
+            }
+            if i < chars.len() {
+                advance(chars[i], &mut line, &mut col);
+                i += 1;
+            }
+            ident.clear();
+            continue;
+        }
+        if c.is_alphanumeric() || c == '_' {
+            ident.push(c);
+        } else {
+            if c == ':' && depth == 1 && !ident.is_empty() {
+                pending = Some(std::mem::take(&mut ident));
+            } else if !c.is_whitespace() {
+                ident.clear();
+            }
+            match c {
+                '(' | '[' | '{' => {
+                    if in_constraints_list && depth == list_depth {
+                        out.items.push(here);
+                    }
+                    depth += 1;
+                }
+                ')' | ']' | '}' => {
+                    depth = depth.saturating_sub(1);
+                    if in_constraints_list && depth < list_depth {
+                        in_constraints_list = false;
+                    }
+                }
+                _ => {}
+            }
+        }
+        if c.is_whitespace() && !ident.is_empty() && pending.is_none() {
+            // An identifier followed by whitespace then ':' is still a field name.
+            let mut j = i;
+            while j < chars.len() && chars[j].is_whitespace() {
+                j += 1;
+            }
+            if chars.get(j) != Some(&':') {
+                ident.clear();
+            }
+        }
+        advance(c, &mut line, &mut col);
+        i += 1;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"// a face
+(
+    asset: "face.glb",   // relative
+    constraints: [
+        (vertex: 12, uv: (0.25, 0.5), label: "eye"),
+        /* a ( tricky ] comment */ (vertex: 3, uv: (1, 0)),
+        (near: (0.1, 0.2, 0.3), px: (64, 32)),
+    ],
+    image_size: (128, 64),
+    corners: (top_left: 5, bottom_left: 17, bottom_right: 230, top_right: 301),
+)
+"#;
+
+    #[test]
+    fn parses_the_documented_syntax_and_locates_items() {
+        let l = LoadedConstraints::parse(Path::new("dir/f.uvpin.ron"), GOOD).unwrap();
+        assert_eq!(l.file.constraints.len(), 3);
+        assert_eq!(l.file.constraints[0].vertex, Some(12));
+        assert_eq!(l.file.constraints[2].near, Some(DVec3::new(0.1, 0.2, 0.3)));
+        assert_eq!(l.item_positions, vec![(5, 9), (6, 36), (7, 9)]);
+        assert_eq!(l.corners_position, (10, 14));
+        assert_eq!(l.asset_position, (3, 12));
+        assert_eq!(l.asset_path(), Path::new("dir/face.glb"));
+        assert_eq!(l.target_uv(&l.file.constraints[2]), DVec2::new(0.5, 0.5));
+        assert_eq!(l.file.solver, SteppingOptions::DEFAULT);
+    }
+
+    fn err(text: &str) -> String {
+        LoadedConstraints::parse(Path::new("f.ron"), text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn misspelt_key_names_line_column_and_the_expected_fields() {
+        let e = err("(\n  asset: \"a.glb\",\n  constraints: [(vertx: 1, uv: (0.5, 0.5))],\n)");
+        assert!(e.starts_with("f.ron:3:18"), "{e}");
+        assert!(e.contains("vertx") && e.contains("vertex"), "{e}");
+        let e = err("(\n  aset: \"a.glb\",\n  constraints: [],\n)");
+        assert!(e.starts_with("f.ron:2:3") && e.contains("aset"), "{e}");
+    }
+
+    #[test]
+    fn semantic_errors_point_at_the_item() {
+        let e = err("(asset: \"a.glb\", constraints: [\n (vertex: 1, uv: (0.5, 0.5)),\n (vertex: 2, uv: (1.5, 0.5))])");
+        assert!(e.starts_with("f.ron:3:2: constraints[1].uv") && e.contains("outside the unit square"), "{e}");
+        let e = err("(asset: \"a.glb\", constraints: [(vertex: 1, px: (3, 4))])");
+        assert!(e.contains("image_size"), "{e}");
+        let e = err("(asset: \"a.glb\", constraints: [(uv: (0.1, 0.1))])");
+        assert!(e.contains("constraints[0].vertex"), "{e}");
+        let e = err("(asset: \"a.glb\", constraints: [(vertex: -3, uv: (0.1, 0.1))])");
+        assert!(e.starts_with("f.ron:1:"), "{e}");
+        let e = err("(asset: \"a.glb\", constraints: [(vertex: 1, uv: (0.1 0.1))])");
+        assert!(e.contains("f.ron:1:"), "{e}");
+    }
+
+    #[test]
+    fn duplicate_vertices_merge_or_conflict() {
+        let prim = PrimitiveGeometry {
+            index: 0,
+            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            indices: vec![0, 1, 2],
+            uvs: None,
+        };
+        let welded = crate::mesh::weld::weld(std::slice::from_ref(&prim));
+        let same = "(asset: \"a\", constraints: [(vertex: 1, uv: (0.5, 0.5)), (vertex: 1, uv: (0.5, 0.5))])";
+        let l = LoadedConstraints::parse(Path::new("f.ron"), same).unwrap();
+        assert_eq!(l.resolve(std::slice::from_ref(&prim), &welded).unwrap().len(), 1);
+        let diff = "(asset: \"a\", constraints: [(vertex: 1, uv: (0.5, 0.5)),\n (vertex: 1, uv: (0.5, 0.6))])";
+        let l = LoadedConstraints::parse(Path::new("f.ron"), diff).unwrap();
+        let e = l.resolve(std::slice::from_ref(&prim), &welded).unwrap_err().to_string();
+        assert!(e.starts_with("f.ron:2:2: constraints[1].uv") && e.contains("already constrained"), "{e}");
+        let out = "(asset: \"a\", constraints: [(vertex: 7, uv: (0.5, 0.5))])";
+        let l = LoadedConstraints::parse(Path::new("f.ron"), out).unwrap();
+        let e = l.resolve(std::slice::from_ref(&prim), &welded).unwrap_err().to_string();
+        assert!(e.contains("out of range") && e.contains("0..3"), "{e}");
+        let near = "(asset: \"a\", constraints: [(near: (0.9, 0.1, 0), uv: (0.5, 0.5))])";
+        let l = LoadedConstraints::parse(Path::new("f.ron"), near).unwrap();
+        let r = l.resolve(std::slice::from_ref(&prim), &welded).unwrap();
+        assert_eq!(r[0].vertex, 1);
+    }
+}
