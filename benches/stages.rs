@@ -1,1 +1,177 @@
-fn main(){}
+//! Per-stage timings: `cargo bench --bench stages [-- FILTER]`.
+//!
+//! Prints a table of medians (ms) over repeated runs for the sample asset, the
+//! paper's case size (1.7k vertices, 50 constraints), the shared third-party
+//! meshes (end to end through glTF files, if `../shared/meshes` exists), and
+//! generated grids of 10k, 100k and 1M vertices. Constrained cases use
+//! targets pushed through a smooth bijective warp of the step-1 layout, so
+//! they are reachable. Not a test: no thresholds, just figures.
+
+use glam::DVec2;
+use std::path::{Path, PathBuf};
+use uvpin::mesh::TriMesh;
+use uvpin::param::{uv_to_xy, xy_to_uv};
+use uvpin::rbf::stepping::SteppingOptions;
+use uvpin::report::{Report, StageTimes};
+use uvpin::testing::{Rng, grid_mesh, smooth_warp};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
+struct Row {
+    name: String,
+    vertices: usize,
+    constraints: usize,
+    status: String,
+    runs: usize,
+    times: Vec<StageTimes>,
+}
+
+fn print_header() {
+    println!(
+        "| case | vertices | constraints | status | runs | load | topology | boundary | factor | solve | stepping | guard | export | step 1 | total |"
+    );
+    println!("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+}
+
+fn print_row(r: &Row) {
+    let m = |f: fn(&StageTimes) -> f64| median(r.times.iter().map(f).collect());
+    let fmt = |x: f64| if x >= 100.0 { format!("{x:.0}") } else if x >= 1.0 { format!("{x:.2}") } else { format!("{x:.3}") };
+    println!(
+        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+        r.name,
+        r.vertices,
+        r.constraints,
+        r.status,
+        r.runs,
+        fmt(m(|t| t.load_ms)),
+        fmt(m(|t| t.topology_ms)),
+        fmt(m(|t| t.boundary_ms)),
+        fmt(m(|t| t.factor_ms)),
+        fmt(m(|t| t.solve_ms)),
+        fmt(m(|t| t.stepping_ms)),
+        fmt(m(|t| t.guard_ms)),
+        fmt(m(|t| t.export_ms)),
+        fmt(m(|t| t.topology_ms + t.boundary_ms + t.factor_ms + t.solve_ms)),
+        fmt(m(|t| t.total_ms())),
+    );
+}
+
+/// `k` interior vertices with targets = the step-1 layout through the smooth warp.
+fn warp_constraints(mesh: &TriMesh, k: usize, seed: u64) -> Vec<(u32, DVec2)> {
+    let (_, uvs) = uvpin::solve_mesh(mesh, &[], None, SteppingOptions::DEFAULT).expect("step 1");
+    let mut rng = Rng::new(seed);
+    let mut out: Vec<(u32, DVec2)> = Vec::new();
+    let mut tries = 0;
+    while out.len() < k && tries < 100 * k {
+        tries += 1;
+        let v = rng.below(mesh.n_vertices()) as u32;
+        let uv = DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
+        let inside = uv.cmpgt(DVec2::splat(1e-6)).all() && uv.cmplt(DVec2::splat(1.0 - 1e-6)).all();
+        if inside && out.iter().all(|(w, _)| *w != v) {
+            out.push((v, xy_to_uv(smooth_warp(uv_to_xy(uv), 0.12))));
+        }
+    }
+    out
+}
+
+fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: usize) -> Row {
+    let mut times = Vec::new();
+    let mut status = String::new();
+    for _ in 0..runs {
+        let (report, _) = uvpin::solve_mesh(mesh, constraints, None, SteppingOptions::DEFAULT).expect("solve");
+        status = format!("{:?}", report.status).to_lowercase();
+        times.push(report.times);
+    }
+    Row { name: name.into(), vertices: mesh.n_vertices(), constraints: constraints.len(), status, runs, times }
+}
+
+fn bench_file(name: &str, constraints: &Path, out: &Path, runs: usize) -> Option<Row> {
+    let mut times = Vec::new();
+    let mut last: Option<Report> = None;
+    for _ in 0..runs {
+        let report = uvpin::solve_file(constraints, Some(out)).map_err(|e| eprintln!("{name}: {e}")).ok()?;
+        times.push(report.times);
+        last = Some(report);
+    }
+    let r = last?;
+    Some(Row {
+        name: name.into(),
+        vertices: r.counts.vertices,
+        constraints: r.constraints.len(),
+        status: format!("{:?}", r.status).to_lowercase(),
+        runs,
+        times,
+    })
+}
+
+/// A curved, jittered grid patch like a scanned surface.
+fn curved_grid(n: usize, seed: u64) -> TriMesh {
+    let mut rng = Rng::new(seed);
+    uvpin::testing::random_disk(&mut rng, n, 0)
+}
+
+fn main() {
+    let filter: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with('-'));
+    let wanted = |name: &str| filter.as_ref().is_none_or(|f| name.contains(f.as_str()));
+    let tmp = std::env::temp_dir().join(format!("uvpin-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).expect("temp dir");
+    println!("uvpin per-stage medians, milliseconds (release build, Par::Seq)\n");
+    print_header();
+
+    if wanted("sample") {
+        let sample = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/face.uvpin.ron");
+        if let Some(r) = bench_file("sample face (assets/)", &sample, &tmp.join("face.glb"), 21) {
+            print_row(&r);
+        }
+    }
+    if wanted("paper") {
+        let mesh = curved_grid(41, 1);
+        let c = warp_constraints(&mesh, 50, 2);
+        print_row(&bench_mesh("paper size: 41² curved grid", &mesh, &c, 21));
+    }
+    let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
+    if shared.is_dir() {
+        for (file, runs) in [
+            ("woody.glb", 11),
+            ("halftunnel.glb", 11),
+            ("alligator.glb", 11),
+            ("lion.glb", 7),
+            ("camelhead.glb", 7),
+            ("face.glb", 5),
+        ] {
+            let name = format!("{file} (40 constraints)");
+            if !wanted(&name) {
+                continue;
+            }
+            let asset = uvpin::io::load_asset(&shared.join(file), None, 0).expect("shared mesh");
+            let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
+            let c = warp_constraints(&mesh, 40, 3);
+            let ron = tmp.join(format!("{file}.uvpin.ron"));
+            let mut text = format!("(asset: {:?}, constraints: [\n", shared.join(file).display().to_string());
+            for (v, uv) in &c {
+                text += &format!("  (vertex: {v}, uv: ({}, {})),\n", uv.x, uv.y);
+            }
+            text += "])\n";
+            std::fs::write(&ron, text).expect("write");
+            if let Some(r) = bench_file(&name, &ron, &tmp.join(file), runs) {
+                print_row(&r);
+            }
+        }
+    } else {
+        eprintln!("(../shared/meshes not found: shared meshes skipped)");
+    }
+    for (n, runs, k) in [(100usize, 11usize, 40usize), (317, 5, 40), (1000, 3, 0)] {
+        let name = format!("grid {n}² ({} constraints)", k);
+        if !wanted(&name) {
+            continue;
+        }
+        let mesh = grid_mesh(n, n);
+        let c = if k > 0 { warp_constraints(&mesh, k, 4) } else { Vec::new() };
+        print_row(&bench_mesh(&name, &mesh, &c, runs));
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+}

@@ -157,6 +157,22 @@ impl LoadedConstraints {
         Self::parse(path, &text)
     }
 
+    /// Wraps an in-memory constraint file (for the library API); `path` names it in messages.
+    ///
+    /// # Errors
+    /// The same checks as [`LoadedConstraints::load`] after parsing.
+    pub fn from_file(path: &Path, file: ConstraintFile) -> Result<Self, ConstraintFileError> {
+        let loaded = LoadedConstraints {
+            path: path.to_path_buf(),
+            item_positions: vec![(1, 1); file.constraints.len()],
+            corners_position: (1, 1),
+            asset_position: (1, 1),
+            file,
+        };
+        loaded.validate()?;
+        Ok(loaded)
+    }
+
     /// Parses constraint-file text; `path` is used for messages and to resolve `asset`.
     pub fn parse(path: &Path, text: &str) -> Result<Self, ConstraintFileError> {
         let options = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);

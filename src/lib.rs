@@ -20,12 +20,23 @@
 //! ([`ecs`]) holds charts as `bevy_ecs` entities and runs one core function per
 //! system; [`solve::solve_file`] runs that schedule to convergence.
 
+pub mod chart;
+pub mod cli;
 pub mod constraints;
+pub mod ecs;
+pub mod error;
 pub mod guard;
+pub mod io;
 pub mod mesh;
 pub mod metrics;
 pub mod param;
 pub mod rbf;
+pub mod report;
+pub mod solve;
 pub mod sparse;
 #[doc(hidden)]
 pub mod testing;
+
+pub use error::{Error, Result};
+pub use report::{Report, Status};
+pub use solve::{solve_file, solve_mesh};

@@ -1,1 +1,5 @@
-fn main(){}
+//! `uvpin` command line; everything lives in the library.
+
+fn main() -> std::process::ExitCode {
+    uvpin::cli::main()
+}

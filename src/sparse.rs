@@ -5,11 +5,16 @@
 //! is 20–30× slower (crate-stack.md, F1).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{CholeskySymbolicParams, LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, Par, Side};
 use std::sync::Arc;
 use thiserror::Error;
+
+/// Below this many unknowns the simplicial factorisation is used: faer's
+/// supernodal analysis costs more than it saves on small charts.
+const SIMPLICIAL_BELOW: usize = 20_000;
 
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SparseError {
@@ -43,7 +48,15 @@ impl SpdPattern {
         let pairs: Vec<Pair<usize, usize>> = entries.iter().map(|&(r, c)| Pair::new(r, c)).collect();
         let (symbolic, argsort) = SymbolicSparseColMat::<usize>::try_new_from_indices(n, n, &pairs)
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
-        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, Default::default(), Default::default())
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: if n < SIMPLICIAL_BELOW {
+                SupernodalThreshold::FORCE_SIMPLICIAL
+            } else {
+                SupernodalThreshold::AUTO
+            },
+            ..Default::default()
+        };
+        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, Default::default(), params)
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         Ok(SpdPattern { n, symbolic, argsort: Arc::new(argsort), cholesky: Arc::new(cholesky) })
     }

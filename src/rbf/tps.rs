@@ -23,7 +23,8 @@ pub enum TpsError {
     LengthMismatch { centres: usize, displacements: usize },
 }
 
-/// `φ(r) = r² ln r` from the squared distance, with `φ(0) = 0`.
+/// `φ(r) = r² ln r` from the squared distance, with `φ(0) = 0`
+/// (`r² ln r` is NaN at 0 otherwise).
 #[inline]
 pub fn phi_from_r2(r2: f64) -> f64 {
     if r2 > 0.0 { 0.5 * r2 * r2.ln() } else { 0.0 }
@@ -256,6 +257,12 @@ fn cholesky_solve(l: &[f64], n: usize, b: &[f64]) -> Vec<f64> {
 mod tests {
     use super::*;
     use crate::testing::Rng;
+
+    #[test]
+    fn phi_is_zero_at_the_centre() {
+        assert_eq!(phi_from_r2(0.0), 0.0);
+        assert!((phi_from_r2(std::f64::consts::E * std::f64::consts::E) - std::f64::consts::E.powi(2)).abs() < 1e-12);
+    }
 
     #[test]
     fn reproduces_an_affine_map_exactly() {

@@ -1,0 +1,180 @@
+//! Generates the sample asset: `assets/face.glb`, a face-like curved patch
+//! with two eye holes and a mouth hole, and `assets/face.uvpin.ron`, landmark
+//! constraints (eye corners, nose, mouth corners, chin, brows) with targets on
+//! a typical front-facing photo layout.
+//!
+//! `cargo run --release --example make_sample` (deterministic output).
+
+use glam::{DVec2, DVec3};
+use uvpin::mesh::TriMesh;
+use uvpin::mesh::topology::{Topology, TopologyError};
+
+/// Outer outline: an ellipse; holes: eyes and mouth (centre, radii).
+const OUTER: (DVec2, DVec2) = (DVec2::new(0.0, 0.0), DVec2::new(0.78, 1.0));
+const HOLES: [(DVec2, DVec2); 3] = [
+    (DVec2::new(-0.30, 0.22), DVec2::new(0.15, 0.07)),
+    (DVec2::new(0.30, 0.22), DVec2::new(0.15, 0.07)),
+    (DVec2::new(0.0, -0.45), DVec2::new(0.22, 0.06)),
+];
+
+fn inside(p: DVec2, (c, r): (DVec2, DVec2)) -> f64 {
+    let q = (p - c) / r;
+    q.length_squared()
+}
+
+fn in_domain(p: DVec2) -> bool {
+    inside(p, OUTER) < 1.0 && HOLES.iter().all(|&h| inside(p, h) > 1.0)
+}
+
+/// Height field: an ellipsoid front with a nose, brow ridge and cheeks.
+fn height(p: DVec2) -> f64 {
+    let q = p / OUTER.1;
+    let base = 0.55 * (1.0 - 0.85 * q.length_squared()).max(0.0).sqrt();
+    let g = |c: DVec2, s: DVec2, a: f64| a * (-((p - c) / s).length_squared()).exp();
+    base + g(DVec2::new(0.0, -0.05), DVec2::new(0.07, 0.22), 0.16)
+        + g(DVec2::new(-0.3, 0.36), DVec2::new(0.2, 0.05), 0.03)
+        + g(DVec2::new(0.3, 0.36), DVec2::new(0.2, 0.05), 0.03)
+        + g(DVec2::new(-0.38, -0.2), DVec2::new(0.15, 0.15), 0.03)
+        + g(DVec2::new(0.38, -0.2), DVec2::new(0.15, 0.15), 0.03)
+}
+
+fn main() {
+    let (nx, ny) = (47, 60);
+    let mut pts = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            // Staggered rows give near-equilateral triangles.
+            let x = -0.8 + 1.6 * (i as f64 + if j % 2 == 1 { 0.5 } else { 0.0 }) / (nx - 1) as f64;
+            let y = -1.02 + 2.04 * j as f64 / (ny - 1) as f64;
+            pts.push(DVec2::new(x, y));
+        }
+    }
+    let id = |i: usize, j: usize| (i + j * nx) as u32;
+    let mut tris = Vec::new();
+    for j in 0..ny - 1 {
+        for i in 0..nx - 1 {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i, j + 1), id(i + 1, j + 1));
+            if j % 2 == 0 {
+                tris.push([a, b, c]);
+                tris.push([b, d, c]);
+            } else {
+                tris.push([a, d, c]);
+                tris.push([a, b, d]);
+            }
+        }
+    }
+    tris.retain(|t| t.iter().all(|&v| in_domain(pts[v as usize])));
+    // Remove bow-ties and dangling pieces until the patch is a clean manifold.
+    let mesh = loop {
+        let m = uvpin::testing::compact(TriMesh {
+            positions: pts.iter().map(|p| DVec3::new(p.x, p.y, 0.0)).collect(),
+            triangles: tris.clone(),
+        });
+        match Topology::build(&m) {
+            Err(TopologyError::NonManifoldVertex { vertex, .. }) => {
+                let p = m.positions[vertex as usize].truncate();
+                let orig = pts.iter().position(|q| *q == p).expect("vertex") as u32;
+                let first = tris.iter().position(|t| t.contains(&orig)).expect("triangle");
+                tris.remove(first);
+            }
+            Err(e) => panic!("sample mesh: {e}"),
+            Ok(_) => break m,
+        }
+    };
+    // Keep only the largest connected piece (removals can split off slivers).
+    let prim = uvpin::mesh::weld::PrimitiveGeometry {
+        index: 0,
+        positions: mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect(),
+        indices: mesh.triangles.iter().flatten().copied().collect(),
+        uvs: None,
+    };
+    let welded = uvpin::mesh::weld::weld(std::slice::from_ref(&prim));
+    let sizes = welded.chart_sizes();
+    let biggest = (0..sizes.len()).max_by_key(|&c| sizes[c].1).expect("a chart") as u32;
+    let mut mesh = welded.chart(biggest).mesh;
+    // Snap boundary vertices onto their outline where that keeps every triangle positive.
+    let topo = Topology::build(&mesh).expect("clean patch");
+    for lp in &topo.loops {
+        for &v in lp {
+            let p = mesh.positions[v as usize].truncate();
+            let shape = std::iter::once(OUTER)
+                .chain(HOLES)
+                .min_by(|a, b| (inside(p, *a) - 1.0).abs().total_cmp(&(inside(p, *b) - 1.0).abs()))
+                .expect("shapes");
+            let q = (p - shape.0) / shape.1;
+            let snapped = shape.0 + q.normalize() * shape.1;
+            let old = mesh.positions[v as usize];
+            mesh.positions[v as usize] = snapped.extend(0.0);
+            let layout: Vec<DVec2> = mesh.positions.iter().map(|p| p.truncate()).collect();
+            if !uvpin::guard::all_positive(&layout, &mesh.triangles) {
+                mesh.positions[v as usize] = old;
+            }
+        }
+    }
+    for p in &mut mesh.positions {
+        p.z = height(p.truncate());
+    }
+    let topo = Topology::build(&mesh).expect("clean patch");
+    println!(
+        "face patch: {} vertices, {} triangles, {} boundary loops",
+        mesh.n_vertices(),
+        mesh.n_triangles(),
+        topo.loops.len()
+    );
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let (json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "face");
+    uvpin::io::gltf_file::write_new_document(&json, &blob, std::path::Path::new("assets/face.glb")).expect("write");
+
+    // Landmarks: the vertex nearest each named 2D point of the face.
+    let nearest = |p: DVec2| -> u32 {
+        (0..mesh.n_vertices())
+            .min_by(|&a, &b| {
+                mesh.positions[a].truncate().distance(p).total_cmp(&mesh.positions[b].truncate().distance(p))
+            })
+            .expect("vertices") as u32
+    };
+    // (label, point on the face, target uv on a front photo, v down)
+    let landmarks: [(&str, DVec2, DVec2); 12] = [
+        ("right eye, outer corner", DVec2::new(-0.45, 0.22), DVec2::new(0.215, 0.385)),
+        ("right eye, inner corner", DVec2::new(-0.15, 0.22), DVec2::new(0.405, 0.395)),
+        ("left eye, inner corner", DVec2::new(0.15, 0.22), DVec2::new(0.595, 0.395)),
+        ("left eye, outer corner", DVec2::new(0.45, 0.22), DVec2::new(0.785, 0.385)),
+        ("nose tip", DVec2::new(0.0, -0.12), DVec2::new(0.5, 0.58)),
+        ("right mouth corner", DVec2::new(-0.22, -0.45), DVec2::new(0.355, 0.73)),
+        ("left mouth corner", DVec2::new(0.22, -0.45), DVec2::new(0.645, 0.73)),
+        ("upper lip", DVec2::new(0.0, -0.39), DVec2::new(0.5, 0.695)),
+        ("chin", DVec2::new(0.0, -0.78), DVec2::new(0.5, 0.88)),
+        ("right brow", DVec2::new(-0.3, 0.4), DVec2::new(0.3, 0.29)),
+        ("left brow", DVec2::new(0.3, 0.4), DVec2::new(0.7, 0.29)),
+        ("forehead", DVec2::new(0.0, 0.7), DVec2::new(0.5, 0.14)),
+    ];
+    let mut ron = String::from(
+        "// Sample constraint file: landmarks of assets/face.glb onto a front-facing photo layout.\n\
+         // Generated by `cargo run --release --example make_sample`; edit freely.\n(\n    asset: \"face.glb\",\n    constraints: [\n",
+    );
+    for (label, at, uv) in landmarks {
+        ron += &format!("        (vertex: {}, uv: ({:.3}, {:.3}), label: \"{label}\"),\n", nearest(at), uv.x, uv.y);
+    }
+    // Corners: the outer-loop vertices nearest the outline's diagonals, so the face is upright.
+    let outer = topo.outer_loop();
+    let corner = |dir: DVec2| -> u32 {
+        let p = OUTER.0 + dir.normalize() * OUTER.1;
+        *outer
+            .iter()
+            .min_by(|&&a, &&b| {
+                mesh.positions[a as usize].truncate().distance(p).total_cmp(&mesh.positions[b as usize].truncate().distance(p))
+            })
+            .expect("loop")
+    };
+    ron += &format!(
+        "    ],\n    // Texture corners (outer-boundary vertices): keeps the face upright in the image.\n    \
+         corners: (top_left: {}, bottom_left: {}, bottom_right: {}, top_right: {}),\n)\n",
+        corner(DVec2::new(-1.0, 1.0)),
+        corner(DVec2::new(-1.0, -1.0)),
+        corner(DVec2::new(1.0, -1.0)),
+        corner(DVec2::new(1.0, 1.0))
+    );
+    std::fs::write("assets/face.uvpin.ron", ron).expect("write constraints");
+    println!("wrote assets/face.glb and assets/face.uvpin.ron");
+}

@@ -1,0 +1,206 @@
+//! The solved chart: chosen from the constraints, checked, hole-filled, with
+//! constraints and corners in chart-local ids; and the final per-primitive UVs.
+
+use crate::constraints::{LoadedConstraints, ResolvedConstraint};
+use crate::error::Error;
+use crate::guard::{self, OrientationCounts};
+use crate::io::SourceAsset;
+use crate::mesh::topology::Topology;
+use crate::mesh::weld::{Chart, WeldedMesh, weld};
+use crate::param::bar_net::{FilledChart, fill_holes};
+use crate::param::boundary::{BoundaryMap, TrapCandidates};
+use crate::param::{uv_to_xy, xy_to_uv};
+use crate::rbf::stepping::{StepProblem, pick_anchors};
+use glam::DVec2;
+
+/// Everything about the chart being solved that does not depend on the layout.
+#[derive(Debug, Clone)]
+pub struct PreparedChart {
+    pub welded: WeldedMesh,
+    pub chart: Chart,
+    pub topology: Topology,
+    pub traps: TrapCandidates,
+    pub filled: FilledChart,
+    pub constraints: Vec<ResolvedConstraint>,
+    /// Chart-local vertex of each constraint (same order as `constraints`).
+    pub constraint_vertices: Vec<u32>,
+    /// Given corners, chart-local.
+    pub corners: Option<[u32; 4]>,
+    pub warnings: Vec<String>,
+}
+
+/// Welds the asset's mesh, resolves the constraints, picks the chart that
+/// holds them (the largest chart when there are none), and checks its topology.
+///
+/// # Errors
+/// Constraint-file errors against the asset (with line:column), constraints
+/// in several charts, corners outside the chart, topology errors of the chart
+/// (closed, non-manifold, not a disk).
+pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<PreparedChart, Error> {
+    let welded = weld(&asset.primitives);
+    let constraints = loaded.resolve(&asset.primitives, &welded)?;
+    let chart_of = |c: &ResolvedConstraint| welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used");
+    let chart_id = match constraints.first() {
+        Some(first) => {
+            let id = chart_of(first);
+            if let Some(other) = constraints.iter().find(|c| chart_of(c) != id) {
+                return Err(loaded
+                    .error_at(
+                        other.index,
+                        "vertex",
+                        format!(
+                            "vertex {} is in chart {} but constraints[{}] (vertex {}) is in chart {}: all constraints must be in one chart \
+                             (the mesh has {} charts: connected pieces after welding equal positions{})",
+                            other.vertex,
+                            chart_of(other),
+                            first.index,
+                            first.vertex,
+                            id,
+                            welded.n_charts,
+                            if asset.primitives.iter().any(|p| p.uvs.is_some()) { " and UVs" } else { "" }
+                        ),
+                    )
+                    .into());
+            }
+            id
+        }
+        None => {
+            let sizes = welded.chart_sizes();
+            (0..sizes.len()).max_by_key(|&c| (sizes[c].1, std::cmp::Reverse(c))).ok_or_else(|| {
+                Error::Asset(crate::io::AssetError::MeshSelection {
+                    path: asset.path.clone(),
+                    message: "the mesh has no triangles".into(),
+                })
+            })? as u32
+        }
+    };
+    let chart = welded.chart(chart_id);
+    let topology = Topology::build(&chart.mesh).map_err(|source| Error::Topology {
+        path: asset.path.clone(),
+        mesh: asset.mesh_index,
+        chart: chart_id,
+        n_vertices: chart.mesh.n_vertices(),
+        n_triangles: chart.mesh.n_triangles(),
+        source,
+    })?;
+    let traps = TrapCandidates::find(&chart.mesh, &topology);
+    let filled = fill_holes(&chart.mesh, &topology);
+    let constraint_vertices = constraints.iter().map(|c| chart.local_of[&c.welded]).collect();
+    let corners = match loaded.resolve_corners(&asset.primitives, &welded)? {
+        Some(w) => {
+            let mut local = [0u32; 4];
+            for k in 0..4 {
+                local[k] = *chart.local_of.get(&w[k]).ok_or_else(|| {
+                    loaded.corners_error(format!(
+                        "{} is not in the solved chart {chart_id}",
+                        crate::param::boundary::CORNER_NAMES[k]
+                    ))
+                })?;
+            }
+            Some(local)
+        }
+        None => None,
+    };
+    let mut warnings = Vec::new();
+    let without_uvs: usize = asset
+        .primitives
+        .iter()
+        .zip(&welded.vertex_of)
+        .filter(|(p, _)| p.uvs.is_none())
+        .map(|(_, map)| map.iter().filter(|w| welded.chart_of_vertex[**w as usize] != Some(chart_id)).count())
+        .sum();
+    if without_uvs > 0 {
+        warnings.push(format!(
+            "{without_uvs} vertices outside the solved chart had no TEXCOORD_{} and are written as (0, 0)",
+            asset.uv_set
+        ));
+    }
+    Ok(PreparedChart { welded, chart, topology, traps, filled, constraints, constraint_vertices, corners, warnings })
+}
+
+/// Tolerance for a constraint on the outer boundary to agree with the boundary map.
+pub const BOUNDARY_TOLERANCE: f64 = 1e-6;
+
+/// Splits the constraints into those the spline moves and those on the outer
+/// boundary, which must already sit on their targets.
+///
+/// # Errors
+/// A constraint on the outer boundary whose target differs from where the
+/// boundary map puts it.
+pub fn step_problem(
+    prepared: &PreparedChart,
+    loaded: &LoadedConstraints,
+    boundary: &BoundaryMap,
+    max_boundary_centres: usize,
+) -> Result<StepProblem, Error> {
+    let n = prepared.filled.mesh.n_vertices();
+    let mut on_outer = vec![None; n];
+    for (i, &v) in boundary.loop_vertices.iter().enumerate() {
+        on_outer[v as usize] = Some(i);
+    }
+    let mut problem = StepProblem::default();
+    for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
+        let target = uv_to_xy(c.target_uv);
+        match on_outer[v as usize] {
+            Some(i) => {
+                let at = boundary.positions[i];
+                if at.distance(target) > BOUNDARY_TOLERANCE {
+                    let uv = xy_to_uv(at);
+                    return Err(loaded
+                        .error_at(
+                            c.index,
+                            if loaded.file.constraints[c.index].uv.is_some() { "uv" } else { "px" },
+                            format!(
+                                "vertex {} is on the outer boundary, which the boundary mapping places at ({:.6}, {:.6}); \
+                                 the target ({}, {}) contradicts it. Constrain an interior vertex, or make this vertex a corner",
+                                c.vertex, uv.x, uv.y, c.target_uv.x, c.target_uv.y
+                            ),
+                        )
+                        .into());
+                }
+            }
+            None => {
+                problem.constraint_vertices.push(v);
+                problem.targets.push(target);
+            }
+        }
+    }
+    problem.anchors = pick_anchors(&boundary.loop_vertices, max_boundary_centres, &boundary.corner_vertices());
+    problem.movable = (0..n as u32).filter(|&v| on_outer[v as usize].is_none()).collect();
+    Ok(problem)
+}
+
+/// Final per-primitive UVs (glTF texture coordinates, f32): the solved chart's
+/// from `layout`, every other vertex's as it was (or (0, 0) without UVs).
+pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> Vec<Vec<[f32; 2]>> {
+    asset
+        .primitives
+        .iter()
+        .zip(&prepared.welded.vertex_of)
+        .map(|(prim, map)| {
+            map.iter()
+                .enumerate()
+                .map(|(i, w)| match prepared.chart.local_of.get(w) {
+                    Some(&local) => {
+                        let uv = xy_to_uv(layout[local as usize]);
+                        [uv.x as f32, uv.y as f32]
+                    }
+                    None => prim.uvs.as_ref().map_or([0.0, 0.0], |u| u[i]),
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Orientation of the solved chart exactly as it will be stored (f32 UVs),
+/// real and virtual hole triangles.
+pub fn written_orientation(prepared: &PreparedChart, layout: &[DVec2]) -> OrientationCounts {
+    let uvs: Vec<[f32; 2]> = layout
+        .iter()
+        .map(|p| {
+            let uv = xy_to_uv(*p);
+            [uv.x as f32, uv.y as f32]
+        })
+        .collect();
+    guard::count_uv_orientations(&uvs, &prepared.filled.mesh.triangles)
+}

@@ -1,0 +1,119 @@
+//! The command line: `uvpin solve` and `uvpin check`.
+
+mod check;
+
+use crate::report::Status;
+use clap::{Parser, Subcommand};
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Constrained, fold-free texture mapping.
+#[derive(Debug, Parser)]
+#[command(name = "uvpin", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Solve a constraint file and write the asset with the new UV set.
+    ///
+    /// Exit code 0: every constraint reached; 2: partial (written, fold-free,
+    /// some constraints short of their targets); 1: error (nothing written).
+    Solve {
+        /// The constraint file (.uvpin.ron).
+        constraints: PathBuf,
+        /// Output file: .glb for a .glb asset, .gltf (+ .uvpin.bin) for .gltf;
+        /// .obj, .glb or .gltf for an .obj asset. Without it nothing is written.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Write the JSON report here ("-" for standard output).
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// No summary on standard error.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Measure existing UVs: folds, zero-area triangles and stretch per chart,
+    /// and constraint residuals. Works on UVs from any tool.
+    Check {
+        /// The .glb, .gltf or .obj file.
+        asset: PathBuf,
+        /// UV set to check (TEXCOORD_N).
+        #[arg(long, default_value_t = 0)]
+        uv_set: u32,
+        /// Mesh index or name (default: the first).
+        #[arg(long)]
+        mesh: Option<String>,
+        /// Also report the residual of each constraint of this file.
+        #[arg(long)]
+        constraints: Option<PathBuf>,
+        /// Print JSON instead of one line per chart.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Runs the command line; returns the process exit code.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Solve { constraints, output, report, quiet } => solve(&constraints, output.as_deref(), report.as_deref(), quiet),
+        Command::Check { asset, uv_set, mesh, constraints, json } => {
+            match check::run(&asset, uv_set, mesh.as_deref(), constraints.as_deref(), json) {
+                Ok(code) => ExitCode::from(code),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(1)
+                }
+            }
+        }
+    }
+}
+
+fn write_report(path: &std::path::Path, json: &str) -> std::io::Result<()> {
+    if path.as_os_str() == "-" {
+        let mut out = std::io::stdout().lock();
+        out.write_all(json.as_bytes())?;
+        out.write_all(b"\n")
+    } else {
+        crate::io::atomic::write_atomically(path, format!("{json}\n").as_bytes())
+    }
+}
+
+fn solve(
+    constraints: &std::path::Path,
+    output: Option<&std::path::Path>,
+    report_path: Option<&std::path::Path>,
+    quiet: bool,
+) -> ExitCode {
+    match crate::solve::solve_file(constraints, output) {
+        Ok(report) => {
+            if !quiet {
+                eprint!("{}", report.summary());
+            }
+            if let Some(p) = report_path {
+                let json = serde_json::to_string_pretty(&report).expect("report serialises");
+                if let Err(e) = write_report(p, &json) {
+                    eprintln!("error: cannot write the report {}: {e}", p.display());
+                    return ExitCode::from(1);
+                }
+            }
+            ExitCode::from(report.status.exit_code() as u8)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            if let Some(p) = report_path {
+                let json = serde_json::json!({
+                    "status": Status::Error,
+                    "message": e.to_string(),
+                    "constraint_file": constraints.display().to_string(),
+                });
+                let _ = write_report(p, &serde_json::to_string_pretty(&json).expect("json"));
+            }
+            ExitCode::from(1)
+        }
+    }
+}

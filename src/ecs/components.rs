@@ -1,0 +1,70 @@
+//! Components of a chart entity (nouns).
+
+use crate::chart::PreparedChart;
+use crate::constraints::LoadedConstraints;
+use crate::error::Error;
+use crate::io::SourceAsset;
+use crate::param::bar_net::BarNet;
+use crate::param::boundary::BoundaryMap;
+use crate::rbf::stepping::{StepProblem, SteppingState};
+use crate::report::{Report, StageTimes};
+use bevy_ecs::prelude::*;
+use glam::DVec2;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// What to solve and where the result goes.
+#[derive(Component, Debug, Clone)]
+pub struct SolveJob {
+    pub constraints: Arc<LoadedConstraints>,
+    pub asset: Arc<SourceAsset>,
+    /// Output file; `None` solves without writing.
+    pub output: Option<PathBuf>,
+}
+
+/// The solved chart's mesh, topology, hole fill and constraints.
+#[derive(Component, Debug, Clone)]
+pub struct ChartData(pub Arc<PreparedChart>);
+
+/// The outer loop on the square (§III.B).
+#[derive(Component, Debug, Clone)]
+pub struct BoundaryLayout(pub BoundaryMap);
+
+/// The factored bar-net matrix D of Eq. 1, kept for re-solves.
+#[derive(Component, Debug, Clone)]
+pub struct BarNetFactor(pub Arc<BarNet>);
+
+/// The step-1 layout (filled chart, layout coordinates).
+#[derive(Component, Debug, Clone)]
+pub struct Step1Layout(pub Vec<DVec2>);
+
+/// The current, always fold-free layout (filled chart, layout coordinates).
+#[derive(Component, Debug, Clone)]
+pub struct Layout(pub Vec<DVec2>);
+
+/// Spline stepping: the fixed problem and the progress.
+#[derive(Component, Debug, Clone)]
+pub struct Stepping {
+    pub problem: StepProblem,
+    pub state: SteppingState,
+}
+
+/// A proposed layout waiting for the guard.
+#[derive(Component, Debug, Clone)]
+pub struct Candidate(pub Vec<DVec2>);
+
+/// Time spent per stage on this chart.
+#[derive(Component, Debug, Clone, Default)]
+pub struct Timings(pub StageTimes);
+
+/// The solve is over; its report (not yet written).
+#[derive(Component, Debug, Clone)]
+pub struct Finished(pub Report);
+
+/// The final report after output (status `Error` if the write failed).
+#[derive(Component, Debug, Clone)]
+pub struct Exported(pub Report);
+
+/// An input error found while solving; nothing is written.
+#[derive(Component, Debug, Clone)]
+pub struct Failed(pub Arc<Error>);

@@ -1,0 +1,220 @@
+//! Systems (verb phrases): each calls one core function for every chart that needs it.
+
+use super::components::*;
+use crate::chart;
+use crate::guard;
+use crate::param::bar_net::BarNet;
+use crate::param::boundary::map_outer_boundary;
+use crate::rbf::stepping::{SteppingState, propose_step};
+use crate::report;
+use bevy_ecs::prelude::*;
+use glam::DVec2;
+use std::sync::Arc;
+use std::time::Instant;
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+/// Places the outer loop on the square (§III.B) for charts without a boundary layout.
+pub fn map_boundary(
+    mut commands: Commands,
+    mut charts: Query<(Entity, &SolveJob, &ChartData, &mut Timings), (Without<BoundaryLayout>, Without<Failed>)>,
+) {
+    for (entity, job, data, mut times) in &mut charts {
+        let t0 = Instant::now();
+        let c = &data.0;
+        let result = map_outer_boundary(&c.chart.mesh, &c.topology, &c.traps, c.corners);
+        times.0.boundary_ms += ms(t0);
+        match result {
+            Ok(b) => {
+                commands.entity(entity).insert(BoundaryLayout(b));
+            }
+            Err(e) => {
+                let err = job.constraints.corners_error(e.to_string());
+                commands.entity(entity).insert(Failed(Arc::new(err.into())));
+            }
+        }
+    }
+}
+
+/// Builds and factors D = CᵀQC (Eq. 1–2) once per chart.
+pub fn factor_bar_net(
+    mut commands: Commands,
+    mut charts: Query<
+        (Entity, &SolveJob, &ChartData, &BoundaryLayout, &mut Timings),
+        (Without<BarNetFactor>, Without<Failed>),
+    >,
+) {
+    for (entity, job, data, boundary, mut times) in &mut charts {
+        let t0 = Instant::now();
+        let filled = &data.0.filled;
+        let mut fixed = vec![false; filled.mesh.n_vertices()];
+        for &v in &boundary.0.loop_vertices {
+            fixed[v as usize] = true;
+        }
+        let result = BarNet::factor(&filled.mesh, &fixed);
+        times.0.factor_ms += ms(t0);
+        match result {
+            Ok(net) => {
+                commands.entity(entity).insert(BarNetFactor(Arc::new(net)));
+            }
+            Err(source) => {
+                let err = crate::Error::BarNet { path: job.asset.path.clone(), chart: data.0.chart.id, source };
+                commands.entity(entity).insert(Failed(Arc::new(err)));
+            }
+        }
+    }
+}
+
+/// Solves Eq. 1 for the free nodes whenever the boundary layout is new or changed.
+pub fn solve_force_density(
+    mut commands: Commands,
+    mut charts: Query<
+        (Entity, &ChartData, &BoundaryLayout, &BarNetFactor, &mut Timings),
+        (Or<(Changed<BoundaryLayout>, Added<BarNetFactor>)>, Without<Failed>),
+    >,
+) {
+    for (entity, data, boundary, net, mut times) in &mut charts {
+        let t0 = Instant::now();
+        let mut layout = vec![DVec2::ZERO; data.0.filled.mesh.n_vertices()];
+        for (&v, &p) in boundary.0.loop_vertices.iter().zip(&boundary.0.positions) {
+            layout[v as usize] = p;
+        }
+        net.0.solve(&mut layout);
+        times.0.solve_ms += ms(t0);
+        commands.entity(entity).insert((Step1Layout(layout.clone()), Layout(layout))).remove::<(Finished, Exported)>();
+    }
+}
+
+/// Sets up spline stepping from a new step-1 layout (checks it is fold-free,
+/// splits boundary constraints off).
+pub fn start_stepping(
+    mut commands: Commands,
+    mut charts: Query<
+        (Entity, &SolveJob, &ChartData, &BoundaryLayout, &Step1Layout, &mut Timings),
+        (Changed<Step1Layout>, Without<Failed>),
+    >,
+) {
+    for (entity, job, data, boundary, step1, mut times) in &mut charts {
+        let t0 = Instant::now();
+        let c = &data.0;
+        if let Some(t) = guard::first_non_positive(&step1.0, &c.filled.mesh.triangles) {
+            let err = crate::Error::Internal(format!("the step-1 layout folds triangle {t}"));
+            commands.entity(entity).insert(Failed(Arc::new(err)));
+            continue;
+        }
+        let options = &job.constraints.file.solver;
+        match chart::step_problem(c, &job.constraints, &boundary.0, options.max_boundary_centres) {
+            Ok(problem) => {
+                let state = SteppingState::start(&problem, &step1.0, options);
+                commands.entity(entity).insert(Stepping { problem, state }).remove::<Candidate>();
+            }
+            Err(e) => {
+                commands.entity(entity).insert(Failed(Arc::new(e)));
+            }
+        }
+        times.0.stepping_ms += ms(t0);
+    }
+}
+
+/// Proposes one spline step (Eq. 6) of fraction `t` for every stepping chart.
+pub fn step_constraints(
+    mut commands: Commands,
+    mut charts: Query<(Entity, &Layout, &mut Stepping, &mut Timings), (Without<Candidate>, Without<Failed>)>,
+) {
+    for (entity, layout, mut stepping, mut times) in &mut charts {
+        if !stepping.state.is_stepping() {
+            continue;
+        }
+        let t0 = Instant::now();
+        match propose_step(&layout.0, &stepping.problem, stepping.state.t) {
+            Ok(candidate) => {
+                commands.entity(entity).insert(Candidate(candidate));
+            }
+            Err(e) => stepping.state.record_failure(&e),
+        }
+        times.0.stepping_ms += ms(t0);
+    }
+}
+
+/// Accepts a candidate only if every triangle, virtual ones included, keeps
+/// its orientation (Eq. 3, exactly); otherwise halves the step.
+pub fn guard_foldovers(
+    mut commands: Commands,
+    mut charts: Query<(Entity, &SolveJob, &ChartData, &mut Layout, &mut Stepping, &Candidate, &mut Timings)>,
+) {
+    for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
+        let t0 = Instant::now();
+        let accepted = guard::all_positive(&candidate.0, &data.0.filled.mesh.triangles);
+        let options = &job.constraints.file.solver;
+        if accepted {
+            let residual = stepping.problem.max_residual(&candidate.0);
+            layout.0.clone_from(&candidate.0);
+            stepping.state.record_guard(true, residual, options);
+        } else {
+            stepping.state.record_guard(false, f64::INFINITY, options);
+        }
+        commands.entity(entity).remove::<Candidate>();
+        times.0.guard_ms += ms(t0);
+    }
+}
+
+/// Builds the report once stepping has stopped.
+pub fn finish_solve(
+    mut commands: Commands,
+    charts: Query<
+        (Entity, &SolveJob, &ChartData, &BoundaryLayout, &Step1Layout, &Layout, &Stepping, &Timings),
+        (Without<Finished>, Without<Candidate>, Without<Failed>),
+    >,
+) {
+    for (entity, job, data, boundary, step1, layout, stepping, times) in &charts {
+        if stepping.state.is_stepping() {
+            continue;
+        }
+        let report = report::build(&report::SolveSummary {
+            constraints: &job.constraints,
+            asset: &job.asset,
+            prepared: &data.0,
+            boundary: &boundary.0,
+            step1: &step1.0,
+            layout: &layout.0,
+            state: &stepping.state,
+            times: times.0,
+        });
+        commands.entity(entity).insert(Finished(report));
+    }
+}
+
+/// Checks the layout exactly as it will be stored and writes the file atomically.
+pub fn export_layout(
+    mut commands: Commands,
+    mut charts: Query<(Entity, &SolveJob, &ChartData, &Layout, &Finished, &mut Timings), Without<Exported>>,
+) {
+    for (entity, job, data, layout, finished, mut times) in &mut charts {
+        let t0 = Instant::now();
+        let mut report = finished.0.clone();
+        let written = chart::written_orientation(&data.0, &layout.0);
+        report.orientation = written;
+        if !written.is_clean() {
+            report.status = report::Status::Error;
+            report.message = Some(format!(
+                "internal error: the layout rounded to f32 has {} flipped and {} zero-area triangles; nothing written",
+                written.flipped, written.zero_area
+            ));
+        } else if let Some(out) = &job.output {
+            let uvs = chart::assemble_uvs(&job.asset, &data.0, &layout.0);
+            match crate::io::gltf_file::write_asset(&job.asset, &uvs, out) {
+                Ok(()) => report.output = Some(out.display().to_string()),
+                Err(e) => {
+                    report.status = report::Status::Error;
+                    report.message = Some(e.to_string());
+                }
+            }
+        }
+        times.0.export_ms += ms(t0);
+        report.times = times.0;
+        report.total_ms = times.0.total_ms();
+        commands.entity(entity).insert(Exported(report));
+    }
+}

@@ -1,0 +1,33 @@
+//! The crate's top-level error: a caller mistake in an input file, named with
+//! the file and the place; or an internal failure, kept apart.
+
+use crate::constraints::ConstraintFileError;
+use crate::io::AssetError;
+use crate::mesh::topology::TopologyError;
+use crate::param::bar_net::BarNetError;
+use std::path::PathBuf;
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum Error {
+    #[error(transparent)]
+    Constraints(#[from] ConstraintFileError),
+    #[error(transparent)]
+    Asset(#[from] AssetError),
+    #[error("{path}: mesh {mesh}, chart {chart} ({n_vertices} vertices, {n_triangles} triangles): {source}")]
+    Topology {
+        path: PathBuf,
+        mesh: usize,
+        chart: u32,
+        n_vertices: usize,
+        n_triangles: usize,
+        source: TopologyError,
+    },
+    #[error("{path}: force-density solve of chart {chart}: {source}")]
+    BarNet { path: PathBuf, chart: u32, source: BarNetError },
+    /// A bug: a layout that would have been written failed the final check.
+    #[error("internal error, nothing written: {0}")]
+    Internal(String),
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,146 @@
+//! Reading meshes from glTF (.glb, .gltf with embedded or external buffers)
+//! and OBJ, and writing a UV set back with nothing else changed.
+
+pub mod atomic;
+pub mod glb;
+pub mod gltf_file;
+pub mod obj;
+
+use crate::constraints::MeshSelector;
+use crate::mesh::weld::PrimitiveGeometry;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// What went wrong with an asset file. Every variant names the file.
+#[derive(Debug, Error)]
+pub enum AssetError {
+    #[error("{path}: cannot read: {source}")]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error("{path}: unsupported file type (use .glb, .gltf or .obj)")]
+    UnknownFormat { path: PathBuf },
+    #[error("{path}: corrupt GLB: {source}")]
+    Glb { path: PathBuf, source: glb::GlbError },
+    #[error("{path}: invalid glTF: {message}")]
+    Gltf { path: PathBuf, message: String },
+    #[error("{path}: buffer {buffer}: {message}")]
+    Buffer { path: PathBuf, buffer: usize, message: String },
+    #[error("{path}: {message}")]
+    MeshSelection { path: PathBuf, message: String },
+    #[error("{path}: mesh {mesh} primitive {primitive} has mode {mode}; only TRIANGLES primitives can be parameterised")]
+    NonTrianglePrimitive { path: PathBuf, mesh: usize, primitive: usize, mode: String },
+    #[error("{path}: mesh {mesh} primitive {primitive}: {message}")]
+    Primitive { path: PathBuf, mesh: usize, primitive: usize, message: String },
+    #[error("{path}: mesh {mesh} primitive {primitive} vertex {vertex}: position {position:?} is not finite")]
+    NonFinitePosition { path: PathBuf, mesh: usize, primitive: usize, vertex: usize, position: [f32; 3] },
+    #[error("{path}:{line}: {message}")]
+    Obj { path: PathBuf, line: usize, message: String },
+    #[error("{path}: cannot write: {message}")]
+    Write { path: PathBuf, message: String },
+}
+
+/// File type, from the extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AssetFormat {
+    Glb,
+    Gltf,
+    Obj,
+}
+
+impl AssetFormat {
+    pub fn of(path: &Path) -> Option<Self> {
+        match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
+            "glb" => Some(AssetFormat::Glb),
+            "gltf" => Some(AssetFormat::Gltf),
+            "obj" => Some(AssetFormat::Obj),
+            _ => None,
+        }
+    }
+}
+
+/// The raw file content needed to write it back unchanged but for the UVs.
+#[derive(Debug, Clone)]
+pub enum Container {
+    Gltf {
+        /// The glTF JSON exactly as read (key order kept).
+        json: serde_json::Value,
+        /// The GLB BIN chunk.
+        bin: Option<Vec<u8>>,
+    },
+    Obj {
+        text: String,
+    },
+}
+
+/// One mesh of an asset file, ready for welding.
+#[derive(Debug, Clone)]
+pub struct SourceAsset {
+    pub path: PathBuf,
+    pub format: AssetFormat,
+    pub mesh_index: usize,
+    pub mesh_name: Option<String>,
+    /// The mesh's TRIANGLES primitives (all of them), with the existing UVs of `uv_set`.
+    pub primitives: Vec<PrimitiveGeometry>,
+    pub uv_set: u32,
+    pub container: Container,
+    /// Number of meshes in the file.
+    pub n_meshes: usize,
+}
+
+/// Reads mesh `mesh` of the asset at `path` with the existing UVs of TEXCOORD_`uv_set`.
+///
+/// # Errors
+/// Unreadable or corrupt files (truncated GLB, bad chunk lengths, invalid
+/// JSON, missing buffers), a mesh that does not exist, non-TRIANGLES
+/// primitives, non-finite positions, indices out of range.
+pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Result<SourceAsset, AssetError> {
+    let format = AssetFormat::of(path).ok_or_else(|| AssetError::UnknownFormat { path: path.to_path_buf() })?;
+    let bytes = std::fs::read(path).map_err(|source| AssetError::Read { path: path.to_path_buf(), source })?;
+    match format {
+        AssetFormat::Obj => {
+            let text = String::from_utf8_lossy(&bytes).into_owned();
+            if let Some(MeshSelector::Index(i)) = mesh
+                && *i != 0
+            {
+                return Err(AssetError::MeshSelection {
+                    path: path.to_path_buf(),
+                    message: format!("an OBJ file holds one mesh (0); mesh {i} was asked for"),
+                });
+            }
+            let prim = obj::parse(path, &text)?;
+            Ok(SourceAsset {
+                path: path.to_path_buf(),
+                format,
+                mesh_index: 0,
+                mesh_name: None,
+                primitives: vec![prim],
+                uv_set,
+                container: Container::Obj { text },
+                n_meshes: 1,
+            })
+        }
+        AssetFormat::Glb | AssetFormat::Gltf => gltf_file::load(path, format, &bytes, mesh, uv_set),
+    }
+}
+
+impl SourceAsset {
+    /// An in-memory asset holding `mesh` as one primitive (f32 positions), for
+    /// the library API; it cannot be written back as a file.
+    pub fn from_mesh(mesh: &crate::mesh::TriMesh) -> Self {
+        SourceAsset {
+            path: PathBuf::from("<memory>"),
+            format: AssetFormat::Glb,
+            mesh_index: 0,
+            mesh_name: None,
+            primitives: vec![PrimitiveGeometry {
+                index: 0,
+                positions: mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect(),
+                indices: mesh.triangles.iter().flatten().copied().collect(),
+                uvs: None,
+            }],
+            uv_set: 0,
+            container: Container::Gltf { json: serde_json::Value::Null, bin: None },
+            n_meshes: 1,
+        }
+    }
+}

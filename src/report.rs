@@ -1,0 +1,301 @@
+//! The solve report: status, per-constraint results, fold counts, stretch,
+//! iterations, time per stage, sizes. Written as JSON; summarised on stderr.
+
+use crate::guard::OrientationCounts;
+use crate::metrics::Stretch;
+use crate::param::boundary::{BoundaryShape, CornerSource};
+use glam::DVec2;
+use serde::Serialize;
+
+/// How a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Every constraint on its target, no fold. Exit code 0.
+    Reached,
+    /// Written, fold-free, but some constraints are short of their targets. Exit code 2.
+    Partial,
+    /// Nothing written. Exit code 1.
+    Error,
+}
+
+impl Status {
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Status::Reached => 0,
+            Status::Partial => 2,
+            Status::Error => 1,
+        }
+    }
+}
+
+/// One constraint's outcome.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConstraintReport {
+    /// Index in the constraint file's list.
+    pub index: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
+    pub primitive: usize,
+    pub vertex: u32,
+    /// Target, glTF texture coordinates.
+    pub target: DVec2,
+    /// Where the vertex ended, glTF texture coordinates.
+    pub result: DVec2,
+    /// Where step 1 (the bar-net) put it.
+    pub step1: DVec2,
+    /// Distance from result to target, texture units.
+    pub residual: f64,
+    pub reached: bool,
+    /// On the outer boundary (placed by the boundary map, not moved).
+    pub on_boundary: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub snapped_distance: Option<f64>,
+}
+
+/// Wall-clock milliseconds per stage.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct StageTimes {
+    /// Reading the constraint file and the asset.
+    pub load_ms: f64,
+    /// Welding, chart choice, topology checks, hole filling.
+    pub topology_ms: f64,
+    /// Outer boundary onto the square (§III.B).
+    pub boundary_ms: f64,
+    /// Building and factoring D (Eq. 1–2).
+    pub factor_ms: f64,
+    /// Solving for the free nodes (Eq. 1).
+    pub solve_ms: f64,
+    /// Spline fits and evaluations (Eq. 6).
+    pub stepping_ms: f64,
+    /// Orientation checks of candidate layouts.
+    pub guard_ms: f64,
+    /// Metrics, final checks, writing the file.
+    pub export_ms: f64,
+}
+
+impl StageTimes {
+    pub fn total_ms(&self) -> f64 {
+        self.load_ms
+            + self.topology_ms
+            + self.boundary_ms
+            + self.factor_ms
+            + self.solve_ms
+            + self.stepping_ms
+            + self.guard_ms
+            + self.export_ms
+    }
+}
+
+/// Sizes of what was solved.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Counts {
+    /// Charts in the mesh (after welding).
+    pub charts: usize,
+    /// The solved chart's id.
+    pub chart: u32,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub holes: usize,
+    pub boundary_vertices: usize,
+}
+
+/// How the outer boundary was placed.
+#[derive(Debug, Clone, Serialize)]
+pub struct BoundaryReport {
+    pub shape: BoundaryShape,
+    pub corner_source: CornerSource,
+    /// glTF vertex ids (in the first primitive that has them) of the corners,
+    /// top_left, bottom_left, bottom_right, top_right.
+    pub corners: [Option<u32>; 4],
+}
+
+/// The full report of one solve.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub status: Status,
+    /// Why stepping stopped short, or the error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub message: Option<String>,
+    pub constraint_file: String,
+    pub asset: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+    pub uv_set: u32,
+    pub constraints: Vec<ConstraintReport>,
+    pub max_residual: f64,
+    pub mean_residual: f64,
+    /// Orientation of the solved chart as written (f32), virtual hole triangles included.
+    pub orientation: OrientationCounts,
+    /// Stretch of the step-1 (bar-net) layout.
+    pub stretch_step1: Stretch,
+    /// Stretch of the final layout.
+    pub stretch_final: Stretch,
+    pub iterations: u32,
+    pub halvings: u32,
+    pub times: StageTimes,
+    pub total_ms: f64,
+    pub counts: Counts,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub boundary: Option<BoundaryReport>,
+    pub warnings: Vec<String>,
+}
+
+impl Report {
+    /// A short human summary (a few lines).
+    pub fn summary(&self) -> String {
+        let mut s = format!(
+            "{}: {} — {} of {} constraints reached (max residual {:.3e}), {} flipped / {} zero-area triangles\n",
+            match self.status {
+                Status::Reached => "reached",
+                Status::Partial => "partial",
+                Status::Error => "error",
+            },
+            self.output.as_deref().unwrap_or(&self.asset),
+            self.constraints.iter().filter(|c| c.reached).count(),
+            self.constraints.len(),
+            self.max_residual,
+            self.orientation.flipped,
+            self.orientation.zero_area,
+        );
+        s += &format!(
+            "  chart {} of {}: {} vertices, {} triangles, {} holes; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}\n",
+            self.counts.chart,
+            self.counts.charts,
+            self.counts.vertices,
+            self.counts.triangles,
+            self.counts.holes,
+            self.stretch_step1.l2,
+            self.stretch_final.l2,
+            self.stretch_step1.linf,
+            self.stretch_final.linf
+        );
+        s += &format!("  {} iterations, {} halvings, {:.1} ms\n", self.iterations, self.halvings, self.total_ms);
+        if let Some(m) = &self.message {
+            s += &format!("  {m}\n");
+        }
+        for c in self.constraints.iter().filter(|c| !c.reached) {
+            s += &format!(
+                "  unreached: constraints[{}]{} vertex {}: target ({:.4}, {:.4}), at ({:.4}, {:.4}), residual {:.4}\n",
+                c.index,
+                c.label.as_ref().map(|l| format!(" \"{l}\"")).unwrap_or_default(),
+                c.vertex,
+                c.target.x,
+                c.target.y,
+                c.result.x,
+                c.result.y,
+                c.residual
+            );
+        }
+        for w in &self.warnings {
+            s += &format!("  warning: {w}\n");
+        }
+        s
+    }
+}
+
+/// Everything [`build`] needs about a finished solve.
+pub struct SolveSummary<'a> {
+    pub constraints: &'a crate::constraints::LoadedConstraints,
+    pub asset: &'a crate::io::SourceAsset,
+    pub prepared: &'a crate::chart::PreparedChart,
+    pub boundary: &'a crate::param::boundary::BoundaryMap,
+    pub step1: &'a [DVec2],
+    pub layout: &'a [DVec2],
+    pub state: &'a crate::rbf::stepping::SteppingState,
+    pub times: StageTimes,
+}
+
+/// The report of a finished solve (before the file is written).
+pub fn build(s: &SolveSummary) -> Report {
+    use crate::param::xy_to_uv;
+    use crate::rbf::stepping::SteppingPhase;
+    let p = s.prepared;
+    let tolerance = s.constraints.file.solver.tolerance;
+    let mut on_outer = vec![false; p.filled.mesh.n_vertices()];
+    for &v in &s.boundary.loop_vertices {
+        on_outer[v as usize] = true;
+    }
+    let constraints: Vec<ConstraintReport> = p
+        .constraints
+        .iter()
+        .zip(&p.constraint_vertices)
+        .map(|(c, &v)| {
+            let result = xy_to_uv(s.layout[v as usize]);
+            let residual = result.distance(c.target_uv);
+            ConstraintReport {
+                index: c.index,
+                label: c.label.clone(),
+                primitive: c.primitive,
+                vertex: c.vertex,
+                target: c.target_uv,
+                result,
+                step1: xy_to_uv(s.step1[v as usize]),
+                residual,
+                reached: residual <= tolerance,
+                on_boundary: on_outer[v as usize],
+                snapped_distance: c.snapped_distance,
+            }
+        })
+        .collect();
+    let max_residual = constraints.iter().map(|c| c.residual).fold(0.0, f64::max);
+    let mean_residual =
+        if constraints.is_empty() { 0.0 } else { constraints.iter().map(|c| c.residual).sum::<f64>() / constraints.len() as f64 };
+    let all_reached = constraints.iter().all(|c| c.reached);
+    let (status, message) = match (&s.state.phase, all_reached) {
+        (_, true) => (Status::Reached, None),
+        (SteppingPhase::Stalled(reason), false) => (
+            Status::Partial,
+            Some(format!("the spline path stalled ({reason}); the layout is the last fold-free step")),
+        ),
+        (_, false) => (Status::Partial, Some("some constraints are outside tolerance".into())),
+    };
+    let n_real = p.filled.n_real_vertices;
+    let real = &p.chart.mesh;
+    let stretch_step1 = crate::metrics::sander_stretch(&real.positions, &s.step1[..n_real], &real.triangles);
+    let stretch_final = crate::metrics::sander_stretch(&real.positions, &s.layout[..n_real], &real.triangles);
+    let gltf_id = |local: u32| -> Option<u32> {
+        let w = p.chart.welded_ids[local as usize];
+        p.welded.vertex_of.iter().find_map(|map| map.iter().position(|&x| x == w).map(|i| i as u32))
+    };
+    let mut warnings = p.warnings.clone();
+    if s.boundary.shape == crate::param::boundary::BoundaryShape::BulgedSquare {
+        warnings.push(format!(
+            "{} triangles or interior edges would lie flat on one side of the square with these corners; \
+             the sides were bowed outward (strictly convex) instead, so the corners sit slightly inside the texture's corners",
+            s.boundary.trapped_on_square
+        ));
+    }
+    Report {
+        status,
+        message,
+        constraint_file: s.constraints.path.display().to_string(),
+        asset: s.asset.path.display().to_string(),
+        output: None,
+        uv_set: s.asset.uv_set,
+        constraints,
+        max_residual,
+        mean_residual,
+        orientation: crate::guard::count_orientations(s.layout, &p.filled.mesh.triangles),
+        stretch_step1,
+        stretch_final,
+        iterations: s.state.iterations,
+        halvings: s.state.total_halvings,
+        times: s.times,
+        total_ms: s.times.total_ms(),
+        counts: Counts {
+            charts: p.welded.n_charts,
+            chart: p.chart.id,
+            vertices: real.n_vertices(),
+            triangles: real.n_triangles(),
+            holes: p.filled.n_holes(),
+            boundary_vertices: s.boundary.loop_vertices.len(),
+        },
+        boundary: Some(BoundaryReport {
+            shape: s.boundary.shape,
+            corner_source: s.boundary.corner_source,
+            corners: s.boundary.corner_vertices().map(gltf_id),
+        }),
+        warnings,
+    }
+}

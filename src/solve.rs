@@ -1,0 +1,132 @@
+//! One-call solving for Rust users and the CLI: load, run the ECS schedule to
+//! convergence, write the output atomically, return the report.
+
+use crate::chart;
+use crate::constraints::LoadedConstraints;
+use crate::constraints::{ConstraintFile, ConstraintSpec, CornerSpec};
+use crate::ecs::{self, ChartData, Exported, Failed, Layout, SolveJob, Timings};
+use crate::mesh::TriMesh;
+use crate::rbf::stepping::SteppingOptions;
+use glam::DVec2;
+use crate::error::Error;
+use crate::io::{self, SourceAsset};
+use crate::report::Report;
+use bevy_ecs::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Upper bound on schedule ticks for one solve (each tick is one proposal).
+pub const MAX_TICKS: usize = 1_000_000;
+
+/// Loads a constraint file and its asset.
+///
+/// # Errors
+/// Constraint-file and asset errors.
+pub fn load(constraints_path: &Path) -> Result<(LoadedConstraints, SourceAsset), Error> {
+    let loaded = LoadedConstraints::load(constraints_path)?;
+    let asset_path = loaded.asset_path();
+    let asset = io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set).map_err(|e| match e {
+        io::AssetError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => loaded
+            .asset_error("asset", format!("{} does not exist", asset_path.display()))
+            .into(),
+        e => Error::from(e),
+    })?;
+    Ok((loaded, asset))
+}
+
+/// Spawns the chart entity for a loaded job into `world`.
+///
+/// # Errors
+/// Errors of [`chart::prepare`].
+pub fn spawn_job(
+    world: &mut World,
+    loaded: LoadedConstraints,
+    asset: SourceAsset,
+    output: Option<PathBuf>,
+    load_ms: f64,
+) -> Result<Entity, Error> {
+    let t0 = Instant::now();
+    let prepared = chart::prepare(&loaded, &asset)?;
+    let mut timings = Timings::default();
+    timings.0.load_ms = load_ms;
+    timings.0.topology_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let job = SolveJob { constraints: Arc::new(loaded), asset: Arc::new(asset), output };
+    Ok(world.spawn((job, ChartData(Arc::new(prepared)), timings)).id())
+}
+
+/// Solves `constraints_path` and writes `output` (if given). Returns the
+/// report: `Reached` or `Partial` (written, fold-free), or `Error` when the
+/// final write failed. Input errors come back as `Err` with nothing written.
+///
+/// # Errors
+/// Any input error: constraint file, asset, topology.
+pub fn solve_file(constraints_path: &Path, output: Option<&Path>) -> Result<Report, Error> {
+    let t0 = Instant::now();
+    let (loaded, asset) = load(constraints_path)?;
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut world = World::new();
+    let entity = spawn_job(&mut world, loaded, asset, output.map(Path::to_path_buf), load_ms)?;
+    run_job(world, entity).map(|(report, _)| report)
+}
+
+/// Runs the schedule on a spawned job and returns its report and final UVs
+/// (per primitive, glTF texture coordinates).
+fn run_job(mut world: World, entity: Entity) -> Result<(Report, Vec<Vec<[f32; 2]>>), Error> {
+    let mut schedule = ecs::solve_schedule();
+    ecs::run_to_convergence(&mut world, &mut schedule, MAX_TICKS);
+    if let Some(failed) = world.get::<Failed>(entity) {
+        let err = Arc::clone(&failed.0);
+        return Err(Arc::try_unwrap(err).unwrap_or_else(|e| Error::Internal(e.to_string())));
+    }
+    let report = world
+        .get::<Exported>(entity)
+        .map(|e| e.0.clone())
+        .ok_or_else(|| Error::Internal(format!("the solve did not finish within {MAX_TICKS} ticks")))?;
+    let (job, data, layout) = (
+        world.get::<SolveJob>(entity).expect("job"),
+        world.get::<ChartData>(entity).expect("chart"),
+        world.get::<Layout>(entity).expect("layout"),
+    );
+    let uvs = chart::assemble_uvs(&job.asset, &data.0, &layout.0);
+    Ok((report, uvs))
+}
+
+/// Solves a mesh held in memory: `constraints` are `(vertex, target uv)` in
+/// glTF texture coordinates, `corners` optional corner vertices (top_left,
+/// bottom_left, bottom_right, top_right). Returns the report and one UV per
+/// vertex of `mesh` (vertices outside the solved chart get (0, 0)).
+///
+/// The same ECS schedule as [`solve_file`] runs; nothing is written.
+///
+/// # Errors
+/// Invalid constraints (out of range, outside the square, conflicting
+/// duplicates) and topology errors.
+pub fn solve_mesh(
+    mesh: &TriMesh,
+    constraints: &[(u32, DVec2)],
+    corners: Option<[u32; 4]>,
+    options: SteppingOptions,
+) -> Result<(Report, Vec<[f32; 2]>), Error> {
+    let t0 = Instant::now();
+    let file = ConstraintFile {
+        asset: "<memory>".into(),
+        mesh: None,
+        primitive: 0,
+        uv_set: 0,
+        image_size: None,
+        constraints: constraints
+            .iter()
+            .map(|&(v, uv)| ConstraintSpec { vertex: Some(v), uv: Some(uv), ..Default::default() })
+            .collect(),
+        corners: corners.map(|c| CornerSpec { top_left: c[0], bottom_left: c[1], bottom_right: c[2], top_right: c[3] }),
+        solver: options,
+    };
+    let loaded = LoadedConstraints::from_file(Path::new("<memory>"), file)?;
+    let asset = io::SourceAsset::from_mesh(mesh);
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut world = World::new();
+    let entity = spawn_job(&mut world, loaded, asset, None, load_ms)?;
+    let (report, mut uvs) = run_job(world, entity)?;
+    Ok((report, uvs.swap_remove(0)))
+}
