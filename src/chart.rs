@@ -85,12 +85,12 @@ pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<Prepar
     })?;
     let traps = TrapCandidates::find(&chart.mesh, &topology);
     let filled = fill_holes(&chart.mesh, &topology);
-    let constraint_vertices = constraints.iter().map(|c| chart.local_of[&c.welded]).collect();
+    let constraint_vertices = constraints.iter().map(|c| chart.local_of(c.welded).expect("constraint in the chart")).collect();
     let corners = match loaded.resolve_corners(&asset.primitives, &welded)? {
         Some(w) => {
             let mut local = [0u32; 4];
             for k in 0..4 {
-                local[k] = *chart.local_of.get(&w[k]).ok_or_else(|| {
+                local[k] = chart.local_of(w[k]).ok_or_else(|| {
                     loaded.corners_error(format!(
                         "{} is not in the solved chart {chart_id}",
                         crate::param::boundary::CORNER_NAMES[k]
@@ -180,8 +180,8 @@ pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVe
         .map(|(prim, map)| {
             map.iter()
                 .enumerate()
-                .map(|(i, w)| match prepared.chart.local_of.get(w) {
-                    Some(&local) => {
+                .map(|(i, w)| match prepared.chart.local_of(*w) {
+                    Some(local) => {
                         let uv = xy_to_uv(layout[local as usize]);
                         [uv.x as f32, uv.y as f32]
                     }

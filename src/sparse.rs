@@ -6,7 +6,9 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::linalg::cholesky::{CholeskySymbolicParams, LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, Par, Side};
 use std::sync::Arc;
@@ -43,8 +45,14 @@ pub struct SpdFactor {
 
 impl SpdPattern {
     /// Analyses the pattern given by `entries` `(row, col)` with `row >= col`
-    /// (duplicates allowed: their values are summed).
+    /// (duplicates allowed: their values are summed), with faer's AMD ordering.
     pub fn new(n: usize, entries: &[(usize, usize)]) -> Result<Self, SparseError> {
+        Self::with_ordering(n, entries, None)
+    }
+
+    /// As [`SpdPattern::new`] with a fill-reducing elimination order
+    /// (`order[k]` = the unknown eliminated k-th), e.g. from [`nested_dissection`].
+    pub fn with_ordering(n: usize, entries: &[(usize, usize)], order: Option<&[usize]>) -> Result<Self, SparseError> {
         let pairs: Vec<Pair<usize, usize>> = entries.iter().map(|&(r, c)| Pair::new(r, c)).collect();
         let (symbolic, argsort) = SymbolicSparseColMat::<usize>::try_new_from_indices(n, n, &pairs)
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
@@ -56,7 +64,20 @@ impl SpdPattern {
             },
             ..Default::default()
         };
-        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, Default::default(), params)
+        let inverse: Option<Vec<usize>> = order.map(|o| {
+            let mut inv = vec![0usize; o.len()];
+            for (k, &i) in o.iter().enumerate() {
+                inv[i] = k;
+            }
+            inv
+        });
+        let ordering = match (order, &inverse) {
+            (Some(fwd), Some(inv)) => SymmetricOrdering::Custom(
+                faer::perm::PermRef::new_checked(fwd, inv, n),
+            ),
+            _ => SymmetricOrdering::Amd,
+        };
+        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, ordering, params)
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         Ok(SpdPattern { n, symbolic, argsort: Arc::new(argsort), cholesky: Arc::new(cholesky) })
     }
@@ -105,6 +126,66 @@ impl SpdFactor {
     }
 }
 
+/// Leaves of the dissection at most this big are ordered as they come.
+const DISSECTION_LEAF: usize = 96;
+
+/// Geometric nested dissection: an elimination order for a mesh Laplacian
+/// from its vertices' 3D positions. Each set is split at the median of its
+/// widest axis; the vertices of one half that touch the other form the
+/// separator, eliminated after both halves. On planar-like meshes this gives
+/// far less fill than minimum degree and costs O(n log n).
+///
+/// `neighbours(i)` lists the unknowns coupled to unknown `i`.
+pub fn nested_dissection<'a>(points: &[[f64; 3]], neighbours: impl Fn(usize) -> &'a [u32]) -> Vec<usize> {
+    let n = points.len();
+    let mut order = Vec::with_capacity(n);
+    // side[v]: which part of the current split v belongs to, tagged by split id.
+    let mut side: Vec<(u32, bool)> = vec![(u32::MAX, false); n];
+    let mut split_id = 0u32;
+    // Work stack: a set to order, or a separator to emit once its halves are done.
+    enum Work {
+        Order(Vec<u32>),
+        Emit(Vec<u32>),
+    }
+    let mut stack = vec![Work::Order((0..n as u32).collect())];
+    while let Some(work) = stack.pop() {
+        let mut set = match work {
+            Work::Emit(sep) => {
+                order.extend(sep.iter().map(|&v| v as usize));
+                continue;
+            }
+            Work::Order(set) => set,
+        };
+        if set.len() <= DISSECTION_LEAF {
+            order.extend(set.iter().map(|&v| v as usize));
+            continue;
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for &v in &set {
+            for k in 0..3 {
+                lo[k] = lo[k].min(points[v as usize][k]);
+                hi[k] = hi[k].max(points[v as usize][k]);
+            }
+        }
+        let axis = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(0);
+        let mid = set.len() / 2;
+        set.select_nth_unstable_by(mid, |&a, &b| points[a as usize][axis].total_cmp(&points[b as usize][axis]));
+        let right = set.split_off(mid);
+        let id = split_id;
+        split_id += 1;
+        for &v in &right {
+            side[v as usize] = (id, true);
+        }
+        let (sep, left): (Vec<u32>, Vec<u32>) =
+            set.into_iter().partition(|&v| neighbours(v as usize).iter().any(|&u| side[u as usize] == (id, true)));
+        // Pushed in reverse: left half, right half, then the separator.
+        stack.push(Work::Emit(sep));
+        stack.push(Work::Order(right));
+        stack.push(Work::Order(left));
+    }
+    order
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,5 +226,50 @@ mod tests {
             assert!((b[(i, 0)] - x_true[i]).abs() < 1e-12);
         }
         assert_eq!(pattern.factor(&vec![-1.0; values.len()]).unwrap_err(), SparseError::NotPositiveDefinite);
+    }
+
+    #[test]
+    fn nested_dissection_is_a_permutation_and_solves_the_same_system() {
+        // 5-point Laplacian (+ shift) of a 40 × 30 grid.
+        let (nx, ny) = (40usize, 30usize);
+        let n = nx * ny;
+        let mut entries = Vec::new();
+        let mut values = Vec::new();
+        let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for j in 0..ny {
+            for i in 0..nx {
+                let v = i + j * nx;
+                entries.push((v, v));
+                values.push(4.01);
+                for (di, dj) in [(1usize, 0usize), (0, 1)] {
+                    let (a, b) = (i + di, j + dj);
+                    if a < nx && b < ny {
+                        let u = a + b * nx;
+                        entries.push((u, v));
+                        values.push(-1.0);
+                        adjacency[u].push(v as u32);
+                        adjacency[v].push(u as u32);
+                    }
+                }
+            }
+        }
+        let points: Vec<[f64; 3]> = (0..n).map(|v| [(v % nx) as f64, (v / nx) as f64, 0.0]).collect();
+        let order = nested_dissection(&points, |i| &adjacency[i]);
+        let mut seen = order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..n).collect::<Vec<_>>());
+        let rhs = |m: &mut Mat<f64>| {
+            for i in 0..n {
+                m[(i, 0)] = (i as f64 * 0.01).cos();
+            }
+        };
+        let (mut a, mut b) = (Mat::<f64>::zeros(n, 1), Mat::<f64>::zeros(n, 1));
+        rhs(&mut a);
+        rhs(&mut b);
+        SpdPattern::new(n, &entries).unwrap().factor(&values).unwrap().solve_in_place(&mut a);
+        SpdPattern::with_ordering(n, &entries, Some(&order)).unwrap().factor(&values).unwrap().solve_in_place(&mut b);
+        for i in 0..n {
+            assert!((a[(i, 0)] - b[(i, 0)]).abs() < 1e-10);
+        }
     }
 }

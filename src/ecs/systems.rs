@@ -53,7 +53,7 @@ pub fn factor_bar_net(
         for &v in &boundary.0.loop_vertices {
             fixed[v as usize] = true;
         }
-        let result = BarNet::factor(&filled.mesh, &fixed);
+        let result = BarNet::factor(filled, &fixed);
         times.0.factor_ms += ms(t0);
         match result {
             Ok(net) => {

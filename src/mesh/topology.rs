@@ -69,72 +69,84 @@ impl Topology {
                 return Err(TopologyError::DegenerateTriangle { triangle: t, a, b, c });
             }
         }
-        // Half-edges sorted by undirected key: (key, triangle, forward?).
-        let mut half: Vec<(u64, u32, bool)> = Vec::with_capacity(mesh.triangles.len() * 3);
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
-                half.push((key, t as u32, a < b));
+        // Directed half-edges a → b grouped by their source a (compressed rows
+        // of (b, triangle)): each twin lookup scans one vertex's few edges.
+        let n_half = mesh.triangles.len() * 3;
+        let mut offsets = vec![0usize; n + 1];
+        for tri in &mesh.triangles {
+            for &v in tri {
+                offsets[v as usize + 1] += 1;
             }
         }
-        half.sort_unstable();
-        let mut edges = Vec::with_capacity(half.len() / 2 + 8);
-        let mut edge_is_boundary = Vec::with_capacity(half.len() / 2 + 8);
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut rows = vec![(0u32, 0u32); n_half];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let a = tri[k] as usize;
+                rows[fill[a]] = (tri[(k + 1) % 3], t as u32);
+                fill[a] += 1;
+            }
+        }
+        drop(fill);
+        let row = |a: u32| &rows[offsets[a as usize]..offsets[a as usize + 1]];
+        let mut edges = Vec::with_capacity(n_half / 2 + 8);
+        let mut edge_is_boundary = Vec::with_capacity(n_half / 2 + 8);
         // next boundary vertex along the winding, per vertex.
         let mut boundary_next: Vec<u32> = vec![u32::MAX; n];
         // Corner fans: union-find over (triangle, corner) joined across interior edges.
-        let mut fans = UnionFind::new(mesh.triangles.len() * 3);
+        let mut fans = UnionFind::new(n_half);
         let corner = |t: u32, v: u32| -> usize {
             let tri = mesh.triangles[t as usize];
             let k = tri.iter().position(|&x| x == v).expect("vertex of triangle");
             t as usize * 3 + k
         };
-        let mut i = 0;
-        while i < half.len() {
-            let mut j = i + 1;
-            while j < half.len() && half[j].0 == half[i].0 {
-                j += 1;
-            }
-            let key = half[i].0;
-            let (lo, hi) = ((key >> 32) as u32, key as u32);
-            match j - i {
-                1 => {
-                    let (_, _, fwd) = half[i];
-                    let (a, b) = if fwd { (lo, hi) } else { (hi, lo) };
-                    if boundary_next[a as usize] != u32::MAX {
-                        return Err(TopologyError::NonManifoldVertex { vertex: a, n_fans: 2 });
-                    }
-                    boundary_next[a as usize] = b;
-                    edges.push([lo, hi]);
-                    edge_is_boundary.push(true);
-                }
-                2 => {
-                    let (_, t0, f0) = half[i];
-                    let (_, t1, f1) = half[i + 1];
-                    if f0 == f1 {
-                        return Err(TopologyError::InconsistentOrientation {
-                            a: if f0 { lo } else { hi },
-                            b: if f0 { hi } else { lo },
-                            t0: t0 as usize,
-                            t1: t1 as usize,
-                        });
-                    }
-                    fans.union(corner(t0, lo), corner(t1, lo));
-                    fans.union(corner(t0, hi), corner(t1, hi));
-                    edges.push([lo, hi]);
-                    edge_is_boundary.push(false);
-                }
-                k => {
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let n_same = row(a).iter().filter(|(x, _)| *x == b).count();
+                let mut opposite_iter = row(b).iter().filter(|(x, _)| *x == a).map(|h| h.1);
+                let twin = opposite_iter.next();
+                let n_opposite = twin.map_or(0, |_| 1 + opposite_iter.count());
+                if n_same + n_opposite > 2 {
+                    let mut triangles: Vec<usize> = row(a)
+                        .iter()
+                        .filter(|(x, _)| *x == b)
+                        .chain(row(b).iter().filter(|(x, _)| *x == a))
+                        .map(|h| h.1 as usize)
+                        .collect();
+                    triangles.sort_unstable();
                     return Err(TopologyError::NonManifoldEdge {
-                        a: lo,
-                        b: hi,
-                        n_triangles: k,
-                        triangles: half[i..j].iter().map(|h| h.1 as usize).take(4).collect(),
+                        a: a.min(b),
+                        b: a.max(b),
+                        n_triangles: triangles.len(),
+                        triangles: triangles.into_iter().take(4).collect(),
                     });
                 }
+                if n_same > 1 {
+                    let other = row(a).iter().find(|h| h.0 == b && h.1 as usize != t).expect("two triangles").1;
+                    return Err(TopologyError::InconsistentOrientation { a, b, t0: t, t1: other as usize });
+                }
+                match twin {
+                    None => {
+                        if boundary_next[a as usize] != u32::MAX {
+                            return Err(TopologyError::NonManifoldVertex { vertex: a, n_fans: 2 });
+                        }
+                        boundary_next[a as usize] = b;
+                        edges.push([a.min(b), a.max(b)]);
+                        edge_is_boundary.push(true);
+                    }
+                    Some(twin) if a < b => {
+                        fans.union(corner(t as u32, a), corner(twin, a));
+                        fans.union(corner(t as u32, b), corner(twin, b));
+                        edges.push([a, b]);
+                        edge_is_boundary.push(false);
+                    }
+                    Some(_) => {}
+                }
             }
-            i = j;
         }
         // Every vertex's corners must form one fan.
         let mut fan_of: Vec<u32> = vec![u32::MAX; n];

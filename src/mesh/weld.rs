@@ -6,10 +6,9 @@
 //! components of the welded triangles are the charts. A chart is solved or kept
 //! as a whole.
 
-use super::TriMesh;
 use super::topology::UnionFind;
+use super::{FxHashMap, TriMesh};
 use glam::DVec3;
-use std::collections::HashMap;
 
 /// Geometry of one TRIANGLES primitive as read from the file.
 #[derive(Debug, Clone, Default)]
@@ -43,24 +42,46 @@ pub struct Chart {
     pub mesh: TriMesh,
     /// Chart-local vertex → welded vertex.
     pub welded_ids: Vec<u32>,
-    /// Welded vertex → chart-local vertex (only for this chart's vertices).
-    pub local_of: HashMap<u32, u32>,
+    /// Welded vertex → chart-local vertex; `None` outside this chart.
+    local_of: Vec<Option<u32>>,
 }
 
-fn weld_key(p: [f32; 3], uv: Option<[f32; 2]>) -> [u32; 6] {
-    // +0.0 and -0.0 are the same position.
-    let bits = |x: f32| if x == 0.0 { 0 } else { x.to_bits() };
-    match uv {
-        Some([u, v]) => [bits(p[0]), bits(p[1]), bits(p[2]), bits(u), bits(v), 1],
-        None => [bits(p[0]), bits(p[1]), bits(p[2]), 0, 0, 0],
+impl Chart {
+    /// Chart-local id of welded vertex `welded`, if it belongs to this chart.
+    #[inline]
+    pub fn local_of(&self, welded: u32) -> Option<u32> {
+        self.local_of.get(welded as usize).copied().flatten()
     }
+}
+
+/// Position and (optional) UV bits of a glTF vertex, packed for hashing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct WeldKey([u64; 3]);
+
+impl std::hash::Hash for WeldKey {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        for w in self.0 {
+            state.write_u64(w);
+        }
+    }
+}
+
+fn weld_key(p: [f32; 3], uv: Option<[f32; 2]>) -> WeldKey {
+    // +0.0 and -0.0 are the same position.
+    let bits = |x: f32| if x == 0.0 { 0u64 } else { x.to_bits() as u64 };
+    let (uvw, flag) = match uv {
+        Some([u, v]) => (bits(u) << 32 | bits(v), 1u64 << 32),
+        None => (0, 0),
+    };
+    WeldKey([bits(p[0]) << 32 | bits(p[1]), bits(p[2]) | flag, uvw])
 }
 
 /// Welds the primitives' vertices (same position, and same UV when the
 /// primitive has UVs in the written set) and labels connected components.
 /// Inputs must already be validated (finite positions, indices in range).
 pub fn weld(primitives: &[PrimitiveGeometry]) -> WeldedMesh {
-    let mut ids: HashMap<[u32; 6], u32> = HashMap::new();
+    let n_total: usize = primitives.iter().map(|p| p.positions.len()).sum();
+    let mut ids: FxHashMap<WeldKey, u32> = FxHashMap::with_capacity_and_hasher(n_total, Default::default());
     let mut positions = Vec::new();
     let mut vertex_of = Vec::with_capacity(primitives.len());
     let mut triangles = Vec::new();
@@ -84,27 +105,30 @@ pub fn weld(primitives: &[PrimitiveGeometry]) -> WeldedMesh {
         uf.union(t[0] as usize, t[1] as usize);
         uf.union(t[1] as usize, t[2] as usize);
     }
-    let mut chart_of_root: HashMap<usize, u32> = HashMap::new();
+    let mut chart_of_root: Vec<Option<u32>> = vec![None; positions.len()];
+    let mut n_charts = 0u32;
     let mut chart_of_vertex = vec![None; positions.len()];
     for t in &triangles {
         let root = uf.find(t[0] as usize);
-        let next = chart_of_root.len() as u32;
-        let c = *chart_of_root.entry(root).or_insert(next);
+        let c = *chart_of_root[root].get_or_insert_with(|| {
+            n_charts += 1;
+            n_charts - 1
+        });
         for &v in t {
             chart_of_vertex[v as usize] = Some(c);
         }
     }
-    WeldedMesh { n_charts: chart_of_root.len(), mesh: TriMesh { positions, triangles }, vertex_of, chart_of_vertex }
+    WeldedMesh { n_charts: n_charts as usize, mesh: TriMesh { positions, triangles }, vertex_of, chart_of_vertex }
 }
 
 impl WeldedMesh {
     /// Cuts chart `id` out with its own vertex numbering (welded order).
     pub fn chart(&self, id: u32) -> Chart {
-        let mut local_of = HashMap::new();
+        let mut local_of = vec![None; self.chart_of_vertex.len()];
         let mut welded_ids = Vec::new();
         for (v, c) in self.chart_of_vertex.iter().enumerate() {
             if *c == Some(id) {
-                local_of.insert(v as u32, welded_ids.len() as u32);
+                local_of[v] = Some(welded_ids.len() as u32);
                 welded_ids.push(v as u32);
             }
         }
@@ -114,7 +138,7 @@ impl WeldedMesh {
             .triangles
             .iter()
             .filter(|t| self.chart_of_vertex[t[0] as usize] == Some(id))
-            .map(|t| t.map(|v| local_of[&v]))
+            .map(|t| t.map(|v| local_of[v as usize].expect("same chart")))
             .collect();
         Chart { id, mesh: TriMesh { positions, triangles }, welded_ids, local_of }
     }

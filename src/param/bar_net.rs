@@ -10,7 +10,7 @@
 
 use crate::mesh::TriMesh;
 use crate::mesh::topology::Topology;
-use crate::sparse::{SparseError, SpdFactor, SpdPattern};
+use crate::sparse::{SparseError, SpdFactor, SpdPattern, nested_dissection};
 use faer::Mat;
 use glam::{DVec2, DVec3};
 use thiserror::Error;
@@ -36,6 +36,8 @@ pub struct FilledChart {
     pub n_real_triangles: usize,
     /// The hole loops (chart-local ids), in the order of their virtual vertices.
     pub holes: Vec<Vec<u32>>,
+    /// Every edge (bar) once: the chart's edges, then the virtual spokes.
+    pub edges: Vec<[u32; 2]>,
 }
 
 impl FilledChart {
@@ -48,6 +50,7 @@ impl FilledChart {
 pub fn fill_holes(mesh: &TriMesh, topology: &Topology) -> FilledChart {
     let mut filled = mesh.clone();
     let holes: Vec<Vec<u32>> = topology.holes().cloned().collect();
+    let mut edges = topology.edges.clone();
     for hole in &holes {
         let centre = hole.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / hole.len() as f64;
         let c = filled.positions.len() as u32;
@@ -56,9 +59,10 @@ pub fn fill_holes(mesh: &TriMesh, topology: &Topology) -> FilledChart {
         for i in 0..hole.len() {
             let (a, b) = (hole[i], hole[(i + 1) % hole.len()]);
             filled.triangles.push([b, a, c]);
+            edges.push([a, c]);
         }
     }
-    FilledChart { mesh: filled, n_real_vertices: mesh.n_vertices(), n_real_triangles: mesh.n_triangles(), holes }
+    FilledChart { mesh: filled, n_real_vertices: mesh.n_vertices(), n_real_triangles: mesh.n_triangles(), holes, edges }
 }
 
 /// Every undirected edge of `mesh` once, `(min, max)`, sorted.
@@ -82,6 +86,31 @@ pub fn force_densities(mesh: &TriMesh, edges: &[[u32; 2]]) -> Vec<f64> {
     len.iter().map(|l| 1.0 - l / max + FORCE_DENSITY_EPSILON).collect()
 }
 
+/// Free unknowns from which the geometric nested-dissection order replaces AMD.
+const NESTED_DISSECTION_FROM: usize = 20_000;
+
+/// Compressed adjacency (offsets, neighbours) of the free unknowns from the
+/// off-diagonal entries `(row, col)`.
+fn free_adjacency(n: usize, off_diagonal: &[(usize, usize)]) -> (Vec<usize>, Vec<u32>) {
+    let mut offsets = vec![0usize; n + 1];
+    for &(r, c) in off_diagonal {
+        offsets[r + 1] += 1;
+        offsets[c + 1] += 1;
+    }
+    for i in 0..n {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut neighbours = vec![0u32; offsets[n]];
+    for &(r, c) in off_diagonal {
+        neighbours[fill[r]] = c as u32;
+        fill[r] += 1;
+        neighbours[fill[c]] = r as u32;
+        fill[c] += 1;
+    }
+    (offsets, neighbours)
+}
+
 /// The factored bar-net of one chart: `D` of Eq. 1 over the free nodes.
 #[derive(Debug, Clone)]
 pub struct BarNet {
@@ -96,24 +125,25 @@ pub struct BarNet {
 
 impl BarNet {
     /// Builds and factors `D = Cᵀ Q C` (Eq. 1) with `q` from Eq. 2 over the
-    /// edges of `mesh` (the filled chart). `is_fixed[v]` marks fixed nodes.
+    /// bars of the filled chart. `is_fixed[v]` marks fixed nodes.
     ///
     /// # Errors
     /// No free vertex, or `D` not positive definite (a free component that
     /// touches no fixed vertex).
-    pub fn factor(mesh: &TriMesh, is_fixed: &[bool]) -> Result<Self, BarNetError> {
-        let edges = unique_edges(mesh);
-        let q = force_densities(mesh, &edges);
-        Self::factor_with_densities(mesh.n_vertices(), &edges, &q, is_fixed)
+    pub fn factor(filled: &FilledChart, is_fixed: &[bool]) -> Result<Self, BarNetError> {
+        let q = force_densities(&filled.mesh, &filled.edges);
+        Self::factor_with_densities(&filled.mesh.positions, &filled.edges, &q, is_fixed)
     }
 
     /// As [`BarNet::factor`] with explicit force densities `q` per edge.
+    /// `positions` (one per vertex) guide the fill-reducing order of large systems.
     pub fn factor_with_densities(
-        n_vertices: usize,
+        positions: &[DVec3],
         edges: &[[u32; 2]],
         q: &[f64],
         is_fixed: &[bool],
     ) -> Result<Self, BarNetError> {
+        let n_vertices = positions.len();
         let mut free_row = vec![None; n_vertices];
         let mut free_vertices = Vec::new();
         for v in 0..n_vertices {
@@ -154,7 +184,12 @@ impl BarNet {
                 (None, None) => {}
             }
         }
-        let pattern = SpdPattern::new(n, &entries)?;
+        let order = (n >= NESTED_DISSECTION_FROM).then(|| {
+            let adjacency = free_adjacency(n, &entries[n..]);
+            let points: Vec<[f64; 3]> = free_vertices.iter().map(|&v| positions[v as usize].to_array()).collect();
+            nested_dissection(&points, |i| &adjacency.1[adjacency.0[i]..adjacency.0[i + 1]])
+        });
+        let pattern = SpdPattern::with_ordering(n, &entries, order.as_deref())?;
         let factor = pattern.factor(&values)?;
         Ok(BarNet { free_row, free_vertices, couplings, factor })
     }
@@ -202,7 +237,7 @@ mod tests {
             fixed[v as usize] = true;
             layout[v as usize] = p;
         }
-        let net = BarNet::factor(&filled.mesh, &fixed).unwrap();
+        let net = BarNet::factor(&filled, &fixed).unwrap();
         net.solve(&mut layout);
         (filled, layout, net)
     }
@@ -211,7 +246,7 @@ mod tests {
     fn grid_equilibrium_holds_at_every_free_node() {
         let mesh = grid_mesh(9, 7);
         let (filled, layout, _) = step1(&mesh);
-        let edges = unique_edges(&filled.mesh);
+        let edges = filled.edges.clone();
         let q = force_densities(&filled.mesh, &edges);
         let mut force = vec![DVec2::ZERO; layout.len()];
         for (e, &qe) in edges.iter().zip(&q) {
@@ -251,7 +286,7 @@ mod tests {
                 layout[v] = p.truncate();
             }
         }
-        let net = BarNet::factor_with_densities(mesh.n_vertices(), &edges, &q, &fixed).unwrap();
+        let net = BarNet::factor_with_densities(&mesh.positions, &edges, &q, &fixed).unwrap();
         net.solve(&mut layout);
         for (v, p) in mesh.positions.iter().enumerate() {
             assert!(layout[v].distance(p.truncate()) < 1e-13, "vertex {v}");
