@@ -28,6 +28,7 @@ struct ConstraintCheck {
     vertex: u32,
     target: DVec2,
     actual: DVec2,
+    /// Distance from the stored UV to the target rounded to f32 (what glTF can hold).
     residual: f64,
 }
 
@@ -87,12 +88,14 @@ pub fn run(asset_path: &Path, uv_set: u32, mesh: Option<&str>, constraints: Opti
         tolerance = loaded.file.solver.tolerance;
         for r in loaded.resolve(&asset.primitives, &welded)? {
             let actual = uv_of[r.welded as usize];
+            // glTF stores f32: measure against the target as it can be stored.
+            let storable = r.target_uv.as_vec2().as_dvec2();
             residuals.push(ConstraintCheck {
                 index: r.index,
                 vertex: r.vertex,
                 target: r.target_uv,
                 actual,
-                residual: actual.distance(r.target_uv),
+                residual: actual.distance(storable),
             });
         }
     }

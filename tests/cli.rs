@@ -1,0 +1,282 @@
+//! The binary end to end: the README's demo, exit codes, reports, and bad
+//! input that must give a clear error and write nothing.
+
+mod common;
+use common::*;
+use uvpin::mesh::TriMesh;
+use uvpin::testing::grid_mesh;
+
+#[test]
+fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
+    let tmp = TempDir::new("demo");
+    let out = tmp.path("face.glb");
+    let report = tmp.path("report.json");
+    let ron = repo().join("assets/face.uvpin.ron");
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--report", report.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("reached"), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["status"], "reached");
+    assert_eq!(r["orientation"]["flipped"], 0);
+    assert_eq!(r["orientation"]["zero_area"], 0);
+    assert_eq!(r["counts"]["holes"], 3);
+    let constraints = r["constraints"].as_array().unwrap();
+    assert_eq!(constraints.len(), 12);
+    for c in constraints {
+        assert!(c["residual"].as_f64().unwrap() <= 1e-9, "{c}");
+    }
+    for stage in ["load_ms", "topology_ms", "boundary_ms", "factor_ms", "solve_ms", "stepping_ms", "guard_ms", "export_ms"] {
+        assert!(r["times"][stage].as_f64().unwrap() >= 0.0, "{stage}");
+    }
+    // The gltf crate reads the written UVs back; every triangle keeps its orientation.
+    let (doc, buffers, _) = gltf_import(&out);
+    let prim = doc.meshes().next().unwrap().primitives().next().unwrap();
+    let reader = prim.reader(|b| Some(&buffers[b.index()]));
+    let uvs: Vec<[f32; 2]> = reader.read_tex_coords(0).unwrap().into_f32().collect();
+    let idx: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
+    let tris: Vec<[u32; 3]> = idx.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
+    assert!(uvpin::guard::count_uv_orientations(&uvs, &tris).is_clean());
+    // Constrained vertices sit exactly on their targets (f32).
+    for c in constraints {
+        let v = c["vertex"].as_u64().unwrap() as usize;
+        let t = &c["target"];
+        assert!((uvs[v][0] as f64 - t[0].as_f64().unwrap()).abs() < 1e-7);
+        assert!((uvs[v][1] as f64 - t[1].as_f64().unwrap()).abs() < 1e-7);
+    }
+    // And so does an independent reader written in Python.
+    if let Some(py) = python_uv_orientation(&out, 0) {
+        assert_eq!(py[0]["triangles"], tris.len());
+        assert_eq!(py[0]["negative"], tris.len(), "{}", py[0]["positive"]);
+    }
+    // `uvpin check` agrees with the constraint file.
+    let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
+    assert!(stdout(&o).contains("flipped      0"), "{}", stdout(&o));
+}
+
+/// Reads a glTF file with the gltf crate's own buffer loading.
+pub fn gltf_import(path: &std::path::Path) -> (gltf::Document, Vec<Vec<u8>>, ()) {
+    let bytes = std::fs::read(path).unwrap();
+    let g = gltf::Gltf::from_slice(&bytes).unwrap();
+    let mut buffers = Vec::new();
+    for b in g.document.buffers() {
+        match b.source() {
+            gltf::buffer::Source::Bin => buffers.push(g.blob.clone().unwrap()),
+            gltf::buffer::Source::Uri(uri) => buffers.push(std::fs::read(path.parent().unwrap().join(uri)).unwrap()),
+        }
+    }
+    (g.document, buffers, ())
+}
+
+#[test]
+fn report_to_stdout_for_scripts() {
+    let ron = repo().join("assets/face.uvpin.ron");
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "--report", "-", "--quiet"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_str(&stdout(&o)).expect("JSON on stdout");
+    assert_eq!(r["status"], "reached");
+    assert!(stderr(&o).is_empty());
+}
+
+fn grid_asset(tmp: &TempDir, n: usize) -> std::path::PathBuf {
+    let mut mesh = grid_mesh(n, n);
+    for p in &mut mesh.positions {
+        p.z = 0.3 * (p.x * 3.0).sin() * p.y;
+    }
+    let path = tmp.path("grid.glb");
+    write_mesh_glb(&path, &mesh);
+    path
+}
+
+#[test]
+fn crossing_constraints_end_partial_fold_free_with_exit_code_2() {
+    // The paper's Fig. 8: two constraints asked to swap sides. The spline path
+    // (straight lines) cannot do it; the result is written, fold-free, Partial.
+    let tmp = TempDir::new("crossing");
+    let asset = grid_asset(&tmp, 21);
+    // Grid vertex (i, j) = i + 21 j sits near (i/20, j/20) in step 1 (corners given).
+    let (a, b) = (6 + 21 * 10, 14 + 21 * 10);
+    let ron = tmp.path("c.uvpin.ron");
+    write_constraints(
+        &ron,
+        &asset,
+        &[(a, 0.7, 0.5), (b, 0.3, 0.5)],
+        "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n",
+    );
+    let out = tmp.path("out.glb");
+    let report = tmp.path("r.json");
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--report", report.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("partial") && err.contains("unreached: constraints[0]"), "{err}");
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["status"], "partial");
+    assert_eq!(r["orientation"]["flipped"], 0);
+    assert!(r["max_residual"].as_f64().unwrap() > 1e-3);
+    assert!(r["message"].as_str().unwrap().contains("stalled"));
+    assert!(out.is_file(), "a partial result is written");
+    let o = uvpin(&["check", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+}
+
+/// Runs a solve that must fail: exit 1, the message contains every `needle`,
+/// and the existing output file is left exactly as it was.
+fn assert_fails_writing_nothing(ron: &std::path::Path, tmp: &TempDir, needles: &[&str]) {
+    let out = tmp.path("out.glb");
+    std::fs::write(&out, b"previous good output").unwrap();
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    for n in needles {
+        assert!(err.contains(n), "expected {n:?} in: {err}");
+    }
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous good output");
+    let leftovers: Vec<_> = std::fs::read_dir(&tmp.0)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains("uvpin-"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn broken_ron_reports_line_and_column_and_writes_nothing() {
+    let tmp = TempDir::new("badron");
+    let asset = grid_asset(&tmp, 5);
+    let ron = tmp.path("bad.uvpin.ron");
+    std::fs::write(&ron, format!("(\n  asset: {:?},\n  constraints: [\n    (vertex: 6, uv: (0.5 0.5)),\n  ],\n)\n", asset)).unwrap();
+    assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:4:", "comma"]);
+    std::fs::write(&ron, format!("(\n  asset: {:?},\n  constraints: [(vertx: 6, uv: (0.5, 0.5))],\n)\n", asset)).unwrap();
+    assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:3:18", "vertx"]);
+    write_constraints(&ron, &asset, &[(99, 0.5, 0.5)], "");
+    assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:4:9", "constraints[0].vertex", "out of range", "0..25"]);
+    write_constraints(&ron, &asset, &[(6, 0.5, 0.5), (6, 0.4, 0.5)], "");
+    assert_fails_writing_nothing(&ron, &tmp, &["constraints[1].uv", "already constrained"]);
+    write_constraints(&ron, &asset, &[(6, 1.5, 0.5)], "");
+    assert_fails_writing_nothing(&ron, &tmp, &["outside the unit square"]);
+    // A boundary vertex (1 is on the bottom row) asked to go to the middle.
+    write_constraints(&ron, &asset, &[(1, 0.5, 0.5)], "");
+    assert_fails_writing_nothing(&ron, &tmp, &["constraints[0].uv", "outer boundary", "contradicts"]);
+    // Corners in mirrored order.
+    write_constraints(&ron, &asset, &[], "  corners: (top_left: 24, bottom_left: 4, bottom_right: 0, top_right: 20),\n");
+    assert_fails_writing_nothing(&ron, &tmp, &["corners", "mirror"]);
+    // Missing asset.
+    std::fs::write(&ron, "(asset: \"nope.glb\", constraints: [])").unwrap();
+    assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:1:9", "nope.glb", "does not exist"]);
+}
+
+#[test]
+fn closed_and_non_manifold_meshes_are_named_errors() {
+    let tmp = TempDir::new("topology");
+    let ron = tmp.path("t.uvpin.ron");
+    // A closed octahedron.
+    let octa = TriMesh {
+        positions: [[1., 0., 0.], [-1., 0., 0.], [0., 1., 0.], [0., -1., 0.], [0., 0., 1.], [0., 0., -1.]]
+            .iter()
+            .map(|p| glam::DVec3::from_array(*p))
+            .collect(),
+        triangles: vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]],
+    };
+    let asset = tmp.path("closed.glb");
+    write_mesh_glb(&asset, &octa);
+    write_constraints(&ron, &asset, &[(4, 0.5, 0.5)], "");
+    assert_fails_writing_nothing(&ron, &tmp, &["closed.glb", "chart 0", "closed"]);
+    // A fin: three triangles on one edge.
+    let mut fin = grid_mesh(4, 4);
+    fin.positions.push(glam::DVec3::new(0.4, 0.4, 1.0));
+    fin.triangles.push([5, 6, 16]);
+    let asset = tmp.path("fin.glb");
+    write_mesh_glb(&asset, &fin);
+    write_constraints(&ron, &asset, &[(5, 0.5, 0.5)], "");
+    assert_fails_writing_nothing(&ron, &tmp, &["fin.glb", "non-manifold edge (5, 6)", "3 triangles"]);
+}
+
+#[test]
+fn corrupt_glb_files_are_named_errors() {
+    let tmp = TempDir::new("corrupt");
+    let good = std::fs::read(repo().join("assets/face.glb")).unwrap();
+    let ron = tmp.path("c.uvpin.ron");
+    let asset = tmp.path("broken.glb");
+    write_constraints(&ron, &asset, &[(0, 0.5, 0.5)], "");
+    std::fs::write(&asset, &good[..good.len() / 2]).unwrap();
+    assert_fails_writing_nothing(&ron, &tmp, &["broken.glb", "corrupt GLB", "truncated"]);
+    let mut bad = good.clone();
+    bad[12..16].copy_from_slice(&(1u32 << 30).to_le_bytes());
+    std::fs::write(&asset, &bad).unwrap();
+    assert_fails_writing_nothing(&ron, &tmp, &["broken.glb", "chunk 0", "length"]);
+    std::fs::write(&asset, b"not a glb at all").unwrap();
+    assert_fails_writing_nothing(&ron, &tmp, &["broken.glb"]);
+    let mut nan = good.clone();
+    // First POSITION float of the sample (buffer view 0 starts the BIN chunk).
+    let json_len = u32::from_le_bytes(nan[12..16].try_into().unwrap()) as usize;
+    let at = 12 + 8 + json_len + 8;
+    nan[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+    std::fs::write(&asset, &nan).unwrap();
+    assert_fails_writing_nothing(&ron, &tmp, &["broken.glb", "vertex 0", "not finite"]);
+}
+
+#[test]
+fn gltf_with_external_buffer_round_trips_to_gltf_and_bin() {
+    let tmp = TempDir::new("gltf");
+    let mesh = grid_mesh(9, 9);
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let (mut json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "g");
+    std::fs::create_dir_all(tmp.path("in")).unwrap();
+    std::fs::write(tmp.path("in/geometry data.bin"), &blob).unwrap();
+    json["buffers"][0]["uri"] = serde_json::json!("geometry%20data.bin");
+    json["extras"] = serde_json::json!({"studio": "kept"});
+    json["x_unknown_field"] = serde_json::json!([1, 2, 3]);
+    std::fs::write(tmp.path("in/g.gltf"), serde_json::to_vec_pretty(&json).unwrap()).unwrap();
+    let ron = tmp.path("in/g.uvpin.ron");
+    write_constraints(&ron, std::path::Path::new("g.gltf"), &[(40, 0.5, 0.5)], "");
+    std::fs::create_dir_all(tmp.path("out")).unwrap();
+    let out = tmp.path("out/result.gltf");
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(tmp.path("out/result.uvpin.bin").is_file());
+    let written: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    assert_eq!(written["extras"]["studio"], "kept");
+    assert_eq!(written["x_unknown_field"], serde_json::json!([1, 2, 3]));
+    // The original buffer is referenced from the output's folder.
+    assert_eq!(written["buffers"][0]["uri"], "../in/geometry%20data.bin");
+    if let Some(py) = python_uv_orientation(&out, 0) {
+        assert_eq!(py[0]["negative"], mesh.n_triangles());
+    }
+    // .glb in → .gltf out is refused (nothing but the UVs may change).
+    let ron2 = tmp.path("s.uvpin.ron");
+    write_constraints(&ron2, &repo().join("assets/face.glb"), &[], "");
+    let o = uvpin(&["solve", ron2.to_str().unwrap(), "-o", tmp.path("x.gltf").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!tmp.path("x.gltf").exists());
+}
+
+#[test]
+fn obj_input_writes_obj_or_glb() {
+    let tmp = TempDir::new("obj");
+    let mesh = grid_mesh(6, 6);
+    let mut text = String::from("# a grid\n");
+    for p in &mesh.positions {
+        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+    }
+    for t in &mesh.triangles {
+        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(tmp.path("g.obj"), text).unwrap();
+    let ron = tmp.path("g.uvpin.ron");
+    write_constraints(&ron, std::path::Path::new("g.obj"), &[(14, 0.45, 0.5)], "");
+    for out in ["out.obj", "out.glb"] {
+        let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", tmp.path(out).to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    let obj = std::fs::read_to_string(tmp.path("out.obj")).unwrap();
+    assert_eq!(obj.lines().filter(|l| l.starts_with("vt ")).count(), 36);
+    assert!(obj.contains("f 1/1 2/2 8/8") || obj.contains("f 1/1"), "{obj}");
+    let o = uvpin(&["check", tmp.path("out.glb").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+    std::fs::write(tmp.path("q.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    write_constraints(&ron, std::path::Path::new("q.obj"), &[], "");
+    let o = uvpin(&["solve", ron.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("q.obj:5") && stderr(&o).contains("only triangles"), "{}", stderr(&o));
+}
