@@ -18,7 +18,11 @@ use uvpin::testing::{Rng, grid_mesh, smooth_warp};
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
-    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 struct Row {
@@ -39,7 +43,15 @@ fn print_header() {
 
 fn print_row(r: &Row) {
     let m = |f: fn(&StageTimes) -> f64| median(r.times.iter().map(f).collect());
-    let fmt = |x: f64| if x >= 100.0 { format!("{x:.0}") } else if x >= 1.0 { format!("{x:.2}") } else { format!("{x:.3}") };
+    let fmt = |x: f64| {
+        if x >= 100.0 {
+            format!("{x:.0}")
+        } else if x >= 1.0 {
+            format!("{x:.2}")
+        } else {
+            format!("{x:.3}")
+        }
+    };
     println!(
         "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
         r.name,
@@ -55,7 +67,10 @@ fn print_row(r: &Row) {
         fmt(m(|t| t.stepping_ms)),
         fmt(m(|t| t.guard_ms)),
         fmt(m(|t| t.export_ms)),
-        fmt(m(|t| t.topology_ms + t.boundary_ms + t.factor_ms + t.solve_ms)),
+        fmt(m(|t| t.topology_ms
+            + t.boundary_ms
+            + t.factor_ms
+            + t.solve_ms)),
         fmt(m(|t| t.total_ms())),
     );
 }
@@ -82,18 +97,28 @@ fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: us
     let mut times = Vec::new();
     let mut status = String::new();
     for _ in 0..runs {
-        let (report, _) = uvpin::solve_mesh(mesh, constraints, None, SteppingOptions::DEFAULT).expect("solve");
+        let (report, _) =
+            uvpin::solve_mesh(mesh, constraints, None, SteppingOptions::DEFAULT).expect("solve");
         status = format!("{:?}", report.status).to_lowercase();
         times.push(report.times);
     }
-    Row { name: name.into(), vertices: mesh.n_vertices(), constraints: constraints.len(), status, runs, times }
+    Row {
+        name: name.into(),
+        vertices: mesh.n_vertices(),
+        constraints: constraints.len(),
+        status,
+        runs,
+        times,
+    }
 }
 
 fn bench_file(name: &str, constraints: &Path, out: &Path, runs: usize) -> Option<Row> {
     let mut times = Vec::new();
     let mut last: Option<Report> = None;
     for _ in 0..runs {
-        let report = uvpin::solve_file(constraints, Some(out)).map_err(|e| eprintln!("{name}: {e}")).ok()?;
+        let report = uvpin::solve_file(constraints, Some(out))
+            .map_err(|e| eprintln!("{name}: {e}"))
+            .ok()?;
         times.push(report.times);
         last = Some(report);
     }
@@ -151,7 +176,10 @@ fn main() {
             let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
             let c = warp_constraints(&mesh, 40, 3);
             let ron = tmp.join(format!("{file}.uvpin.ron"));
-            let mut text = format!("(asset: {:?}, constraints: [\n", shared.join(file).display().to_string());
+            let mut text = format!(
+                "(asset: {:?}, constraints: [\n",
+                shared.join(file).display().to_string()
+            );
             for (v, uv) in &c {
                 text += &format!("  (vertex: {v}, uv: ({}, {})),\n", uv.x, uv.y);
             }
@@ -170,7 +198,11 @@ fn main() {
             continue;
         }
         let mesh = grid_mesh(n, n);
-        let c = if k > 0 { warp_constraints(&mesh, k, 4) } else { Vec::new() };
+        let c = if k > 0 {
+            warp_constraints(&mesh, k, 4)
+        } else {
+            Vec::new()
+        };
         print_row(&bench_mesh(&name, &mesh, &c, runs));
     }
     let _ = std::fs::remove_dir_all(&tmp);

@@ -39,7 +39,9 @@ pub struct PreparedChart {
 pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<PreparedChart, Error> {
     let welded = weld(&asset.primitives);
     let constraints = loaded.resolve(&asset.primitives, &welded)?;
-    let chart_of = |c: &ResolvedConstraint| welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used");
+    let chart_of = |c: &ResolvedConstraint| {
+        welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used")
+    };
     let chart_id = match constraints.first() {
         Some(first) => {
             let id = chart_of(first);
@@ -66,12 +68,14 @@ pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<Prepar
         }
         None => {
             let sizes = welded.chart_sizes();
-            (0..sizes.len()).max_by_key(|&c| (sizes[c].1, std::cmp::Reverse(c))).ok_or_else(|| {
-                Error::Asset(crate::io::AssetError::MeshSelection {
-                    path: asset.path.clone(),
-                    message: "the mesh has no triangles".into(),
-                })
-            })? as u32
+            (0..sizes.len())
+                .max_by_key(|&c| (sizes[c].1, std::cmp::Reverse(c)))
+                .ok_or_else(|| {
+                    Error::Asset(crate::io::AssetError::MeshSelection {
+                        path: asset.path.clone(),
+                        message: "the mesh has no triangles".into(),
+                    })
+                })? as u32
         }
     };
     let chart = welded.chart(chart_id);
@@ -85,7 +89,10 @@ pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<Prepar
     })?;
     let traps = TrapCandidates::find(&chart.mesh, &topology);
     let filled = fill_holes(&chart.mesh, &topology);
-    let constraint_vertices = constraints.iter().map(|c| chart.local_of(c.welded).expect("constraint in the chart")).collect();
+    let constraint_vertices = constraints
+        .iter()
+        .map(|c| chart.local_of(c.welded).expect("constraint in the chart"))
+        .collect();
     let corners = match loaded.resolve_corners(&asset.primitives, &welded)? {
         Some(w) => {
             let mut local = [0u32; 4];
@@ -107,7 +114,11 @@ pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<Prepar
         .iter()
         .zip(&welded.vertex_of)
         .filter(|(p, _)| p.uvs.is_none())
-        .map(|(_, map)| map.iter().filter(|w| welded.chart_of_vertex[**w as usize] != Some(chart_id)).count())
+        .map(|(_, map)| {
+            map.iter()
+                .filter(|w| welded.chart_of_vertex[**w as usize] != Some(chart_id))
+                .count()
+        })
         .sum();
     if without_uvs > 0 {
         warnings.push(format!(
@@ -115,7 +126,17 @@ pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<Prepar
             asset.uv_set
         ));
     }
-    Ok(PreparedChart { welded, chart, topology, traps, filled, constraints, constraint_vertices, corners, warnings })
+    Ok(PreparedChart {
+        welded,
+        chart,
+        topology,
+        traps,
+        filled,
+        constraints,
+        constraint_vertices,
+        corners,
+        warnings,
+    })
 }
 
 /// Tolerance for a constraint on the outer boundary to agree with the boundary map.
@@ -139,7 +160,11 @@ pub fn step_problem(
         on_outer[v as usize] = Some(i);
     }
     let mut problem = StepProblem::default();
-    for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
+    for (c, &v) in prepared
+        .constraints
+        .iter()
+        .zip(&prepared.constraint_vertices)
+    {
         let target = uv_to_xy(c.target_uv);
         match on_outer[v as usize] {
             Some(i) => {
@@ -165,14 +190,24 @@ pub fn step_problem(
             }
         }
     }
-    problem.anchors = pick_anchors(&boundary.loop_vertices, max_boundary_centres, &boundary.corner_vertices());
-    problem.movable = (0..n as u32).filter(|&v| on_outer[v as usize].is_none()).collect();
+    problem.anchors = pick_anchors(
+        &boundary.loop_vertices,
+        max_boundary_centres,
+        &boundary.corner_vertices(),
+    );
+    problem.movable = (0..n as u32)
+        .filter(|&v| on_outer[v as usize].is_none())
+        .collect();
     Ok(problem)
 }
 
 /// Final per-primitive UVs (glTF texture coordinates, f32): the solved chart's
 /// from `layout`, every other vertex's as it was (or (0, 0) without UVs).
-pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> Vec<Vec<[f32; 2]>> {
+pub fn assemble_uvs(
+    asset: &SourceAsset,
+    prepared: &PreparedChart,
+    layout: &[DVec2],
+) -> Vec<Vec<[f32; 2]>> {
     asset
         .primitives
         .iter()

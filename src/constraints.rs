@@ -68,7 +68,12 @@ pub struct CornerSpec {
 
 impl CornerSpec {
     pub fn as_array(&self) -> [u32; 4] {
-        [self.top_left, self.bottom_left, self.bottom_right, self.top_right]
+        [
+            self.top_left,
+            self.bottom_left,
+            self.bottom_right,
+            self.top_right,
+        ]
     }
 }
 
@@ -102,11 +107,25 @@ pub struct ConstraintFile {
 #[derive(Debug, Error)]
 pub enum ConstraintFileError {
     #[error("{path}: cannot read the constraint file: {source}")]
-    Read { path: PathBuf, source: std::io::Error },
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}:{line}:{column}: {message}")]
-    Syntax { path: PathBuf, line: usize, column: usize, message: String },
+    Syntax {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
     #[error("{path}:{line}:{column}: {field}: {message}")]
-    Invalid { path: PathBuf, line: usize, column: usize, field: String, message: String },
+    Invalid {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        field: String,
+        message: String,
+    },
 }
 
 /// A parsed constraint file with the source positions of its parts, so that
@@ -152,8 +171,10 @@ impl LoadedConstraints {
     /// `uv`/`px`; `px` without `image_size`; a target outside the unit square;
     /// one vertex given two different targets.
     pub fn load(path: &Path) -> Result<Self, ConstraintFileError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ConstraintFileError::Read { path: path.to_path_buf(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| ConstraintFileError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
         Self::parse(path, &text)
     }
 
@@ -175,13 +196,17 @@ impl LoadedConstraints {
 
     /// Parses constraint-file text; `path` is used for messages and to resolve `asset`.
     pub fn parse(path: &Path, text: &str) -> Result<Self, ConstraintFileError> {
-        let options = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-        let file: ConstraintFile = options.from_str(text).map_err(|e| ConstraintFileError::Syntax {
-            path: path.to_path_buf(),
-            line: e.span.start.line,
-            column: e.span.start.col,
-            message: e.code.to_string(),
-        })?;
+        let options = ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        let file: ConstraintFile =
+            options
+                .from_str(text)
+                .map_err(|e| ConstraintFileError::Syntax {
+                    path: path.to_path_buf(),
+                    line: e.span.start.line,
+                    column: e.span.start.col,
+                    message: e.code.to_string(),
+                })?;
         let scan = scan_positions(text);
         let mut item_positions = scan.items;
         item_positions.resize(file.constraints.len(), scan.constraints.unwrap_or((1, 1)));
@@ -207,7 +232,12 @@ impl LoadedConstraints {
     }
 
     /// An error located at constraint `index`.
-    pub fn error_at(&self, index: usize, field: &str, message: impl Into<String>) -> ConstraintFileError {
+    pub fn error_at(
+        &self,
+        index: usize,
+        field: &str,
+        message: impl Into<String>,
+    ) -> ConstraintFileError {
         let (line, column) = self.item_positions.get(index).copied().unwrap_or((1, 1));
         ConstraintFileError::Invalid {
             path: self.path.clone(),
@@ -256,26 +286,56 @@ impl LoadedConstraints {
         if let Some((w, h)) = f.image_size
             && (w == 0 || h == 0)
         {
-            return Err(self.asset_error("image_size", format!("image size must be positive, got ({w}, {h})")));
+            return Err(self.asset_error(
+                "image_size",
+                format!("image size must be positive, got ({w}, {h})"),
+            ));
         }
         let tol = self.file.solver.tolerance;
         if !(tol.is_finite() && tol > 0.0) {
-            return Err(self.asset_error("solver.tolerance", format!("must be a positive number, got {tol}")));
+            return Err(self.asset_error(
+                "solver.tolerance",
+                format!("must be a positive number, got {tol}"),
+            ));
         }
         for (i, c) in f.constraints.iter().enumerate() {
             match (c.vertex, c.near) {
-                (None, None) => return Err(self.error_at(i, "vertex", "give `vertex: <id>` or `near: (x, y, z)`")),
-                (Some(_), Some(_)) => return Err(self.error_at(i, "near", "give either `vertex` or `near`, not both")),
+                (None, None) => {
+                    return Err(self.error_at(
+                        i,
+                        "vertex",
+                        "give `vertex: <id>` or `near: (x, y, z)`",
+                    ));
+                }
+                (Some(_), Some(_)) => {
+                    return Err(self.error_at(
+                        i,
+                        "near",
+                        "give either `vertex` or `near`, not both",
+                    ));
+                }
                 (None, Some(p)) if !p.is_finite() => {
                     return Err(self.error_at(i, "near", format!("not a finite point: {p:?}")));
                 }
                 _ => {}
             }
             match (c.uv, c.px) {
-                (None, None) => return Err(self.error_at(i, "uv", "give a target: `uv: (u, v)` or `px: (x, y)`")),
-                (Some(_), Some(_)) => return Err(self.error_at(i, "px", "give either `uv` or `px`, not both")),
+                (None, None) => {
+                    return Err(self.error_at(
+                        i,
+                        "uv",
+                        "give a target: `uv: (u, v)` or `px: (x, y)`",
+                    ));
+                }
+                (Some(_), Some(_)) => {
+                    return Err(self.error_at(i, "px", "give either `uv` or `px`, not both"));
+                }
                 (None, Some(_)) if f.image_size.is_none() => {
-                    return Err(self.error_at(i, "px", "pixel targets need `image_size: (width, height)` in the file"));
+                    return Err(self.error_at(
+                        i,
+                        "px",
+                        "pixel targets need `image_size: (width, height)` in the file",
+                    ));
                 }
                 _ => {}
             }
@@ -335,14 +395,19 @@ impl LoadedConstraints {
                             if !used[v] {
                                 continue;
                             }
-                            let d = DVec3::new(pos[0] as f64, pos[1] as f64, pos[2] as f64).distance(point);
+                            let d = DVec3::new(pos[0] as f64, pos[1] as f64, pos[2] as f64)
+                                .distance(point);
                             if d < best.2 {
                                 best = (p, v as u32, d);
                             }
                         }
                     }
                     if best.0 == usize::MAX {
-                        return Err(self.error_at(i, "near", "the mesh has no vertices to snap to"));
+                        return Err(self.error_at(
+                            i,
+                            "near",
+                            "the mesh has no vertices to snap to",
+                        ));
                     }
                     (best.0, best.1, Some(best.2))
                 }
@@ -350,7 +415,11 @@ impl LoadedConstraints {
             };
             let w = welded.vertex_of[prim_pos][vertex as usize];
             if welded.chart_of_vertex[w as usize].is_none() {
-                return Err(self.error_at(i, "vertex", format!("vertex {vertex} is used by no triangle")));
+                return Err(self.error_at(
+                    i,
+                    "vertex",
+                    format!("vertex {vertex} is used by no triangle"),
+                ));
             }
             let target_uv = self.target_uv(c);
             if let Some(prev) = out.iter().find(|r| r.welded == w) {
@@ -386,16 +455,19 @@ impl LoadedConstraints {
         index: usize,
         item: Option<usize>,
     ) -> Result<usize, ConstraintFileError> {
-        primitives.iter().position(|p| p.index == index).ok_or_else(|| {
-            let msg = format!(
-                "primitive {index} does not exist (the mesh has TRIANGLES primitives {:?})",
-                primitives.iter().map(|p| p.index).collect::<Vec<_>>()
-            );
-            match item {
-                Some(i) => self.error_at(i, "primitive", msg),
-                None => self.asset_error("primitive", msg),
-            }
-        })
+        primitives
+            .iter()
+            .position(|p| p.index == index)
+            .ok_or_else(|| {
+                let msg = format!(
+                    "primitive {index} does not exist (the mesh has TRIANGLES primitives {:?})",
+                    primitives.iter().map(|p| p.index).collect::<Vec<_>>()
+                );
+                match item {
+                    Some(i) => self.error_at(i, "primitive", msg),
+                    None => self.asset_error("primitive", msg),
+                }
+            })
     }
 
     /// The corner vertices as welded ids.
@@ -407,7 +479,9 @@ impl LoadedConstraints {
         primitives: &[PrimitiveGeometry],
         welded: &WeldedMesh,
     ) -> Result<Option<[u32; 4]>, ConstraintFileError> {
-        let Some(corners) = self.file.corners else { return Ok(None) };
+        let Some(corners) = self.file.corners else {
+            return Ok(None);
+        };
         let p = self.primitive_position(primitives, self.file.primitive, None)?;
         let n = primitives[p].positions.len();
         let mut out = [0u32; 4];
@@ -602,7 +676,9 @@ mod tests {
     }
 
     fn err(text: &str) -> String {
-        LoadedConstraints::parse(Path::new("f.ron"), text).unwrap_err().to_string()
+        LoadedConstraints::parse(Path::new("f.ron"), text)
+            .unwrap_err()
+            .to_string()
     }
 
     #[test]
@@ -616,8 +692,13 @@ mod tests {
 
     #[test]
     fn semantic_errors_point_at_the_item() {
-        let e = err("(asset: \"a.glb\", constraints: [\n (vertex: 1, uv: (0.5, 0.5)),\n (vertex: 2, uv: (1.5, 0.5))])");
-        assert!(e.starts_with("f.ron:3:2: constraints[1].uv") && e.contains("outside the unit square"), "{e}");
+        let e = err(
+            "(asset: \"a.glb\", constraints: [\n (vertex: 1, uv: (0.5, 0.5)),\n (vertex: 2, uv: (1.5, 0.5))])",
+        );
+        assert!(
+            e.starts_with("f.ron:3:2: constraints[1].uv") && e.contains("outside the unit square"),
+            "{e}"
+        );
         let e = err("(asset: \"a.glb\", constraints: [(vertex: 1, px: (3, 4))])");
         assert!(e.contains("image_size"), "{e}");
         let e = err("(asset: \"a.glb\", constraints: [(uv: (0.1, 0.1))])");
@@ -639,14 +720,28 @@ mod tests {
         let welded = crate::mesh::weld::weld(std::slice::from_ref(&prim));
         let same = "(asset: \"a\", constraints: [(vertex: 1, uv: (0.5, 0.5)), (vertex: 1, uv: (0.5, 0.5))])";
         let l = LoadedConstraints::parse(Path::new("f.ron"), same).unwrap();
-        assert_eq!(l.resolve(std::slice::from_ref(&prim), &welded).unwrap().len(), 1);
+        assert_eq!(
+            l.resolve(std::slice::from_ref(&prim), &welded)
+                .unwrap()
+                .len(),
+            1
+        );
         let diff = "(asset: \"a\", constraints: [(vertex: 1, uv: (0.5, 0.5)),\n (vertex: 1, uv: (0.5, 0.6))])";
         let l = LoadedConstraints::parse(Path::new("f.ron"), diff).unwrap();
-        let e = l.resolve(std::slice::from_ref(&prim), &welded).unwrap_err().to_string();
-        assert!(e.starts_with("f.ron:2:2: constraints[1].uv") && e.contains("already constrained"), "{e}");
+        let e = l
+            .resolve(std::slice::from_ref(&prim), &welded)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("f.ron:2:2: constraints[1].uv") && e.contains("already constrained"),
+            "{e}"
+        );
         let out = "(asset: \"a\", constraints: [(vertex: 7, uv: (0.5, 0.5))])";
         let l = LoadedConstraints::parse(Path::new("f.ron"), out).unwrap();
-        let e = l.resolve(std::slice::from_ref(&prim), &welded).unwrap_err().to_string();
+        let e = l
+            .resolve(std::slice::from_ref(&prim), &welded)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("out of range") && e.contains("0..3"), "{e}");
         let near = "(asset: \"a\", constraints: [(near: (0.9, 0.1, 0), uv: (0.5, 0.5))])";
         let l = LoadedConstraints::parse(Path::new("f.ron"), near).unwrap();

@@ -14,7 +14,9 @@ pub enum Error {
     Constraints(#[from] ConstraintFileError),
     #[error(transparent)]
     Asset(#[from] AssetError),
-    #[error("{path}: mesh {mesh}, chart {chart} ({n_vertices} vertices, {n_triangles} triangles): {source}")]
+    #[error(
+        "{path}: mesh {mesh}, chart {chart} ({n_vertices} vertices, {n_triangles} triangles): {source}"
+    )]
     Topology {
         path: PathBuf,
         mesh: usize,
@@ -24,7 +26,11 @@ pub enum Error {
         source: TopologyError,
     },
     #[error("{path}: force-density solve of chart {chart}: {source}")]
-    BarNet { path: PathBuf, chart: u32, source: BarNetError },
+    BarNet {
+        path: PathBuf,
+        chart: u32,
+        source: BarNetError,
+    },
     /// A bug: a layout that would have been written failed the final check.
     #[error("internal error, nothing written: {0}")]
     Internal(String),

@@ -13,7 +13,11 @@ use glam::DVec2;
 #[inline]
 pub fn orientation(a: DVec2, b: DVec2, c: DVec2) -> f64 {
     use robust::{Coord, orient2d};
-    orient2d(Coord { x: a.x, y: a.y }, Coord { x: b.x, y: b.y }, Coord { x: c.x, y: c.y })
+    orient2d(
+        Coord { x: a.x, y: a.y },
+        Coord { x: b.x, y: b.y },
+        Coord { x: c.x, y: c.y },
+    )
 }
 
 /// `true` when every triangle has strictly positive area (Eq. 3 holds on every triangle).
@@ -30,6 +34,17 @@ pub fn first_non_positive(layout: &[DVec2], triangles: &[[u32; 3]]) -> Option<us
         let bound = 1e-12 * ((b - a).length_squared() + (c - a).length_squared());
         !(det > bound || (det.abs() <= bound && orientation(a, b, c) > 0.0))
     })
+}
+
+/// The smallest signed area of any triangle of `layout` (layout units).
+pub fn smallest_area(layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| layout[v as usize]);
+            0.5 * (b - a).perp_dot(c - a)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Flipped and zero-area triangle counts.
@@ -85,15 +100,33 @@ mod tests {
 
     #[test]
     fn detects_flips_and_slivers_exactly() {
-        let layout = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0), DVec2::new(2.0, 0.0)];
+        let layout = vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+            DVec2::new(2.0, 0.0),
+        ];
         assert!(all_positive(&layout, &[[0, 1, 2]]));
-        assert_eq!(first_non_positive(&layout, &[[0, 1, 2], [0, 2, 1]]), Some(1));
+        assert_eq!(
+            first_non_positive(&layout, &[[0, 1, 2], [0, 2, 1]]),
+            Some(1)
+        );
         // Exactly collinear: zero, not positive.
         assert_eq!(first_non_positive(&layout, &[[0, 1, 3]]), Some(0));
         let c = count_orientations(&layout, &[[0, 1, 2], [0, 2, 1], [0, 1, 3]]);
-        assert_eq!(c, OrientationCounts { flipped: 1, zero_area: 1 });
+        assert_eq!(
+            c,
+            OrientationCounts {
+                flipped: 1,
+                zero_area: 1
+            }
+        );
         // A tiny but positive triangle passes.
-        let tiny = vec![DVec2::new(0.5, 0.5), DVec2::new(0.5 + 1e-15, 0.5), DVec2::new(0.5, 0.5 + 1e-15)];
+        let tiny = vec![
+            DVec2::new(0.5, 0.5),
+            DVec2::new(0.5 + 1e-15, 0.5),
+            DVec2::new(0.5, 0.5 + 1e-15),
+        ];
         assert!(all_positive(&tiny, &[[0, 1, 2]]));
     }
 

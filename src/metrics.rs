@@ -31,10 +31,16 @@ pub fn sander_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 
         area_2d += 0.5 * (p2 - p1).perp_dot(p3 - p1);
     }
     if area_3d <= 0.0 {
-        return Stretch { l2: f64::NAN, linf: f64::NAN };
+        return Stretch {
+            l2: f64::NAN,
+            linf: f64::NAN,
+        };
     }
     if area_2d <= 0.0 {
-        return Stretch { l2: f64::INFINITY, linf: f64::INFINITY };
+        return Stretch {
+            l2: f64::INFINITY,
+            linf: f64::INFINITY,
+        };
     }
     // Scaling the layout by k divides S_s, S_t by k.
     let k = (area_3d / area_2d).sqrt();
@@ -50,7 +56,10 @@ pub fn sander_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 
         let (s1, t1, s2, t2, s3, t3) = (p1.x, p1.y, p2.x, p2.y, p3.x, p3.y);
         let area = 0.5 * ((s2 - s1) * (t3 - t1) - (s3 - s1) * (t2 - t1));
         if area <= 0.0 {
-            return Stretch { l2: f64::INFINITY, linf: f64::INFINITY };
+            return Stretch {
+                l2: f64::INFINITY,
+                linf: f64::INFINITY,
+            };
         }
         let ss = (q1 * (t2 - t3) + q2 * (t3 - t1) + q3 * (t1 - t2)) / (2.0 * area * k);
         let st = (q1 * (s3 - s2) + q2 * (s1 - s3) + q3 * (s2 - s1)) / (2.0 * area * k);
@@ -58,7 +67,10 @@ pub fn sander_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 
         sum += (a + c) / 2.0 * a3;
         linf = linf.max((((a + c) + ((a - c).powi(2) + 4.0 * b * b).sqrt()) / 2.0).sqrt());
     }
-    Stretch { l2: (sum / area_3d).sqrt(), linf }
+    Stretch {
+        l2: (sum / area_3d).sqrt(),
+        linf,
+    }
 }
 
 #[cfg(test)]
@@ -69,21 +81,39 @@ mod tests {
     #[test]
     fn isometry_and_uniform_scale_score_one() {
         let m = grid_mesh(5, 5);
-        let layout: Vec<DVec2> = m.positions.iter().map(|p| p.truncate() * 0.37 + DVec2::new(0.1, 0.2)).collect();
+        let layout: Vec<DVec2> = m
+            .positions
+            .iter()
+            .map(|p| p.truncate() * 0.37 + DVec2::new(0.1, 0.2))
+            .collect();
         let s = sander_stretch(&m.positions, &layout, &m.triangles);
-        assert!((s.l2 - 1.0).abs() < 1e-12 && (s.linf - 1.0).abs() < 1e-12, "{s:?}");
+        assert!(
+            (s.l2 - 1.0).abs() < 1e-12 && (s.linf - 1.0).abs() < 1e-12,
+            "{s:?}"
+        );
     }
 
     #[test]
     fn anisotropic_stretch_is_measured() {
         let m = grid_mesh(4, 4);
         // Squash y by 2 and widen x by 2: areas match, singular values 2 and 1/2 of the inverse map.
-        let layout: Vec<DVec2> = m.positions.iter().map(|p| DVec2::new(p.x * 2.0, p.y * 0.5)).collect();
+        let layout: Vec<DVec2> = m
+            .positions
+            .iter()
+            .map(|p| DVec2::new(p.x * 2.0, p.y * 0.5))
+            .collect();
         let s = sander_stretch(&m.positions, &layout, &m.triangles);
         assert!((s.linf - 2.0).abs() < 1e-12, "{s:?}");
-        assert!((s.l2 - ((4.0 + 0.25) / 2.0f64).sqrt()).abs() < 1e-12, "{s:?}");
+        assert!(
+            (s.l2 - ((4.0 + 0.25) / 2.0f64).sqrt()).abs() < 1e-12,
+            "{s:?}"
+        );
         let mut flipped = layout.clone();
         flipped[5].x += 10.0;
-        assert!(sander_stretch(&m.positions, &flipped, &m.triangles).l2.is_infinite());
+        assert!(
+            sander_stretch(&m.positions, &flipped, &m.triangles)
+                .l2
+                .is_infinite()
+        );
     }
 }

@@ -170,7 +170,10 @@ impl Report {
             self.stretch_step1.linf,
             self.stretch_final.linf
         );
-        s += &format!("  {} iterations, {} halvings, {:.1} ms\n", self.iterations, self.halvings, self.total_ms);
+        s += &format!(
+            "  {} iterations, {} halvings, {:.1} ms\n",
+            self.iterations, self.halvings, self.total_ms
+        );
         if let Some(m) = &self.message {
             s += &format!("  {m}\n");
         }
@@ -178,7 +181,10 @@ impl Report {
             s += &format!(
                 "  unreached: constraints[{}]{} vertex {}: target ({:.4}, {:.4}), at ({:.4}, {:.4}), residual {:.4}\n",
                 c.index,
-                c.label.as_ref().map(|l| format!(" \"{l}\"")).unwrap_or_default(),
+                c.label
+                    .as_ref()
+                    .map(|l| format!(" \"{l}\""))
+                    .unwrap_or_default(),
                 c.vertex,
                 c.target.x,
                 c.target.y,
@@ -239,24 +245,37 @@ pub fn build(s: &SolveSummary) -> Report {
         })
         .collect();
     let max_residual = constraints.iter().map(|c| c.residual).fold(0.0, f64::max);
-    let mean_residual =
-        if constraints.is_empty() { 0.0 } else { constraints.iter().map(|c| c.residual).sum::<f64>() / constraints.len() as f64 };
+    let mean_residual = if constraints.is_empty() {
+        0.0
+    } else {
+        constraints.iter().map(|c| c.residual).sum::<f64>() / constraints.len() as f64
+    };
     let all_reached = constraints.iter().all(|c| c.reached);
     let (status, message) = match (&s.state.phase, all_reached) {
         (_, true) => (Status::Reached, None),
         (SteppingPhase::Stalled(reason), false) => (
             Status::Partial,
-            Some(format!("the spline path stalled ({reason}); the layout is the last fold-free step")),
+            Some(format!(
+                "the spline path stalled ({reason}); the layout is the last fold-free step"
+            )),
         ),
-        (_, false) => (Status::Partial, Some("some constraints are outside tolerance".into())),
+        (_, false) => (
+            Status::Partial,
+            Some("some constraints are outside tolerance".into()),
+        ),
     };
     let n_real = p.filled.n_real_vertices;
     let real = &p.chart.mesh;
-    let stretch_step1 = crate::metrics::sander_stretch(&real.positions, &s.step1[..n_real], &real.triangles);
-    let stretch_final = crate::metrics::sander_stretch(&real.positions, &s.layout[..n_real], &real.triangles);
+    let stretch_step1 =
+        crate::metrics::sander_stretch(&real.positions, &s.step1[..n_real], &real.triangles);
+    let stretch_final =
+        crate::metrics::sander_stretch(&real.positions, &s.layout[..n_real], &real.triangles);
     let gltf_id = |local: u32| -> Option<u32> {
         let w = p.chart.welded_ids[local as usize];
-        p.welded.vertex_of.iter().find_map(|map| map.iter().position(|&x| x == w).map(|i| i as u32))
+        p.welded
+            .vertex_of
+            .iter()
+            .find_map(|map| map.iter().position(|&x| x == w).map(|i| i as u32))
     };
     let mut warnings = p.warnings.clone();
     if s.boundary.shape == crate::param::boundary::BoundaryShape::BulgedSquare {

@@ -5,13 +5,13 @@ use crate::chart;
 use crate::constraints::LoadedConstraints;
 use crate::constraints::{ConstraintFile, ConstraintSpec, CornerSpec};
 use crate::ecs::{self, ChartData, Exported, Failed, Layout, SolveJob, Timings};
-use crate::mesh::TriMesh;
-use crate::rbf::stepping::SteppingOptions;
-use glam::DVec2;
 use crate::error::Error;
 use crate::io::{self, SourceAsset};
+use crate::mesh::TriMesh;
+use crate::rbf::stepping::SteppingOptions;
 use crate::report::Report;
 use bevy_ecs::prelude::*;
+use glam::DVec2;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -26,12 +26,17 @@ pub const MAX_TICKS: usize = 1_000_000;
 pub fn load(constraints_path: &Path) -> Result<(LoadedConstraints, SourceAsset), Error> {
     let loaded = LoadedConstraints::load(constraints_path)?;
     let asset_path = loaded.asset_path();
-    let asset = io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set).map_err(|e| match e {
-        io::AssetError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => loaded
-            .asset_error("asset", format!("{} does not exist", asset_path.display()))
-            .into(),
-        e => Error::from(e),
-    })?;
+    let asset = io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set)
+        .map_err(|e| match e {
+            io::AssetError::Read { source, .. }
+                if source.kind() == std::io::ErrorKind::NotFound =>
+            {
+                loaded
+                    .asset_error("asset", format!("{} does not exist", asset_path.display()))
+                    .into()
+            }
+            e => Error::from(e),
+        })?;
     Ok((loaded, asset))
 }
 
@@ -51,8 +56,14 @@ pub fn spawn_job(
     let mut timings = Timings::default();
     timings.0.load_ms = load_ms;
     timings.0.topology_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let job = SolveJob { constraints: Arc::new(loaded), asset: Arc::new(asset), output };
-    Ok(world.spawn((job, ChartData(Arc::new(prepared)), timings)).id())
+    let job = SolveJob {
+        constraints: Arc::new(loaded),
+        asset: Arc::new(asset),
+        output,
+    };
+    Ok(world
+        .spawn((job, ChartData(Arc::new(prepared)), timings))
+        .id())
 }
 
 /// Solves `constraints_path` and writes `output` (if given). Returns the
@@ -66,7 +77,13 @@ pub fn solve_file(constraints_path: &Path, output: Option<&Path>) -> Result<Repo
     let (loaded, asset) = load(constraints_path)?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut world = World::new();
-    let entity = spawn_job(&mut world, loaded, asset, output.map(Path::to_path_buf), load_ms)?;
+    let entity = spawn_job(
+        &mut world,
+        loaded,
+        asset,
+        output.map(Path::to_path_buf),
+        load_ms,
+    )?;
     run_job(world, entity).map(|(report, _)| report)
 }
 
@@ -75,14 +92,15 @@ pub fn solve_file(constraints_path: &Path, output: Option<&Path>) -> Result<Repo
 fn run_job(mut world: World, entity: Entity) -> Result<(Report, Vec<Vec<[f32; 2]>>), Error> {
     let mut schedule = ecs::solve_schedule();
     ecs::run_to_convergence(&mut world, &mut schedule, MAX_TICKS);
-    if let Some(failed) = world.get::<Failed>(entity) {
-        let err = Arc::clone(&failed.0);
-        return Err(Arc::try_unwrap(err).unwrap_or_else(|e| Error::Internal(e.to_string())));
+    if let Some(failed) = world.entity_mut(entity).take::<Failed>() {
+        return Err(Arc::try_unwrap(failed.0).unwrap_or_else(|e| Error::Internal(e.to_string())));
     }
     let report = world
         .get::<Exported>(entity)
         .map(|e| e.0.clone())
-        .ok_or_else(|| Error::Internal(format!("the solve did not finish within {MAX_TICKS} ticks")))?;
+        .ok_or_else(|| {
+            Error::Internal(format!("the solve did not finish within {MAX_TICKS} ticks"))
+        })?;
     let (job, data, layout) = (
         world.get::<SolveJob>(entity).expect("job"),
         world.get::<ChartData>(entity).expect("chart"),
@@ -117,9 +135,18 @@ pub fn solve_mesh(
         image_size: None,
         constraints: constraints
             .iter()
-            .map(|&(v, uv)| ConstraintSpec { vertex: Some(v), uv: Some(uv), ..Default::default() })
+            .map(|&(v, uv)| ConstraintSpec {
+                vertex: Some(v),
+                uv: Some(uv),
+                ..Default::default()
+            })
             .collect(),
-        corners: corners.map(|c| CornerSpec { top_left: c[0], bottom_left: c[1], bottom_right: c[2], top_right: c[3] }),
+        corners: corners.map(|c| CornerSpec {
+            top_left: c[0],
+            bottom_left: c[1],
+            bottom_right: c[2],
+            top_right: c[3],
+        }),
         solver: options,
     };
     let loaded = LoadedConstraints::from_file(Path::new("<memory>"), file)?;

@@ -7,7 +7,8 @@
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky,
 };
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, Par, Side};
@@ -52,8 +53,13 @@ impl SpdPattern {
 
     /// As [`SpdPattern::new`] with a fill-reducing elimination order
     /// (`order[k]` = the unknown eliminated k-th), e.g. from [`nested_dissection`].
-    pub fn with_ordering(n: usize, entries: &[(usize, usize)], order: Option<&[usize]>) -> Result<Self, SparseError> {
-        let pairs: Vec<Pair<usize, usize>> = entries.iter().map(|&(r, c)| Pair::new(r, c)).collect();
+    pub fn with_ordering(
+        n: usize,
+        entries: &[(usize, usize)],
+        order: Option<&[usize]>,
+    ) -> Result<Self, SparseError> {
+        let pairs: Vec<Pair<usize, usize>> =
+            entries.iter().map(|&(r, c)| Pair::new(r, c)).collect();
         let (symbolic, argsort) = SymbolicSparseColMat::<usize>::try_new_from_indices(n, n, &pairs)
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         let params = CholeskySymbolicParams {
@@ -72,14 +78,20 @@ impl SpdPattern {
             inv
         });
         let ordering = match (order, &inverse) {
-            (Some(fwd), Some(inv)) => SymmetricOrdering::Custom(
-                faer::perm::PermRef::new_checked(fwd, inv, n),
-            ),
+            (Some(fwd), Some(inv)) => {
+                SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(fwd, inv, n))
+            }
             _ => SymmetricOrdering::Amd,
         };
-        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, ordering, params)
-            .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
-        Ok(SpdPattern { n, symbolic, argsort: Arc::new(argsort), cholesky: Arc::new(cholesky) })
+        let cholesky =
+            factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, ordering, params)
+                .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
+        Ok(SpdPattern {
+            n,
+            symbolic,
+            argsort: Arc::new(argsort),
+            cholesky: Arc::new(cholesky),
+        })
     }
 
     pub fn n(&self) -> usize {
@@ -88,11 +100,17 @@ impl SpdPattern {
 
     /// Numeric factorisation with `values` in the order of the `entries` given to [`SpdPattern::new`].
     pub fn factor(&self, values: &[f64]) -> Result<SpdFactor, SparseError> {
-        let a = SparseColMat::<usize, f64>::new_from_argsort(self.symbolic.clone(), &self.argsort, values)
-            .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
+        let a = SparseColMat::<usize, f64>::new_from_argsort(
+            self.symbolic.clone(),
+            &self.argsort,
+            values,
+        )
+        .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         let mut l_values = vec![0.0f64; self.cholesky.len_val()];
-        let mut mem =
-            MemBuffer::new(self.cholesky.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));
+        let mut mem = MemBuffer::new(
+            self.cholesky
+                .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        );
         self.cholesky
             .factorize_numeric_llt::<f64>(
                 &mut l_values,
@@ -104,7 +122,10 @@ impl SpdPattern {
                 Default::default(),
             )
             .map_err(|_| SparseError::NotPositiveDefinite)?;
-        Ok(SpdFactor { pattern: self.clone(), l_values })
+        Ok(SpdFactor {
+            pattern: self.clone(),
+            l_values,
+        })
     }
 }
 
@@ -136,7 +157,10 @@ const DISSECTION_LEAF: usize = 96;
 /// far less fill than minimum degree and costs O(n log n).
 ///
 /// `neighbours(i)` lists the unknowns coupled to unknown `i`.
-pub fn nested_dissection<'a>(points: &[[f64; 3]], neighbours: impl Fn(usize) -> &'a [u32]) -> Vec<usize> {
+pub fn nested_dissection<'a>(
+    points: &[[f64; 3]],
+    neighbours: impl Fn(usize) -> &'a [u32],
+) -> Vec<usize> {
     let n = points.len();
     let mut order = Vec::with_capacity(n);
     // side[v]: which part of the current split v belongs to, tagged by split id.
@@ -167,17 +191,24 @@ pub fn nested_dissection<'a>(points: &[[f64; 3]], neighbours: impl Fn(usize) -> 
                 hi[k] = hi[k].max(points[v as usize][k]);
             }
         }
-        let axis = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(0);
+        let axis = (0..3)
+            .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+            .unwrap_or(0);
         let mid = set.len() / 2;
-        set.select_nth_unstable_by(mid, |&a, &b| points[a as usize][axis].total_cmp(&points[b as usize][axis]));
+        set.select_nth_unstable_by(mid, |&a, &b| {
+            points[a as usize][axis].total_cmp(&points[b as usize][axis])
+        });
         let right = set.split_off(mid);
         let id = split_id;
         split_id += 1;
         for &v in &right {
             side[v as usize] = (id, true);
         }
-        let (sep, left): (Vec<u32>, Vec<u32>) =
-            set.into_iter().partition(|&v| neighbours(v as usize).iter().any(|&u| side[u as usize] == (id, true)));
+        let (sep, left): (Vec<u32>, Vec<u32>) = set.into_iter().partition(|&v| {
+            neighbours(v as usize)
+                .iter()
+                .any(|&u| side[u as usize] == (id, true))
+        });
         // Pushed in reverse: left half, right half, then the separator.
         stack.push(Work::Emit(sep));
         stack.push(Work::Order(right));
@@ -225,7 +256,10 @@ mod tests {
         for i in 0..n {
             assert!((b[(i, 0)] - x_true[i]).abs() < 1e-12);
         }
-        assert_eq!(pattern.factor(&vec![-1.0; values.len()]).unwrap_err(), SparseError::NotPositiveDefinite);
+        assert_eq!(
+            pattern.factor(&vec![-1.0; values.len()]).unwrap_err(),
+            SparseError::NotPositiveDefinite
+        );
     }
 
     #[test]
@@ -253,7 +287,9 @@ mod tests {
                 }
             }
         }
-        let points: Vec<[f64; 3]> = (0..n).map(|v| [(v % nx) as f64, (v / nx) as f64, 0.0]).collect();
+        let points: Vec<[f64; 3]> = (0..n)
+            .map(|v| [(v % nx) as f64, (v / nx) as f64, 0.0])
+            .collect();
         let order = nested_dissection(&points, |i| &adjacency[i]);
         let mut seen = order.clone();
         seen.sort_unstable();
@@ -266,8 +302,16 @@ mod tests {
         let (mut a, mut b) = (Mat::<f64>::zeros(n, 1), Mat::<f64>::zeros(n, 1));
         rhs(&mut a);
         rhs(&mut b);
-        SpdPattern::new(n, &entries).unwrap().factor(&values).unwrap().solve_in_place(&mut a);
-        SpdPattern::with_ordering(n, &entries, Some(&order)).unwrap().factor(&values).unwrap().solve_in_place(&mut b);
+        SpdPattern::new(n, &entries)
+            .unwrap()
+            .factor(&values)
+            .unwrap()
+            .solve_in_place(&mut a);
+        SpdPattern::with_ordering(n, &entries, Some(&order))
+            .unwrap()
+            .factor(&values)
+            .unwrap()
+            .solve_in_place(&mut b);
         for i in 0..n {
             assert!((a[(i, 0)] - b[(i, 0)]).abs() < 1e-10);
         }

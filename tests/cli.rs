@@ -12,10 +12,18 @@ fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
     let out = tmp.path("face.glb");
     let report = tmp.path("report.json");
     let ron = repo().join("assets/face.uvpin.ron");
-    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--report", report.to_str().unwrap()]);
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains("reached"), "{}", stderr(&o));
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(r["status"], "reached");
     assert_eq!(r["orientation"]["flipped"], 0);
     assert_eq!(r["orientation"]["zero_area"], 0);
@@ -25,7 +33,16 @@ fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
     for c in constraints {
         assert!(c["residual"].as_f64().unwrap() <= 1e-9, "{c}");
     }
-    for stage in ["load_ms", "topology_ms", "boundary_ms", "factor_ms", "solve_ms", "stepping_ms", "guard_ms", "export_ms"] {
+    for stage in [
+        "load_ms",
+        "topology_ms",
+        "boundary_ms",
+        "factor_ms",
+        "solve_ms",
+        "stepping_ms",
+        "guard_ms",
+        "export_ms",
+    ] {
         assert!(r["times"][stage].as_f64().unwrap() >= 0.0, "{stage}");
     }
     // The gltf crate reads the written UVs back; every triangle keeps its orientation.
@@ -49,7 +66,12 @@ fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
         assert_eq!(py[0]["negative"], tris.len(), "{}", py[0]["positive"]);
     }
     // `uvpin check` agrees with the constraint file.
-    let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
+    let o = uvpin(&[
+        "check",
+        out.to_str().unwrap(),
+        "--constraints",
+        ron.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
     assert!(stdout(&o).contains("flipped      0"), "{}", stdout(&o));
 }
@@ -62,7 +84,9 @@ pub fn gltf_import(path: &std::path::Path) -> (gltf::Document, Vec<Vec<u8>>, ())
     for b in g.document.buffers() {
         match b.source() {
             gltf::buffer::Source::Bin => buffers.push(g.blob.clone().unwrap()),
-            gltf::buffer::Source::Uri(uri) => buffers.push(std::fs::read(path.parent().unwrap().join(uri)).unwrap()),
+            gltf::buffer::Source::Uri(uri) => {
+                buffers.push(std::fs::read(path.parent().unwrap().join(uri)).unwrap())
+            }
         }
     }
     (g.document, buffers, ())
@@ -105,11 +129,22 @@ fn crossing_constraints_end_partial_fold_free_with_exit_code_2() {
     );
     let out = tmp.path("out.glb");
     let report = tmp.path("r.json");
-    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--report", report.to_str().unwrap()]);
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let err = stderr(&o);
-    assert!(err.contains("partial") && err.contains("unreached: constraints[0]"), "{err}");
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert!(
+        err.contains("partial") && err.contains("unreached: constraints[0]"),
+        "{err}"
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(r["status"], "partial");
     assert_eq!(r["orientation"]["flipped"], 0);
     assert!(r["max_residual"].as_f64().unwrap() > 1e-3);
@@ -144,25 +179,61 @@ fn broken_ron_reports_line_and_column_and_writes_nothing() {
     let tmp = TempDir::new("badron");
     let asset = grid_asset(&tmp, 5);
     let ron = tmp.path("bad.uvpin.ron");
-    std::fs::write(&ron, format!("(\n  asset: {:?},\n  constraints: [\n    (vertex: 6, uv: (0.5 0.5)),\n  ],\n)\n", asset)).unwrap();
+    std::fs::write(
+        &ron,
+        format!(
+            "(\n  asset: {:?},\n  constraints: [\n    (vertex: 6, uv: (0.5 0.5)),\n  ],\n)\n",
+            asset
+        ),
+    )
+    .unwrap();
     assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:4:", "comma"]);
-    std::fs::write(&ron, format!("(\n  asset: {:?},\n  constraints: [(vertx: 6, uv: (0.5, 0.5))],\n)\n", asset)).unwrap();
+    std::fs::write(
+        &ron,
+        format!(
+            "(\n  asset: {:?},\n  constraints: [(vertx: 6, uv: (0.5, 0.5))],\n)\n",
+            asset
+        ),
+    )
+    .unwrap();
     assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:3:18", "vertx"]);
     write_constraints(&ron, &asset, &[(99, 0.5, 0.5)], "");
-    assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:4:9", "constraints[0].vertex", "out of range", "0..25"]);
+    assert_fails_writing_nothing(
+        &ron,
+        &tmp,
+        &[
+            "bad.uvpin.ron:4:9",
+            "constraints[0].vertex",
+            "out of range",
+            "0..25",
+        ],
+    );
     write_constraints(&ron, &asset, &[(6, 0.5, 0.5), (6, 0.4, 0.5)], "");
     assert_fails_writing_nothing(&ron, &tmp, &["constraints[1].uv", "already constrained"]);
     write_constraints(&ron, &asset, &[(6, 1.5, 0.5)], "");
     assert_fails_writing_nothing(&ron, &tmp, &["outside the unit square"]);
     // A boundary vertex (1 is on the bottom row) asked to go to the middle.
     write_constraints(&ron, &asset, &[(1, 0.5, 0.5)], "");
-    assert_fails_writing_nothing(&ron, &tmp, &["constraints[0].uv", "outer boundary", "contradicts"]);
+    assert_fails_writing_nothing(
+        &ron,
+        &tmp,
+        &["constraints[0].uv", "outer boundary", "contradicts"],
+    );
     // Corners in mirrored order.
-    write_constraints(&ron, &asset, &[], "  corners: (top_left: 24, bottom_left: 4, bottom_right: 0, top_right: 20),\n");
+    write_constraints(
+        &ron,
+        &asset,
+        &[],
+        "  corners: (top_left: 24, bottom_left: 4, bottom_right: 0, top_right: 20),\n",
+    );
     assert_fails_writing_nothing(&ron, &tmp, &["corners", "mirror"]);
     // Missing asset.
     std::fs::write(&ron, "(asset: \"nope.glb\", constraints: [])").unwrap();
-    assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:1:9", "nope.glb", "does not exist"]);
+    assert_fails_writing_nothing(
+        &ron,
+        &tmp,
+        &["bad.uvpin.ron:1:9", "nope.glb", "does not exist"],
+    );
 }
 
 #[test]
@@ -171,11 +242,27 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
     let ron = tmp.path("t.uvpin.ron");
     // A closed octahedron.
     let octa = TriMesh {
-        positions: [[1., 0., 0.], [-1., 0., 0.], [0., 1., 0.], [0., -1., 0.], [0., 0., 1.], [0., 0., -1.]]
-            .iter()
-            .map(|p| glam::DVec3::from_array(*p))
-            .collect(),
-        triangles: vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]],
+        positions: [
+            [1., 0., 0.],
+            [-1., 0., 0.],
+            [0., 1., 0.],
+            [0., -1., 0.],
+            [0., 0., 1.],
+            [0., 0., -1.],
+        ]
+        .iter()
+        .map(|p| glam::DVec3::from_array(*p))
+        .collect(),
+        triangles: vec![
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ],
     };
     let asset = tmp.path("closed.glb");
     write_mesh_glb(&asset, &octa);
@@ -188,7 +275,11 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
     let asset = tmp.path("fin.glb");
     write_mesh_glb(&asset, &fin);
     write_constraints(&ron, &asset, &[(5, 0.5, 0.5)], "");
-    assert_fails_writing_nothing(&ron, &tmp, &["fin.glb", "non-manifold edge (5, 6)", "3 triangles"]);
+    assert_fails_writing_nothing(
+        &ron,
+        &tmp,
+        &["fin.glb", "non-manifold edge (5, 6)", "3 triangles"],
+    );
 }
 
 #[test]
@@ -219,7 +310,11 @@ fn corrupt_glb_files_are_named_errors() {
 fn gltf_with_external_buffer_round_trips_to_gltf_and_bin() {
     let tmp = TempDir::new("gltf");
     let mesh = grid_mesh(9, 9);
-    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let positions: Vec<[f32; 3]> = mesh
+        .positions
+        .iter()
+        .map(|p| p.as_vec3().to_array())
+        .collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (mut json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "g");
     std::fs::create_dir_all(tmp.path("in")).unwrap();
@@ -227,7 +322,11 @@ fn gltf_with_external_buffer_round_trips_to_gltf_and_bin() {
     json["buffers"][0]["uri"] = serde_json::json!("geometry%20data.bin");
     json["extras"] = serde_json::json!({"studio": "kept"});
     json["x_unknown_field"] = serde_json::json!([1, 2, 3]);
-    std::fs::write(tmp.path("in/g.gltf"), serde_json::to_vec_pretty(&json).unwrap()).unwrap();
+    std::fs::write(
+        tmp.path("in/g.gltf"),
+        serde_json::to_vec_pretty(&json).unwrap(),
+    )
+    .unwrap();
     let ron = tmp.path("in/g.uvpin.ron");
     write_constraints(&ron, std::path::Path::new("g.gltf"), &[(40, 0.5, 0.5)], "");
     std::fs::create_dir_all(tmp.path("out")).unwrap();
@@ -246,7 +345,12 @@ fn gltf_with_external_buffer_round_trips_to_gltf_and_bin() {
     // .glb in → .gltf out is refused (nothing but the UVs may change).
     let ron2 = tmp.path("s.uvpin.ron");
     write_constraints(&ron2, &repo().join("assets/face.glb"), &[], "");
-    let o = uvpin(&["solve", ron2.to_str().unwrap(), "-o", tmp.path("x.gltf").to_str().unwrap()]);
+    let o = uvpin(&[
+        "solve",
+        ron2.to_str().unwrap(),
+        "-o",
+        tmp.path("x.gltf").to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(!tmp.path("x.gltf").exists());
 }
@@ -266,17 +370,33 @@ fn obj_input_writes_obj_or_glb() {
     let ron = tmp.path("g.uvpin.ron");
     write_constraints(&ron, std::path::Path::new("g.obj"), &[(14, 0.45, 0.5)], "");
     for out in ["out.obj", "out.glb"] {
-        let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", tmp.path(out).to_str().unwrap()]);
+        let o = uvpin(&[
+            "solve",
+            ron.to_str().unwrap(),
+            "-o",
+            tmp.path(out).to_str().unwrap(),
+        ]);
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     }
     let obj = std::fs::read_to_string(tmp.path("out.obj")).unwrap();
     assert_eq!(obj.lines().filter(|l| l.starts_with("vt ")).count(), 36);
-    assert!(obj.contains("f 1/1 2/2 8/8") || obj.contains("f 1/1"), "{obj}");
+    assert!(
+        obj.contains("f 1/1 2/2 8/8") || obj.contains("f 1/1"),
+        "{obj}"
+    );
     let o = uvpin(&["check", tmp.path("out.glb").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
-    std::fs::write(tmp.path("q.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    std::fs::write(
+        tmp.path("q.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n",
+    )
+    .unwrap();
     write_constraints(&ron, std::path::Path::new("q.obj"), &[], "");
     let o = uvpin(&["solve", ron.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("q.obj:5") && stderr(&o).contains("only triangles"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("q.obj:5") && stderr(&o).contains("only triangles"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -34,8 +34,18 @@ struct ConstraintCheck {
 
 /// Returns exit code 0 when every chart is fold-free and every constraint
 /// within tolerance, 2 otherwise.
-pub fn run(asset_path: &Path, uv_set: u32, mesh: Option<&str>, constraints: Option<&Path>, json: bool) -> crate::Result<u8> {
-    let selector = mesh.map(|m| m.parse::<usize>().map(MeshSelector::Index).unwrap_or_else(|_| MeshSelector::Name(m.into())));
+pub fn run(
+    asset_path: &Path,
+    uv_set: u32,
+    mesh: Option<&str>,
+    constraints: Option<&Path>,
+    json: bool,
+) -> crate::Result<u8> {
+    let selector = mesh.map(|m| {
+        m.parse::<usize>()
+            .map(MeshSelector::Index)
+            .unwrap_or_else(|_| MeshSelector::Name(m.into()))
+    });
     let asset = crate::io::load_asset(asset_path, selector.as_ref(), uv_set)?;
     if let Some(p) = asset.primitives.iter().find(|p| p.uvs.is_none()) {
         return Err(crate::io::AssetError::Primitive {
@@ -58,7 +68,11 @@ pub fn run(asset_path: &Path, uv_set: u32, mesh: Option<&str>, constraints: Opti
     let mut charts = Vec::new();
     for c in 0..welded.n_charts as u32 {
         let chart = welded.chart(c);
-        let uvs: Vec<[f32; 2]> = chart.welded_ids.iter().map(|&w| uv_of[w as usize].as_vec2().to_array()).collect();
+        let uvs: Vec<[f32; 2]> = chart
+            .welded_ids
+            .iter()
+            .map(|&w| uv_of[w as usize].as_vec2().to_array())
+            .collect();
         let counts = guard::count_uv_orientations(&uvs, &chart.mesh.triangles);
         let mirrored = counts.flipped == chart.mesh.n_triangles();
         let layout: Vec<DVec2> = chart
@@ -111,7 +125,12 @@ pub fn run(asset_path: &Path, uv_set: u32, mesh: Option<&str>, constraints: Opti
         });
         println!("{}", serde_json::to_string_pretty(&out).expect("json"));
     } else {
-        println!("{} mesh {} TEXCOORD_{uv_set}: {} charts", asset.path.display(), asset.mesh_index, charts.len());
+        println!(
+            "{} mesh {} TEXCOORD_{uv_set}: {} charts",
+            asset.path.display(),
+            asset.mesh_index,
+            charts.len()
+        );
         for c in &charts {
             println!(
                 "chart {:>4}: {:>7} vertices {:>7} triangles  flipped {:>6}  zero-area {:>6}  stretch L2 {:>9.4}  L∞ {:>10.4}{}",

@@ -60,9 +60,26 @@ pub enum Command {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::Solve { constraints, output, report, quiet } => solve(&constraints, output.as_deref(), report.as_deref(), quiet),
-        Command::Check { asset, uv_set, mesh, constraints, json } => {
-            match check::run(&asset, uv_set, mesh.as_deref(), constraints.as_deref(), json) {
+        Command::Solve {
+            constraints,
+            output,
+            report,
+            quiet,
+        } => solve(&constraints, output.as_deref(), report.as_deref(), quiet),
+        Command::Check {
+            asset,
+            uv_set,
+            mesh,
+            constraints,
+            json,
+        } => {
+            match check::run(
+                &asset,
+                uv_set,
+                mesh.as_deref(),
+                constraints.as_deref(),
+                json,
+            ) {
                 Ok(code) => ExitCode::from(code),
                 Err(e) => {
                     eprintln!("error: {e}");

@@ -32,13 +32,29 @@ pub enum SolveSystems {
 pub fn solve_schedule() -> Schedule {
     let mut schedule = Schedule::default();
     schedule.set_executor(SingleThreadedExecutor::default());
-    schedule.configure_sets((SolveSystems::Unwrap, SolveSystems::Step, SolveSystems::Export).chain());
+    schedule.configure_sets(
+        (
+            SolveSystems::Unwrap,
+            SolveSystems::Step,
+            SolveSystems::Export,
+        )
+            .chain(),
+    );
     schedule.add_systems((
-        (systems::map_boundary, systems::factor_bar_net, systems::solve_force_density, systems::start_stepping)
+        (
+            systems::map_boundary,
+            systems::factor_bar_net,
+            systems::solve_force_density,
+            systems::start_stepping,
+        )
             .chain()
             .in_set(SolveSystems::Unwrap),
-        (systems::step_constraints, systems::guard_foldovers).chain().in_set(SolveSystems::Step),
-        (systems::finish_solve, systems::export_layout).chain().in_set(SolveSystems::Export),
+        (systems::step_constraints, systems::guard_foldovers)
+            .chain()
+            .in_set(SolveSystems::Step),
+        (systems::finish_solve, systems::export_layout)
+            .chain()
+            .in_set(SolveSystems::Export),
     ));
     schedule
 }
@@ -48,7 +64,8 @@ pub fn solve_schedule() -> Schedule {
 pub fn run_to_convergence(world: &mut World, schedule: &mut Schedule, max_ticks: usize) -> usize {
     for tick in 0..max_ticks {
         schedule.run(world);
-        let mut working = world.query_filtered::<(), (With<SolveJob>, Without<Exported>, Without<Failed>)>();
+        let mut working =
+            world.query_filtered::<(), (With<SolveJob>, Without<Exported>, Without<Failed>)>();
         if working.iter(world).next().is_none() {
             return tick + 1;
         }

@@ -19,7 +19,10 @@ fn ms(since: Instant) -> f64 {
 /// Places the outer loop on the square (§III.B) for charts without a boundary layout.
 pub fn map_boundary(
     mut commands: Commands,
-    mut charts: Query<(Entity, &SolveJob, &ChartData, &mut Timings), (Without<BoundaryLayout>, Without<Failed>)>,
+    mut charts: Query<
+        (Entity, &SolveJob, &ChartData, &mut Timings),
+        (Without<BoundaryLayout>, Without<Failed>),
+    >,
 ) {
     for (entity, job, data, mut times) in &mut charts {
         let t0 = Instant::now();
@@ -60,7 +63,11 @@ pub fn factor_bar_net(
                 commands.entity(entity).insert(BarNetFactor(Arc::new(net)));
             }
             Err(source) => {
-                let err = crate::Error::BarNet { path: job.asset.path.clone(), chart: data.0.chart.id, source };
+                let err = crate::Error::BarNet {
+                    path: job.asset.path.clone(),
+                    chart: data.0.chart.id,
+                    source,
+                };
                 commands.entity(entity).insert(Failed(Arc::new(err)));
             }
         }
@@ -71,8 +78,17 @@ pub fn factor_bar_net(
 pub fn solve_force_density(
     mut commands: Commands,
     mut charts: Query<
-        (Entity, &ChartData, &BoundaryLayout, &BarNetFactor, &mut Timings),
-        (Or<(Changed<BoundaryLayout>, Added<BarNetFactor>)>, Without<Failed>),
+        (
+            Entity,
+            &ChartData,
+            &BoundaryLayout,
+            &BarNetFactor,
+            &mut Timings,
+        ),
+        (
+            Or<(Changed<BoundaryLayout>, Added<BarNetFactor>)>,
+            Without<Failed>,
+        ),
     >,
 ) {
     for (entity, data, boundary, net, mut times) in &mut charts {
@@ -83,7 +99,10 @@ pub fn solve_force_density(
         }
         net.0.solve(&mut layout);
         times.0.solve_ms += ms(t0);
-        commands.entity(entity).insert((Step1Layout(layout.clone()), Layout(layout))).remove::<(Finished, Exported)>();
+        commands
+            .entity(entity)
+            .insert((Step1Layout(layout.clone()), Layout(layout)))
+            .remove::<(Finished, Exported)>();
     }
 }
 
@@ -92,7 +111,14 @@ pub fn solve_force_density(
 pub fn start_stepping(
     mut commands: Commands,
     mut charts: Query<
-        (Entity, &SolveJob, &ChartData, &BoundaryLayout, &Step1Layout, &mut Timings),
+        (
+            Entity,
+            &SolveJob,
+            &ChartData,
+            &BoundaryLayout,
+            &Step1Layout,
+            &mut Timings,
+        ),
         (Changed<Step1Layout>, Without<Failed>),
     >,
 ) {
@@ -100,15 +126,25 @@ pub fn start_stepping(
         let t0 = Instant::now();
         let c = &data.0;
         if let Some(t) = guard::first_non_positive(&step1.0, &c.filled.mesh.triangles) {
-            let err = crate::Error::Internal(format!("the step-1 layout folds triangle {t}"));
+            let err = crate::Error::Internal(format!(
+                "the step-1 layout has a flipped or zero-area triangle ({t})"
+            ));
             commands.entity(entity).insert(Failed(Arc::new(err)));
             continue;
         }
         let options = &job.constraints.file.solver;
-        match chart::step_problem(c, &job.constraints, &boundary.0, options.max_boundary_centres) {
+        match chart::step_problem(
+            c,
+            &job.constraints,
+            &boundary.0,
+            options.max_boundary_centres,
+        ) {
             Ok(problem) => {
                 let state = SteppingState::start(&problem, &step1.0, options);
-                commands.entity(entity).insert(Stepping { problem, state }).remove::<Candidate>();
+                commands
+                    .entity(entity)
+                    .insert(Stepping { problem, state })
+                    .remove::<Candidate>();
             }
             Err(e) => {
                 commands.entity(entity).insert(Failed(Arc::new(e)));
@@ -121,7 +157,10 @@ pub fn start_stepping(
 /// Proposes one spline step (Eq. 6) of fraction `t` for every stepping chart.
 pub fn step_constraints(
     mut commands: Commands,
-    mut charts: Query<(Entity, &Layout, &mut Stepping, &mut Timings), (Without<Candidate>, Without<Failed>)>,
+    mut charts: Query<
+        (Entity, &Layout, &mut Stepping, &mut Timings),
+        (Without<Candidate>, Without<Failed>),
+    >,
 ) {
     for (entity, layout, mut stepping, mut times) in &mut charts {
         if !stepping.state.is_stepping() {
@@ -142,7 +181,15 @@ pub fn step_constraints(
 /// its orientation (Eq. 3, exactly); otherwise halves the step.
 pub fn guard_foldovers(
     mut commands: Commands,
-    mut charts: Query<(Entity, &SolveJob, &ChartData, &mut Layout, &mut Stepping, &Candidate, &mut Timings)>,
+    mut charts: Query<(
+        Entity,
+        &SolveJob,
+        &ChartData,
+        &mut Layout,
+        &mut Stepping,
+        &Candidate,
+        &mut Timings,
+    )>,
 ) {
     for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
         let t0 = Instant::now();
@@ -164,7 +211,16 @@ pub fn guard_foldovers(
 pub fn finish_solve(
     mut commands: Commands,
     charts: Query<
-        (Entity, &SolveJob, &ChartData, &BoundaryLayout, &Step1Layout, &Layout, &Stepping, &Timings),
+        (
+            Entity,
+            &SolveJob,
+            &ChartData,
+            &BoundaryLayout,
+            &Step1Layout,
+            &Layout,
+            &Stepping,
+            &Timings,
+        ),
         (Without<Finished>, Without<Candidate>, Without<Failed>),
     >,
 ) {
@@ -189,7 +245,17 @@ pub fn finish_solve(
 /// Checks the layout exactly as it will be stored and writes the file atomically.
 pub fn export_layout(
     mut commands: Commands,
-    mut charts: Query<(Entity, &SolveJob, &ChartData, &Layout, &Finished, &mut Timings), Without<Exported>>,
+    mut charts: Query<
+        (
+            Entity,
+            &SolveJob,
+            &ChartData,
+            &Layout,
+            &Finished,
+            &mut Timings,
+        ),
+        Without<Exported>,
+    >,
 ) {
     for (entity, job, data, layout, finished, mut times) in &mut charts {
         let t0 = Instant::now();
@@ -199,8 +265,12 @@ pub fn export_layout(
         if !written.is_clean() {
             report.status = report::Status::Error;
             report.message = Some(format!(
-                "internal error: the layout rounded to f32 has {} flipped and {} zero-area triangles; nothing written",
-                written.flipped, written.zero_area
+                "the layout is fold-free in double precision, but {} triangles would be flipped and {} zero-area once stored \
+                 as f32 texture coordinates (thin parts of the chart are squeezed against the square's sides; smallest triangle \
+                 area {:.1e} of the texture); nothing written",
+                written.flipped,
+                written.zero_area,
+                crate::guard::smallest_area(&layout.0, &data.0.filled.mesh.triangles)
             ));
         } else if let Some(out) = &job.output {
             let uvs = chart::assemble_uvs(&job.asset, &data.0, &layout.0);

@@ -15,8 +15,15 @@ pub enum GlbError {
     Version(u32),
     #[error("GLB truncated: header says {declared} bytes, file has {actual}")]
     Truncated { declared: usize, actual: usize },
-    #[error("GLB chunk {index} at byte {offset}: length {length} runs past the end of the file ({file_len} bytes)")]
-    BadChunkLength { index: usize, offset: usize, length: usize, file_len: usize },
+    #[error(
+        "GLB chunk {index} at byte {offset}: length {length} runs past the end of the file ({file_len} bytes)"
+    )]
+    BadChunkLength {
+        index: usize,
+        offset: usize,
+        length: usize,
+        file_len: usize,
+    },
     #[error("GLB: the first chunk must be JSON")]
     NoJson,
 }
@@ -29,13 +36,17 @@ pub struct Glb<'a> {
 }
 
 fn u32_at(b: &[u8], at: usize) -> Option<u32> {
-    b.get(at..at + 4).map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+    b.get(at..at + 4)
+        .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
 }
 
 /// Splits a GLB file into its chunks, checking every length.
 pub fn parse(bytes: &[u8]) -> Result<Glb<'_>, GlbError> {
     if bytes.len() < 12 {
-        return Err(GlbError::Truncated { declared: 12, actual: bytes.len() });
+        return Err(GlbError::Truncated {
+            declared: 12,
+            actual: bytes.len(),
+        });
     }
     let magic = [bytes[0], bytes[1], bytes[2], bytes[3]];
     if &magic != MAGIC {
@@ -47,7 +58,10 @@ pub fn parse(bytes: &[u8]) -> Result<Glb<'_>, GlbError> {
     }
     let declared = u32_at(bytes, 8).unwrap_or(0) as usize;
     if declared > bytes.len() {
-        return Err(GlbError::Truncated { declared, actual: bytes.len() });
+        return Err(GlbError::Truncated {
+            declared,
+            actual: bytes.len(),
+        });
     }
     let body = &bytes[..declared];
     let mut offset = 12;
@@ -57,7 +71,12 @@ pub fn parse(bytes: &[u8]) -> Result<Glb<'_>, GlbError> {
         let kind = u32_at(body, offset + 4).unwrap_or(0);
         let start = offset + 8;
         if start + length > body.len() {
-            return Err(GlbError::BadChunkLength { index: chunks.len(), offset, length, file_len: body.len() });
+            return Err(GlbError::BadChunkLength {
+                index: chunks.len(),
+                offset,
+                length,
+                file_len: body.len(),
+            });
         }
         chunks.push((kind, &body[start..start + length]));
         offset = start + length;
@@ -66,7 +85,11 @@ pub fn parse(bytes: &[u8]) -> Result<Glb<'_>, GlbError> {
         Some((CHUNK_JSON, data)) => *data,
         _ => return Err(GlbError::NoJson),
     };
-    let bin = chunks.iter().skip(1).find(|(k, _)| *k == CHUNK_BIN).map(|(_, d)| *d);
+    let bin = chunks
+        .iter()
+        .skip(1)
+        .find(|(k, _)| *k == CHUNK_BIN)
+        .map(|(_, d)| *d);
     Ok(Glb { json, bin })
 }
 
@@ -104,10 +127,16 @@ mod tests {
         let g = parse(&file).unwrap();
         assert!(g.json.starts_with(br#"{"asset""#));
         assert_eq!(&g.bin.unwrap()[..3], &[1, 2, 3]);
-        assert!(matches!(parse(&file[..file.len() - 4]), Err(GlbError::Truncated { .. })));
+        assert!(matches!(
+            parse(&file[..file.len() - 4]),
+            Err(GlbError::Truncated { .. })
+        ));
         let mut bad = file.clone();
         bad[12] = 0xFF; // JSON chunk length far too large
-        assert!(matches!(parse(&bad), Err(GlbError::BadChunkLength { index: 0, .. })));
+        assert!(matches!(
+            parse(&bad),
+            Err(GlbError::BadChunkLength { index: 0, .. })
+        ));
         assert!(matches!(parse(b"glTF"), Err(GlbError::Truncated { .. })));
     }
 }

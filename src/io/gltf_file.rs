@@ -27,31 +27,47 @@ pub(super) fn load(
     } else {
         (bytes.to_vec(), None)
     };
-    let json: Value = serde_json::from_slice(&json_bytes)
-        .map_err(|e| AssetError::Gltf { path: p(), message: format!("JSON: {e}") })?;
-    let document = gltf::Gltf::from_slice(bytes).map_err(|e| AssetError::Gltf { path: p(), message: e.to_string() })?.document;
+    let json: Value = serde_json::from_slice(&json_bytes).map_err(|e| AssetError::Gltf {
+        path: p(),
+        message: format!("JSON: {e}"),
+    })?;
+    let document = gltf::Gltf::from_slice(bytes)
+        .map_err(|e| AssetError::Gltf {
+            path: p(),
+            message: e.to_string(),
+        })?
+        .document;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(path, base, &document, bin.as_deref())?;
 
     let n_meshes = document.meshes().len();
     let mesh = match selector.unwrap_or(&MeshSelector::Index(0)) {
-        MeshSelector::Index(i) => document.meshes().nth(*i).ok_or_else(|| AssetError::MeshSelection {
-            path: p(),
-            message: if n_meshes == 0 {
-                "the file has no meshes".into()
-            } else {
-                format!("mesh {i} does not exist (the file has meshes 0..{n_meshes})")
-            },
-        })?,
-        MeshSelector::Name(name) => {
-            document.meshes().find(|m| m.name() == Some(name.as_str())).ok_or_else(|| AssetError::MeshSelection {
+        MeshSelector::Index(i) => {
+            document
+                .meshes()
+                .nth(*i)
+                .ok_or_else(|| AssetError::MeshSelection {
+                    path: p(),
+                    message: if n_meshes == 0 {
+                        "the file has no meshes".into()
+                    } else {
+                        format!("mesh {i} does not exist (the file has meshes 0..{n_meshes})")
+                    },
+                })?
+        }
+        MeshSelector::Name(name) => document
+            .meshes()
+            .find(|m| m.name() == Some(name.as_str()))
+            .ok_or_else(|| AssetError::MeshSelection {
                 path: p(),
                 message: format!(
                     "no mesh named {name:?} (names: {:?})",
-                    document.meshes().map(|m| m.name().unwrap_or("").to_string()).collect::<Vec<_>>()
+                    document
+                        .meshes()
+                        .map(|m| m.name().unwrap_or("").to_string())
+                        .collect::<Vec<_>>()
                 ),
-            })?
-        }
+            })?,
     };
     let mesh_index = mesh.index();
     let mut primitives = Vec::new();
@@ -65,33 +81,74 @@ pub(super) fn load(
                 mode: format!("{:?}", prim.mode()).to_uppercase(),
             });
         }
-        let perr = |message: String| AssetError::Primitive { path: p(), mesh: mesh_index, primitive: pi, message };
+        let perr = |message: String| AssetError::Primitive {
+            path: p(),
+            mesh: mesh_index,
+            primitive: pi,
+            message,
+        };
         let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-        let positions: Vec<[f32; 3]> =
-            reader.read_positions().ok_or_else(|| perr("no POSITION attribute".into()))?.collect();
-        if let Some((vertex, position)) = positions.iter().enumerate().find(|(_, q)| q.iter().any(|x| !x.is_finite())) {
-            return Err(AssetError::NonFinitePosition { path: p(), mesh: mesh_index, primitive: pi, vertex, position: *position });
+        let positions: Vec<[f32; 3]> = reader
+            .read_positions()
+            .ok_or_else(|| perr("no POSITION attribute".into()))?
+            .collect();
+        if let Some((vertex, position)) = positions
+            .iter()
+            .enumerate()
+            .find(|(_, q)| q.iter().any(|x| !x.is_finite()))
+        {
+            return Err(AssetError::NonFinitePosition {
+                path: p(),
+                mesh: mesh_index,
+                primitive: pi,
+                vertex,
+                position: *position,
+            });
         }
         let indices: Vec<u32> = match reader.read_indices() {
             Some(i) => i.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),
         };
         if indices.len() % 3 != 0 {
-            return Err(perr(format!("{} indices is not a whole number of triangles", indices.len())));
+            return Err(perr(format!(
+                "{} indices is not a whole number of triangles",
+                indices.len()
+            )));
         }
-        if let Some((k, &i)) = indices.iter().enumerate().find(|(_, i)| **i as usize >= positions.len()) {
-            return Err(perr(format!("index {k} is {i}, but the primitive has {} vertices", positions.len())));
+        if let Some((k, &i)) = indices
+            .iter()
+            .enumerate()
+            .find(|(_, i)| **i as usize >= positions.len())
+        {
+            return Err(perr(format!(
+                "index {k} is {i}, but the primitive has {} vertices",
+                positions.len()
+            )));
         }
-        let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(uv_set).map(|t| t.into_f32().collect());
+        let uvs: Option<Vec<[f32; 2]>> = reader
+            .read_tex_coords(uv_set)
+            .map(|t| t.into_f32().collect());
         if let Some(u) = &uvs
             && u.len() != positions.len()
         {
-            return Err(perr(format!("TEXCOORD_{uv_set} has {} entries for {} vertices", u.len(), positions.len())));
+            return Err(perr(format!(
+                "TEXCOORD_{uv_set} has {} entries for {} vertices",
+                u.len(),
+                positions.len()
+            )));
         }
-        primitives.push(PrimitiveGeometry { index: pi, positions, indices, uvs });
+        primitives.push(PrimitiveGeometry {
+            index: pi,
+            positions,
+            indices,
+            uvs,
+        });
     }
     if primitives.is_empty() {
-        return Err(AssetError::MeshSelection { path: p(), message: format!("mesh {mesh_index} has no primitives") });
+        return Err(AssetError::MeshSelection {
+            path: p(),
+            message: format!("mesh {mesh_index} has no primitives"),
+        });
     }
     Ok(SourceAsset {
         path: p(),
@@ -113,13 +170,23 @@ fn load_buffers(
 ) -> Result<Vec<Vec<u8>>, AssetError> {
     let mut out = Vec::new();
     for buffer in document.buffers() {
-        let err = |message: String| AssetError::Buffer { path: path.to_path_buf(), buffer: buffer.index(), message };
+        let err = |message: String| AssetError::Buffer {
+            path: path.to_path_buf(),
+            buffer: buffer.index(),
+            message,
+        };
         let data = match buffer.source() {
-            gltf::buffer::Source::Bin => bin.ok_or_else(|| err("refers to the GLB BIN chunk, but there is none".into()))?.to_vec(),
+            gltf::buffer::Source::Bin => bin
+                .ok_or_else(|| err("refers to the GLB BIN chunk, but there is none".into()))?
+                .to_vec(),
             gltf::buffer::Source::Uri(uri) => read_uri(base, uri).map_err(err)?,
         };
         if data.len() < buffer.length() {
-            return Err(err(format!("has {} bytes, but byteLength is {}", data.len(), buffer.length())));
+            return Err(err(format!(
+                "has {} bytes, but byteLength is {}",
+                data.len(),
+                buffer.length()
+            )));
         }
         out.push(data);
     }
@@ -129,8 +196,12 @@ fn load_buffers(
 /// Bytes of a buffer URI: a base64 data URI or a file relative to `base`.
 fn read_uri(base: &Path, uri: &str) -> Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, data) = rest.split_once(";base64,").ok_or("data URI without ;base64,")?;
-        return base64::engine::general_purpose::STANDARD.decode(data).map_err(|e| format!("bad base64: {e}"));
+        let (_, data) = rest
+            .split_once(";base64,")
+            .ok_or("data URI without ;base64,")?;
+        return base64::engine::general_purpose::STANDARD
+            .decode(data)
+            .map_err(|e| format!("bad base64: {e}"));
     }
     let file = base.join(percent_decode(uri));
     std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))
@@ -143,7 +214,8 @@ fn percent_decode(s: &str) -> String {
     while i < b.len() {
         if b[i] == b'%'
             && i + 2 < b.len()
-            && let Ok(v) = u8::from_str_radix(std::str::from_utf8(&b[i + 1..i + 3]).unwrap_or("zz"), 16)
+            && let Ok(v) =
+                u8::from_str_radix(std::str::from_utf8(&b[i + 1..i + 3]).unwrap_or("zz"), 16)
         {
             out.push(v);
             i += 3;
@@ -174,12 +246,17 @@ fn relative_path(from: &Path, to: &Path) -> PathBuf {
 }
 
 fn absolute_dir(p: &Path) -> PathBuf {
-    let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = p
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf())
 }
 
 fn f32_bytes(uvs: &[[f32; 2]]) -> Vec<u8> {
-    uvs.iter().flat_map(|uv| uv.iter().flat_map(|x| x.to_le_bytes())).collect()
+    uvs.iter()
+        .flat_map(|uv| uv.iter().flat_map(|x| x.to_le_bytes()))
+        .collect()
 }
 
 fn pad4(blob: &mut Vec<u8>) {
@@ -231,9 +308,20 @@ fn push_uv_accessor(json: &mut Value, buffer: usize, offset: usize, uvs: &[[f32;
 /// Writes `asset` with `uvs` (one list per primitive of `asset.primitives`, in
 /// glTF texture coordinates) as its TEXCOORD_`uv_set`, to `out` (.glb for a
 /// .glb asset, .gltf + `<stem>.uvpin.bin` for a .gltf asset). Atomic.
-pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<(), AssetError> {
-    let werr = |message: String| AssetError::Write { path: out.to_path_buf(), message };
-    let Container::Gltf { json: original, bin } = &asset.container else {
+pub fn write_with_uvs(
+    asset: &SourceAsset,
+    uvs: &[Vec<[f32; 2]>],
+    out: &Path,
+) -> Result<(), AssetError> {
+    let werr = |message: String| AssetError::Write {
+        path: out.to_path_buf(),
+        message,
+    };
+    let Container::Gltf {
+        json: original,
+        bin,
+    } = &asset.container
+    else {
         return Err(werr("not a glTF asset".into()));
     };
     let out_format = AssetFormat::of(out);
@@ -250,7 +338,8 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
     let mut json = original.clone();
     let attribute = format!("TEXCOORD_{}", asset.uv_set);
     let set_attribute = |json: &mut Value, prim: usize, accessor: usize| {
-        json["meshes"][asset.mesh_index]["primitives"][prim]["attributes"][attribute.as_str()] = json!(accessor);
+        json["meshes"][asset.mesh_index]["primitives"][prim]["attributes"][attribute.as_str()] =
+            json!(accessor);
     };
     match asset.format {
         AssetFormat::Glb => {
@@ -265,7 +354,11 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
                     }
                 }
             }
-            let mut blob = if uses_bin { bin.clone().unwrap_or_default() } else { Vec::new() };
+            let mut blob = if uses_bin {
+                bin.clone().unwrap_or_default()
+            } else {
+                Vec::new()
+            };
             for (prim, prim_uvs) in asset.primitives.iter().zip(uvs) {
                 pad4(&mut blob);
                 let offset = blob.len();
@@ -276,7 +369,8 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
             pad4(&mut blob);
             json["buffers"][0]["byteLength"] = json!(blob.len());
             let text = serde_json::to_vec(&json).map_err(|e| werr(e.to_string()))?;
-            atomic::write_atomically(out, &glb::build(&text, Some(&blob))).map_err(|e| werr(e.to_string()))
+            atomic::write_atomically(out, &glb::build(&text, Some(&blob)))
+                .map_err(|e| werr(e.to_string()))
         }
         AssetFormat::Gltf => {
             let (in_dir, out_dir) = (absolute_dir(&asset.path), absolute_dir(out));
@@ -284,7 +378,10 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
             let mut referenced: Vec<PathBuf> = Vec::new();
             for key in ["buffers", "images"] {
                 for item in array(&mut json, key) {
-                    let Some(uri) = item.get("uri").and_then(Value::as_str).map(str::to_string) else { continue };
+                    let Some(uri) = item.get("uri").and_then(Value::as_str).map(str::to_string)
+                    else {
+                        continue;
+                    };
                     if uri.starts_with("data:") || uri.contains("://") {
                         continue;
                     }
@@ -296,7 +393,10 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
                     }
                 }
             }
-            let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+            let stem = out
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "out".into());
             let mut bin_name = format!("{stem}.uvpin.bin");
             let mut k = 1;
             while referenced.iter().any(|r| *r == out_dir.join(&bin_name)) {
@@ -312,10 +412,12 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
                 let acc = push_uv_accessor(&mut json, buffer, offset, prim_uvs);
                 set_attribute(&mut json, prim.index, acc);
             }
-            array(&mut json, "buffers").push(json!({ "uri": percent_encode_path(&bin_name), "byteLength": blob.len() }));
+            array(&mut json, "buffers")
+                .push(json!({ "uri": percent_encode_path(&bin_name), "byteLength": blob.len() }));
             let text = serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?;
             let bin_path = out.with_file_name(&bin_name);
-            atomic::write_atomically(&bin_path, &blob).map_err(|e| werr(format!("{}: {e}", bin_path.display())))?;
+            atomic::write_atomically(&bin_path, &blob)
+                .map_err(|e| werr(format!("{}: {e}", bin_path.display())))?;
             atomic::write_atomically(out, &text).map_err(|e| werr(e.to_string()))
         }
         AssetFormat::Obj => unreachable!("checked above"),
@@ -325,8 +427,16 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
 /// A fresh glTF document holding one mesh (positions, indices, optional
 /// TEXCOORD_0): JSON and the binary buffer. Used for OBJ → glTF and to make
 /// the sample asset.
-pub fn new_document(positions: &[[f32; 3]], indices: &[u32], uvs: Option<&[[f32; 2]]>, name: &str) -> (Value, Vec<u8>) {
-    let mut blob: Vec<u8> = positions.iter().flat_map(|p| p.iter().flat_map(|x| x.to_le_bytes())).collect();
+pub fn new_document(
+    positions: &[[f32; 3]],
+    indices: &[u32],
+    uvs: Option<&[[f32; 2]]>,
+    name: &str,
+) -> (Value, Vec<u8>) {
+    let mut blob: Vec<u8> = positions
+        .iter()
+        .flat_map(|p| p.iter().flat_map(|x| x.to_le_bytes()))
+        .collect();
     let pos_len = blob.len();
     blob.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
     let (mut min, mut max) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
@@ -366,9 +476,15 @@ pub fn new_document(positions: &[[f32; 3]], indices: &[u32], uvs: Option<&[[f32;
 
 /// Writes a fresh document as .glb, or as .gltf with an embedded data URI.
 pub fn write_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<(), AssetError> {
-    let werr = |message: String| AssetError::Write { path: out.to_path_buf(), message };
+    let werr = |message: String| AssetError::Write {
+        path: out.to_path_buf(),
+        message,
+    };
     let bytes = match AssetFormat::of(out) {
-        Some(AssetFormat::Glb) => glb::build(&serde_json::to_vec(json).map_err(|e| werr(e.to_string()))?, Some(blob)),
+        Some(AssetFormat::Glb) => glb::build(
+            &serde_json::to_vec(json).map_err(|e| werr(e.to_string()))?,
+            Some(blob),
+        ),
         Some(AssetFormat::Gltf) => {
             let mut json = json.clone();
             json["buffers"][0]["uri"] = json!(format!(
@@ -377,22 +493,38 @@ pub fn write_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<(), A
             ));
             serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?
         }
-        _ => return Err(werr("a new glTF document must be written as .glb or .gltf".into())),
+        _ => {
+            return Err(werr(
+                "a new glTF document must be written as .glb or .gltf".into(),
+            ));
+        }
     };
     atomic::write_atomically(out, &bytes).map_err(|e| werr(e.to_string()))
 }
 
 /// Writes the asset with new UVs in whatever form `out` asks for: the same
 /// type as the input (everything else kept), or .glb/.gltf from an OBJ.
-pub fn write_asset(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<(), AssetError> {
+pub fn write_asset(
+    asset: &SourceAsset,
+    uvs: &[Vec<[f32; 2]>],
+    out: &Path,
+) -> Result<(), AssetError> {
     match (&asset.container, AssetFormat::of(out)) {
         (Container::Obj { text }, Some(AssetFormat::Obj)) => {
-            atomic::write_atomically(out, super::obj::with_uvs(text, &uvs[0]).as_bytes())
-                .map_err(|e| AssetError::Write { path: out.to_path_buf(), message: e.to_string() })
+            atomic::write_atomically(out, super::obj::with_uvs(text, &uvs[0]).as_bytes()).map_err(
+                |e| AssetError::Write {
+                    path: out.to_path_buf(),
+                    message: e.to_string(),
+                },
+            )
         }
         (Container::Obj { .. }, Some(AssetFormat::Glb | AssetFormat::Gltf)) => {
             let prim = &asset.primitives[0];
-            let name = asset.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            let name = asset
+                .path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
             let (json, blob) = new_document(&prim.positions, &prim.indices, Some(&uvs[0]), &name);
             write_new_document(&json, &blob, out)
         }

@@ -15,25 +15,59 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum AssetError {
     #[error("{path}: cannot read: {source}")]
-    Read { path: PathBuf, source: std::io::Error },
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}: unsupported file type (use .glb, .gltf or .obj)")]
     UnknownFormat { path: PathBuf },
     #[error("{path}: corrupt GLB: {source}")]
-    Glb { path: PathBuf, source: glb::GlbError },
+    Glb {
+        path: PathBuf,
+        source: glb::GlbError,
+    },
     #[error("{path}: invalid glTF: {message}")]
     Gltf { path: PathBuf, message: String },
     #[error("{path}: buffer {buffer}: {message}")]
-    Buffer { path: PathBuf, buffer: usize, message: String },
+    Buffer {
+        path: PathBuf,
+        buffer: usize,
+        message: String,
+    },
     #[error("{path}: {message}")]
     MeshSelection { path: PathBuf, message: String },
-    #[error("{path}: mesh {mesh} primitive {primitive} has mode {mode}; only TRIANGLES primitives can be parameterised")]
-    NonTrianglePrimitive { path: PathBuf, mesh: usize, primitive: usize, mode: String },
+    #[error(
+        "{path}: mesh {mesh} primitive {primitive} has mode {mode}; only TRIANGLES primitives can be parameterised"
+    )]
+    NonTrianglePrimitive {
+        path: PathBuf,
+        mesh: usize,
+        primitive: usize,
+        mode: String,
+    },
     #[error("{path}: mesh {mesh} primitive {primitive}: {message}")]
-    Primitive { path: PathBuf, mesh: usize, primitive: usize, message: String },
-    #[error("{path}: mesh {mesh} primitive {primitive} vertex {vertex}: position {position:?} is not finite")]
-    NonFinitePosition { path: PathBuf, mesh: usize, primitive: usize, vertex: usize, position: [f32; 3] },
+    Primitive {
+        path: PathBuf,
+        mesh: usize,
+        primitive: usize,
+        message: String,
+    },
+    #[error(
+        "{path}: mesh {mesh} primitive {primitive} vertex {vertex}: position {position:?} is not finite"
+    )]
+    NonFinitePosition {
+        path: PathBuf,
+        mesh: usize,
+        primitive: usize,
+        vertex: usize,
+        position: [f32; 3],
+    },
     #[error("{path}:{line}: {message}")]
-    Obj { path: PathBuf, line: usize, message: String },
+    Obj {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
     #[error("{path}: cannot write: {message}")]
     Write { path: PathBuf, message: String },
 }
@@ -93,9 +127,18 @@ pub struct SourceAsset {
 /// Unreadable or corrupt files (truncated GLB, bad chunk lengths, invalid
 /// JSON, missing buffers), a mesh that does not exist, non-TRIANGLES
 /// primitives, non-finite positions, indices out of range.
-pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Result<SourceAsset, AssetError> {
-    let format = AssetFormat::of(path).ok_or_else(|| AssetError::UnknownFormat { path: path.to_path_buf() })?;
-    let bytes = std::fs::read(path).map_err(|source| AssetError::Read { path: path.to_path_buf(), source })?;
+pub fn load_asset(
+    path: &Path,
+    mesh: Option<&MeshSelector>,
+    uv_set: u32,
+) -> Result<SourceAsset, AssetError> {
+    let format = AssetFormat::of(path).ok_or_else(|| AssetError::UnknownFormat {
+        path: path.to_path_buf(),
+    })?;
+    let bytes = std::fs::read(path).map_err(|source| AssetError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
     match format {
         AssetFormat::Obj => {
             let text = String::from_utf8_lossy(&bytes).into_owned();
@@ -134,12 +177,19 @@ impl SourceAsset {
             mesh_name: None,
             primitives: vec![PrimitiveGeometry {
                 index: 0,
-                positions: mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect(),
+                positions: mesh
+                    .positions
+                    .iter()
+                    .map(|p| p.as_vec3().to_array())
+                    .collect(),
                 indices: mesh.triangles.iter().flatten().copied().collect(),
                 uvs: None,
             }],
             uv_set: 0,
-            container: Container::Gltf { json: serde_json::Value::Null, bin: None },
+            container: Container::Gltf {
+                json: serde_json::Value::Null,
+                bin: None,
+            },
             n_meshes: 1,
         }
     }

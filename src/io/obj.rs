@@ -10,31 +10,60 @@ use std::path::Path;
 pub fn parse(path: &Path, text: &str) -> Result<PrimitiveGeometry, AssetError> {
     let mut positions = Vec::new();
     let mut indices = Vec::new();
-    let err = |line: usize, message: String| AssetError::Obj { path: path.to_path_buf(), line, message };
+    let err = |line: usize, message: String| AssetError::Obj {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
     for (ln, line) in text.lines().enumerate() {
         let ln = ln + 1;
         let mut parts = line.split_whitespace();
         match parts.next() {
             Some("v") => {
-                let xyz: Vec<f32> = parts.take(3).map(|s| s.parse::<f32>()).collect::<Result<_, _>>().map_err(|e| err(ln, format!("bad vertex: {e}")))?;
+                let xyz: Vec<f32> = parts
+                    .take(3)
+                    .map(|s| s.parse::<f32>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|e| err(ln, format!("bad vertex: {e}")))?;
                 if xyz.len() != 3 {
                     return Err(err(ln, "a vertex needs x y z".into()));
                 }
                 if xyz.iter().any(|x| !x.is_finite()) {
-                    return Err(err(ln, format!("vertex {} has a non-finite coordinate", positions.len())));
+                    return Err(err(
+                        ln,
+                        format!("vertex {} has a non-finite coordinate", positions.len()),
+                    ));
                 }
                 positions.push([xyz[0], xyz[1], xyz[2]]);
             }
             Some("f") => {
                 let corners: Vec<&str> = parts.collect();
                 if corners.len() != 3 {
-                    return Err(err(ln, format!("face with {} corners: only triangles are supported", corners.len())));
+                    return Err(err(
+                        ln,
+                        format!(
+                            "face with {} corners: only triangles are supported",
+                            corners.len()
+                        ),
+                    ));
                 }
                 for c in corners {
-                    let v: i64 = c.split('/').next().unwrap_or("").parse().map_err(|e| err(ln, format!("bad face index {c:?}: {e}")))?;
-                    let idx = if v > 0 { v - 1 } else { positions.len() as i64 + v };
+                    let v: i64 = c
+                        .split('/')
+                        .next()
+                        .unwrap_or("")
+                        .parse()
+                        .map_err(|e| err(ln, format!("bad face index {c:?}: {e}")))?;
+                    let idx = if v > 0 {
+                        v - 1
+                    } else {
+                        positions.len() as i64 + v
+                    };
                     if idx < 0 || idx as usize >= positions.len() {
-                        return Err(err(ln, format!("face index {v} out of range (1..={})", positions.len())));
+                        return Err(err(
+                            ln,
+                            format!("face index {v} out of range (1..={})", positions.len()),
+                        ));
                     }
                     indices.push(idx as u32);
                 }
@@ -45,13 +74,20 @@ pub fn parse(path: &Path, text: &str) -> Result<PrimitiveGeometry, AssetError> {
     if indices.is_empty() {
         return Err(err(0, "no triangles".into()));
     }
-    Ok(PrimitiveGeometry { index: 0, positions, indices, uvs: None })
+    Ok(PrimitiveGeometry {
+        index: 0,
+        positions,
+        indices,
+        uvs: None,
+    })
 }
 
 /// The OBJ text with `uvs` (one per `v`) as `vt` lines and faces pointing at them.
 pub fn with_uvs(text: &str, uvs: &[[f32; 2]]) -> String {
     let lines: Vec<&str> = text.lines().collect();
-    let last_v = lines.iter().rposition(|l| l.split_whitespace().next() == Some("v"));
+    let last_v = lines
+        .iter()
+        .rposition(|l| l.split_whitespace().next() == Some("v"));
     let mut out = String::with_capacity(text.len() + uvs.len() * 24);
     let mut n_v = 0i64;
     for (i, line) in lines.iter().enumerate() {

@@ -10,20 +10,51 @@ use thiserror::Error;
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum TopologyError {
     #[error("triangle {triangle} repeats a vertex ({a}, {b}, {c}): it has no area in any layout")]
-    DegenerateTriangle { triangle: usize, a: u32, b: u32, c: u32 },
-    #[error("triangle {triangle} refers to vertex {vertex}, but the chart has only {n_vertices} vertices")]
-    VertexOutOfRange { triangle: usize, vertex: u32, n_vertices: usize },
-    #[error("non-manifold edge ({a}, {b}): shared by {n_triangles} triangles (at most 2 allowed), e.g. triangles {triangles:?}")]
-    NonManifoldEdge { a: u32, b: u32, n_triangles: usize, triangles: Vec<usize> },
-    #[error("edge ({a}, {b}) is used in the same direction by triangles {t0} and {t1}: their windings disagree (the surface is not consistently oriented)")]
-    InconsistentOrientation { a: u32, b: u32, t0: usize, t1: usize },
+    DegenerateTriangle {
+        triangle: usize,
+        a: u32,
+        b: u32,
+        c: u32,
+    },
+    #[error(
+        "triangle {triangle} refers to vertex {vertex}, but the chart has only {n_vertices} vertices"
+    )]
+    VertexOutOfRange {
+        triangle: usize,
+        vertex: u32,
+        n_vertices: usize,
+    },
+    #[error(
+        "non-manifold edge ({a}, {b}): shared by {n_triangles} triangles (at most 2 allowed), e.g. triangles {triangles:?}"
+    )]
+    NonManifoldEdge {
+        a: u32,
+        b: u32,
+        n_triangles: usize,
+        triangles: Vec<usize>,
+    },
+    #[error(
+        "edge ({a}, {b}) is used in the same direction by triangles {t0} and {t1}: their windings disagree (the surface is not consistently oriented)"
+    )]
+    InconsistentOrientation {
+        a: u32,
+        b: u32,
+        t0: usize,
+        t1: usize,
+    },
     #[error("non-manifold vertex {vertex}: its triangles form {n_fans} separate fans (a bow-tie)")]
     NonManifoldVertex { vertex: u32, n_fans: usize },
-    #[error("the chart is closed (no boundary edges): cut it open so it has a boundary to map onto the square")]
+    #[error(
+        "the chart is closed (no boundary edges): cut it open so it has a boundary to map onto the square"
+    )]
     Closed,
-    #[error("the chart is not a disk: genus {genus} with {n_loops} boundary loops; cut handles open first")]
+    #[error(
+        "the chart is not a disk: genus {genus} with {n_loops} boundary loops; cut handles open first"
+    )]
     NotADisk { genus: i64, n_loops: usize },
-    #[error("the outer boundary has only {n} vertices; at least 4 are needed for the square's corners")]
+    #[error(
+        "the outer boundary has only {n} vertices; at least 4 are needed for the square's corners"
+    )]
     TooFewBoundaryVertices { n: usize },
     #[error("the chart has no triangles")]
     Empty,
@@ -62,11 +93,20 @@ impl Topology {
             let [a, b, c] = *tri;
             for &v in tri {
                 if v as usize >= n {
-                    return Err(TopologyError::VertexOutOfRange { triangle: t, vertex: v, n_vertices: n });
+                    return Err(TopologyError::VertexOutOfRange {
+                        triangle: t,
+                        vertex: v,
+                        n_vertices: n,
+                    });
                 }
             }
             if a == b || b == c || a == c {
-                return Err(TopologyError::DegenerateTriangle { triangle: t, a, b, c });
+                return Err(TopologyError::DegenerateTriangle {
+                    triangle: t,
+                    a,
+                    b,
+                    c,
+                });
             }
         }
         // Directed half-edges a → b grouped by their source a (compressed rows
@@ -100,7 +140,10 @@ impl Topology {
         let mut fans = UnionFind::new(n_half);
         let corner = |t: u32, v: u32| -> usize {
             let tri = mesh.triangles[t as usize];
-            let k = tri.iter().position(|&x| x == v).expect("vertex of triangle");
+            let k = tri
+                .iter()
+                .position(|&x| x == v)
+                .expect("vertex of triangle");
             t as usize * 3 + k
         };
         for (t, tri) in mesh.triangles.iter().enumerate() {
@@ -126,13 +169,25 @@ impl Topology {
                     });
                 }
                 if n_same > 1 {
-                    let other = row(a).iter().find(|h| h.0 == b && h.1 as usize != t).expect("two triangles").1;
-                    return Err(TopologyError::InconsistentOrientation { a, b, t0: t, t1: other as usize });
+                    let other = row(a)
+                        .iter()
+                        .find(|h| h.0 == b && h.1 as usize != t)
+                        .expect("two triangles")
+                        .1;
+                    return Err(TopologyError::InconsistentOrientation {
+                        a,
+                        b,
+                        t0: t,
+                        t1: other as usize,
+                    });
                 }
                 match twin {
                     None => {
                         if boundary_next[a as usize] != u32::MAX {
-                            return Err(TopologyError::NonManifoldVertex { vertex: a, n_fans: 2 });
+                            return Err(TopologyError::NonManifoldVertex {
+                                vertex: a,
+                                n_fans: 2,
+                            });
                         }
                         boundary_next[a as usize] = b;
                         edges.push([a.min(b), a.max(b)]);
@@ -157,7 +212,10 @@ impl Topology {
                 if *slot == u32::MAX {
                     *slot = root;
                 } else if *slot != root {
-                    return Err(TopologyError::NonManifoldVertex { vertex: v, n_fans: 2 });
+                    return Err(TopologyError::NonManifoldVertex {
+                        vertex: v,
+                        n_fans: 2,
+                    });
                 }
             }
         }
@@ -190,12 +248,23 @@ impl Topology {
         let chi = used - edges.len() as i64 + mesh.triangles.len() as i64;
         let genus2 = 2 - loops.len() as i64 - chi;
         if genus2 != 0 {
-            return Err(TopologyError::NotADisk { genus: genus2 / 2, n_loops: loops.len() });
+            return Err(TopologyError::NotADisk {
+                genus: genus2 / 2,
+                n_loops: loops.len(),
+            });
         }
         if loops[outer].len() < 4 {
-            return Err(TopologyError::TooFewBoundaryVertices { n: loops[outer].len() });
+            return Err(TopologyError::TooFewBoundaryVertices {
+                n: loops[outer].len(),
+            });
         }
-        Ok(Topology { loops, outer, loop_lengths, edges, edge_is_boundary })
+        Ok(Topology {
+            loops,
+            outer,
+            loop_lengths,
+            edges,
+            edge_is_boundary,
+        })
     }
 
     /// The outer boundary loop (longest in 3D).
@@ -205,14 +274,20 @@ impl Topology {
 
     /// The inner loops (holes), in loop order.
     pub fn holes(&self) -> impl Iterator<Item = &Vec<u32>> {
-        self.loops.iter().enumerate().filter(move |(i, _)| *i != self.outer).map(|(_, l)| l)
+        self.loops
+            .iter()
+            .enumerate()
+            .filter(move |(i, _)| *i != self.outer)
+            .map(|(_, l)| l)
     }
 }
 
 /// 3D length of a closed vertex loop.
 pub fn loop_length(mesh: &TriMesh, lp: &[u32]) -> f64 {
     (0..lp.len())
-        .map(|i| mesh.positions[lp[i] as usize].distance(mesh.positions[lp[(i + 1) % lp.len()] as usize]))
+        .map(|i| {
+            mesh.positions[lp[i] as usize].distance(mesh.positions[lp[(i + 1) % lp.len()] as usize])
+        })
         .sum()
 }
 
@@ -225,7 +300,10 @@ pub struct UnionFind {
 
 impl UnionFind {
     pub fn new(n: usize) -> Self {
-        UnionFind { parent: (0..n as u32).collect(), size: vec![1; n] }
+        UnionFind {
+            parent: (0..n as u32).collect(),
+            size: vec![1; n],
+        }
     }
     pub fn find(&mut self, mut x: usize) -> usize {
         while self.parent[x] as usize != x {
@@ -279,7 +357,12 @@ mod tests {
             triangles: vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]],
         };
         match Topology::build(&mesh).unwrap_err() {
-            TopologyError::NonManifoldEdge { a: 0, b: 1, n_triangles: 3, .. } => {}
+            TopologyError::NonManifoldEdge {
+                a: 0,
+                b: 1,
+                n_triangles: 3,
+                ..
+            } => {}
             e => panic!("unexpected {e:?}"),
         }
     }
@@ -290,7 +373,10 @@ mod tests {
             positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1.0, 1.0, 0.0)],
             triangles: vec![[0, 1, 2], [1, 2, 3]],
         };
-        assert!(matches!(Topology::build(&mesh).unwrap_err(), TopologyError::InconsistentOrientation { .. }));
+        assert!(matches!(
+            Topology::build(&mesh).unwrap_err(),
+            TopologyError::InconsistentOrientation { .. }
+        ));
     }
 
     #[test]
@@ -305,7 +391,10 @@ mod tests {
             ],
             triangles: vec![[0, 1, 2], [0, 3, 4]],
         };
-        assert!(matches!(Topology::build(&mesh).unwrap_err(), TopologyError::NonManifoldVertex { vertex: 0, .. }));
+        assert!(matches!(
+            Topology::build(&mesh).unwrap_err(),
+            TopologyError::NonManifoldVertex { vertex: 0, .. }
+        ));
     }
 
     #[test]

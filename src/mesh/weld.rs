@@ -81,7 +81,8 @@ fn weld_key(p: [f32; 3], uv: Option<[f32; 2]>) -> WeldKey {
 /// Inputs must already be validated (finite positions, indices in range).
 pub fn weld(primitives: &[PrimitiveGeometry]) -> WeldedMesh {
     let n_total: usize = primitives.iter().map(|p| p.positions.len()).sum();
-    let mut ids: FxHashMap<WeldKey, u32> = FxHashMap::with_capacity_and_hasher(n_total, Default::default());
+    let mut ids: FxHashMap<WeldKey, u32> =
+        FxHashMap::with_capacity_and_hasher(n_total, Default::default());
     let mut positions = Vec::new();
     let mut vertex_of = Vec::with_capacity(primitives.len());
     let mut triangles = Vec::new();
@@ -118,7 +119,15 @@ pub fn weld(primitives: &[PrimitiveGeometry]) -> WeldedMesh {
             chart_of_vertex[v as usize] = Some(c);
         }
     }
-    WeldedMesh { n_charts: n_charts as usize, mesh: TriMesh { positions, triangles }, vertex_of, chart_of_vertex }
+    WeldedMesh {
+        n_charts: n_charts as usize,
+        mesh: TriMesh {
+            positions,
+            triangles,
+        },
+        vertex_of,
+        chart_of_vertex,
+    }
 }
 
 impl WeldedMesh {
@@ -132,7 +141,10 @@ impl WeldedMesh {
                 welded_ids.push(v as u32);
             }
         }
-        let positions = welded_ids.iter().map(|&v| self.mesh.positions[v as usize]).collect();
+        let positions = welded_ids
+            .iter()
+            .map(|&v| self.mesh.positions[v as usize])
+            .collect();
         let triangles = self
             .mesh
             .triangles
@@ -140,7 +152,15 @@ impl WeldedMesh {
             .filter(|t| self.chart_of_vertex[t[0] as usize] == Some(id))
             .map(|t| t.map(|v| local_of[v as usize].expect("same chart")))
             .collect();
-        Chart { id, mesh: TriMesh { positions, triangles }, welded_ids, local_of }
+        Chart {
+            id,
+            mesh: TriMesh {
+                positions,
+                triangles,
+            },
+            welded_ids,
+            local_of,
+        }
     }
 
     /// Number of triangles and vertices in each chart.
@@ -163,10 +183,15 @@ mod tests {
     use super::*;
 
     fn quad(offset: f32, uv: Option<f32>) -> PrimitiveGeometry {
-        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]
-            .into_iter()
-            .map(|p: [f32; 3]| [p[0] + offset, p[1], p[2]])
-            .collect();
+        let positions = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ]
+        .into_iter()
+        .map(|p: [f32; 3]| [p[0] + offset, p[1], p[2]])
+        .collect();
         PrimitiveGeometry {
             index: 0,
             positions,

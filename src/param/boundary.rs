@@ -17,18 +17,32 @@ use thiserror::Error;
 pub const CORNER_NAMES: [&str; 4] = ["top_left", "bottom_left", "bottom_right", "top_right"];
 
 /// Layout positions (x, y; y up) of the texture corners, same order as [`CORNER_NAMES`].
-pub const SQUARE_CORNERS: [DVec2; 4] =
-    [DVec2::new(0.0, 1.0), DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0)];
+pub const SQUARE_CORNERS: [DVec2; 4] = [
+    DVec2::new(0.0, 1.0),
+    DVec2::new(0.0, 0.0),
+    DVec2::new(1.0, 0.0),
+    DVec2::new(1.0, 1.0),
+];
 
 /// Relative outward bow of each side in the fallback shape.
 const BULGE: f64 = 0.02;
 
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum BoundaryError {
-    #[error("corner {corner}: vertex {vertex} is not on the outer boundary (the longest boundary loop, {n_loop} vertices)")]
-    CornerNotOnBoundary { corner: &'static str, vertex: u32, n_loop: usize },
+    #[error(
+        "corner {corner}: vertex {vertex} is not on the outer boundary (the longest boundary loop, {n_loop} vertices)"
+    )]
+    CornerNotOnBoundary {
+        corner: &'static str,
+        vertex: u32,
+        n_loop: usize,
+    },
     #[error("corners {first} and {second} are the same vertex {vertex}")]
-    RepeatedCorner { first: &'static str, second: &'static str, vertex: u32 },
+    RepeatedCorner {
+        first: &'static str,
+        second: &'static str,
+        vertex: u32,
+    },
     #[error(
         "corners are in the wrong cyclic order: following the outer boundary in the faces' winding they come as {found}; \
          they must come top_left → bottom_left → bottom_right → top_right{mirror}"
@@ -117,10 +131,63 @@ impl TrapCandidates {
     /// How many triangles/chords would be flattened with these corners on the square.
     pub fn count_trapped(&self, n_loop: usize, corners: &[usize; 4]) -> usize {
         let sides = |i: usize| side_mask(i, n_loop, corners);
-        let tris = self.triangles.iter().filter(|t| sides(t[0]) & sides(t[1]) & sides(t[2]) != 0).count();
-        let chords = self.chords.iter().filter(|e| sides(e[0]) & sides(e[1]) != 0).count();
+        let tris = self
+            .triangles
+            .iter()
+            .filter(|t| sides(t[0]) & sides(t[1]) & sides(t[2]) != 0)
+            .count();
+        let chords = self
+            .chords
+            .iter()
+            .filter(|e| sides(e[0]) & sides(e[1]) != 0)
+            .count();
         tris + chords
     }
+}
+
+impl TrapCandidates {
+    /// Loop indices of "ear tips": the middle vertex of a triangle made of
+    /// three consecutive loop vertices. Such a triangle keeps its area only if
+    /// its tip is a corner.
+    fn ear_tips(&self, n: usize) -> Vec<usize> {
+        let mut tips: Vec<usize> = self
+            .triangles
+            .iter()
+            .filter_map(|t| {
+                (0..3)
+                    .map(|k| t[k])
+                    .find(|&m| t.contains(&((m + 1) % n)) && t.contains(&((m + n - 1) % n)))
+            })
+            .collect();
+        tips.sort_unstable();
+        tips.dedup();
+        tips
+    }
+}
+
+/// Moves each corner onto the nearest ear tip within an eighth of the loop,
+/// keeping the corners distinct and in cyclic order.
+fn snap_to_ear_tips(mut corners: [usize; 4], tips: &[usize], n: usize) -> [usize; 4] {
+    let dist = |a: usize, b: usize| (a + n - b) % n;
+    let cyclic = |a: usize, b: usize| dist(a, b).min(dist(b, a));
+    for &tip in tips {
+        let (k, d) = (0..4)
+            .map(|k| (k, cyclic(corners[k], tip)))
+            .min_by_key(|&(_, d)| d)
+            .expect("four corners");
+        if d == 0 || d > n / 8 {
+            continue;
+        }
+        let mut moved = corners;
+        moved[k] = tip;
+        let rel = |x: usize| dist(x, moved[0]);
+        let ordered =
+            rel(moved[1]) > 0 && rel(moved[1]) < rel(moved[2]) && rel(moved[2]) < rel(moved[3]);
+        if ordered {
+            corners = moved;
+        }
+    }
+    corners
 }
 
 /// Bit `k` set when loop index `i` lies on side `k` (from corner k to corner k+1, inclusive).
@@ -129,7 +196,10 @@ fn side_mask(i: usize, n: usize, corners: &[usize; 4]) -> u8 {
     let ri = rel(i);
     let mut mask = 0u8;
     for k in 0..4 {
-        let (a, b) = (rel(corners[k]), if k == 3 { n } else { rel(corners[k + 1]) });
+        let (a, b) = (
+            rel(corners[k]),
+            if k == 3 { n } else { rel(corners[k + 1]) },
+        );
         if ri >= a && ri <= b {
             mask |= 1 << k;
         }
@@ -147,7 +217,8 @@ fn arc_lengths(mesh: &TriMesh, lp: &[u32]) -> (Vec<f64>, f64) {
     let mut s = 0.0;
     for i in 0..lp.len() {
         arc.push(s);
-        s += mesh.positions[lp[i] as usize].distance(mesh.positions[lp[(i + 1) % lp.len()] as usize]);
+        s += mesh.positions[lp[i] as usize]
+            .distance(mesh.positions[lp[(i + 1) % lp.len()] as usize]);
     }
     (arc, s)
 }
@@ -173,7 +244,8 @@ fn quarter_corners(arc: &[f64], total: f64, start: usize) -> Option<[usize; 4]> 
         *c = best;
     }
     let rel = |x: usize| (x + n - start) % n;
-    (rel(corners[1]) > 0 && rel(corners[1]) < rel(corners[2]) && rel(corners[2]) < rel(corners[3])).then_some(corners)
+    (rel(corners[1]) > 0 && rel(corners[1]) < rel(corners[2]) && rel(corners[2]) < rel(corners[3]))
+        .then_some(corners)
 }
 
 /// Places the outer loop on the unit square (§III.B).
@@ -194,7 +266,9 @@ pub fn map_outer_boundary(
 ) -> Result<BoundaryMap, BoundaryError> {
     // Start the loop at its lowest vertex id so the layout is deterministic.
     let raw = topology.outer_loop();
-    let start = (0..raw.len()).min_by_key(|&i| raw[i]).expect("non-empty loop");
+    let start = (0..raw.len())
+        .min_by_key(|&i| raw[i])
+        .expect("non-empty loop");
     let loop_vertices: Vec<u32> = raw[start..].iter().chain(&raw[..start]).copied().collect();
     let n = loop_vertices.len();
     // TrapCandidates index the topology's own loop order: rotate them.
@@ -208,15 +282,28 @@ pub fn map_outer_boundary(
     let (corners, source, trapped) = match given {
         Some(vertices) => {
             let corners = given_corners(&loop_vertices, vertices)?;
-            (corners, CornerSource::Given, traps.count_trapped(n, &corners))
+            (
+                corners,
+                CornerSource::Given,
+                traps.count_trapped(n, &corners),
+            )
         }
         None => {
+            let ear_tips = traps.ear_tips(n);
             let mut first: Option<([usize; 4], usize)> = None;
             let mut found = None;
             // Candidate starts ordered by distance from loop index 0, both ways.
             for shift in 0..n {
-                let s = if shift % 2 == 0 { shift / 2 } else { n - 1 - shift / 2 };
-                let Some(c) = quarter_corners(&arc, total, s) else { continue };
+                let s = if shift % 2 == 0 {
+                    shift / 2
+                } else {
+                    n - 1 - shift / 2
+                };
+                let Some(c) =
+                    quarter_corners(&arc, total, s).map(|c| snap_to_ear_tips(c, &ear_tips, n))
+                else {
+                    continue;
+                };
                 let trapped = traps.count_trapped(n, &c);
                 if first.is_none() {
                     first = Some((c, trapped));
@@ -235,20 +322,33 @@ pub fn map_outer_boundary(
             }
         }
     };
-    let shape = if trapped == 0 { BoundaryShape::Square } else { BoundaryShape::BulgedSquare };
+    let shape = if trapped == 0 {
+        BoundaryShape::Square
+    } else {
+        BoundaryShape::BulgedSquare
+    };
     let positions = place_on_square(&arc, total, &corners, shape);
-    Ok(BoundaryMap { loop_vertices, positions, corners, shape, corner_source: source, trapped_on_square: trapped })
+    Ok(BoundaryMap {
+        loop_vertices,
+        positions,
+        corners,
+        shape,
+        corner_source: source,
+        trapped_on_square: trapped,
+    })
 }
 
 fn given_corners(loop_vertices: &[u32], vertices: [u32; 4]) -> Result<[usize; 4], BoundaryError> {
     let n = loop_vertices.len();
     let mut idx = [0usize; 4];
     for k in 0..4 {
-        idx[k] = loop_vertices.iter().position(|&v| v == vertices[k]).ok_or(BoundaryError::CornerNotOnBoundary {
-            corner: CORNER_NAMES[k],
-            vertex: vertices[k],
-            n_loop: n,
-        })?;
+        idx[k] = loop_vertices.iter().position(|&v| v == vertices[k]).ok_or(
+            BoundaryError::CornerNotOnBoundary {
+                corner: CORNER_NAMES[k],
+                vertex: vertices[k],
+                n_loop: n,
+            },
+        )?;
         for j in 0..k {
             if vertices[j] == vertices[k] {
                 return Err(BoundaryError::RepeatedCorner {
@@ -265,16 +365,29 @@ fn given_corners(loop_vertices: &[u32], vertices: [u32; 4]) -> Result<[usize; 4]
     }
     let mut order: Vec<usize> = (0..4).collect();
     order.sort_by_key(|&k| rel(idx[k]));
-    let found = order.iter().map(|&k| CORNER_NAMES[k]).collect::<Vec<_>>().join(" → ");
+    let found = order
+        .iter()
+        .map(|&k| CORNER_NAMES[k])
+        .collect::<Vec<_>>()
+        .join(" → ");
     let mirrored = rel(idx[3]) < rel(idx[2]) && rel(idx[2]) < rel(idx[1]);
     Err(BoundaryError::CornerOrder {
         found,
-        mirror: if mirrored { " (this order would mirror the texture)" } else { "" },
+        mirror: if mirrored {
+            " (this order would mirror the texture)"
+        } else {
+            ""
+        },
     })
 }
 
 /// Positions of the loop vertices: each side by 3D arc length between its corners.
-fn place_on_square(arc: &[f64], total: f64, corners: &[usize; 4], shape: BoundaryShape) -> Vec<DVec2> {
+fn place_on_square(
+    arc: &[f64],
+    total: f64,
+    corners: &[usize; 4],
+    shape: BoundaryShape,
+) -> Vec<DVec2> {
     let n = arc.len();
     let mut out = vec![DVec2::ZERO; n];
     // A tiny index term keeps vertices distinct even across zero-length edges.
@@ -284,7 +397,11 @@ fn place_on_square(arc: &[f64], total: f64, corners: &[usize; 4], shape: Boundar
         let len = (b + n - a) % n;
         let arc_at = |step: usize| {
             let i = (a + step) % n;
-            let base = if i >= a { arc[i] - arc[a] } else { arc[i] + total - arc[a] };
+            let base = if i >= a {
+                arc[i] - arc[a]
+            } else {
+                arc[i] + total - arc[a]
+            };
             base + delta * step as f64
         };
         let side_len = arc_at(len);
@@ -335,7 +452,11 @@ mod tests {
         // Every boundary vertex of the unit grid lands on its own position.
         for (i, &v) in b.loop_vertices.iter().enumerate() {
             let p = m.positions[v as usize].truncate();
-            assert!(b.positions[i].distance(p) < 1e-9, "vertex {v}: {:?} vs {p:?}", b.positions[i]);
+            assert!(
+                b.positions[i].distance(p) < 1e-9,
+                "vertex {v}: {:?} vs {p:?}",
+                b.positions[i]
+            );
         }
     }
 
@@ -346,7 +467,14 @@ mod tests {
         let msg = e.to_string();
         assert!(msg.contains("mirror"), "{msg}");
         let e = map_outer_boundary(&m, &t, &c, Some([12, 0, 5, 15])).unwrap_err();
-        assert!(matches!(e, BoundaryError::CornerNotOnBoundary { corner: "bottom_right", vertex: 5, .. }));
+        assert!(matches!(
+            e,
+            BoundaryError::CornerNotOnBoundary {
+                corner: "bottom_right",
+                vertex: 5,
+                ..
+            }
+        ));
     }
 
     #[test]
@@ -363,7 +491,11 @@ mod tests {
         let b = map_outer_boundary(&m, &t, &c, None).unwrap();
         assert_eq!(b.shape, BoundaryShape::Square);
         assert_eq!(b.trapped_on_square, 0);
-        assert!(b.corner_vertices().contains(&16), "the ear tip must be a corner: {:?}", b.corner_vertices());
+        assert!(
+            b.corner_vertices().contains(&16),
+            "the ear tip must be a corner: {:?}",
+            b.corner_vertices()
+        );
         // Given corners that leave the ear on one side: the strictly convex fallback.
         let b = map_outer_boundary(&m, &t, &c, Some([12, 0, 3, 15])).unwrap();
         assert_eq!(b.shape, BoundaryShape::BulgedSquare);

@@ -64,7 +64,11 @@ pub struct StepProblem {
 impl StepProblem {
     /// Distance of each constrained vertex from its target.
     pub fn residuals(&self, layout: &[DVec2]) -> Vec<f64> {
-        self.constraint_vertices.iter().zip(&self.targets).map(|(&v, t)| layout[v as usize].distance(*t)).collect()
+        self.constraint_vertices
+            .iter()
+            .zip(&self.targets)
+            .map(|(&v, t)| layout[v as usize].distance(*t))
+            .collect()
     }
 
     pub fn max_residual(&self, layout: &[DVec2]) -> f64 {
@@ -95,7 +99,11 @@ pub fn pick_anchors(outer_loop: &[u32], max: usize, must: &[u32]) -> Vec<u32> {
 ///
 /// # Errors
 /// A [`TpsError`] when the centres make the spline system singular.
-pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<Vec<DVec2>, TpsError> {
+pub fn propose_step(
+    layout: &[DVec2],
+    problem: &StepProblem,
+    t: f64,
+) -> Result<Vec<DVec2>, TpsError> {
     let mut centres = Vec::with_capacity(problem.constraint_vertices.len() + problem.anchors.len());
     let mut displacements = Vec::with_capacity(centres.capacity());
     for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
@@ -115,7 +123,11 @@ pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<V
     }
     for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
         let p = layout[v as usize];
-        candidate[v as usize] = if t == 1.0 { target } else { p + (target - p) * t };
+        candidate[v as usize] = if t == 1.0 {
+            target
+        } else {
+            p + (target - p) * t
+        };
     }
     Ok(candidate)
 }
@@ -128,7 +140,9 @@ const PARALLEL_EVALUATIONS: usize = 40_000;
 /// threads when there is enough work (the machines here have two cores).
 fn displace_all(spline: &ThinPlateSpline, layout: &[DVec2], vertices: &[u32]) -> Vec<DVec2> {
     let eval = |vs: &[u32]| -> Vec<DVec2> {
-        vs.iter().map(|&v| layout[v as usize] + spline.displacement(layout[v as usize])).collect()
+        vs.iter()
+            .map(|&v| layout[v as usize] + spline.displacement(layout[v as usize]))
+            .collect()
     };
     if vertices.len() * spline.centres.len() < PARALLEL_EVALUATIONS || vertices.len() < 2 {
         return eval(vertices);
@@ -174,7 +188,14 @@ impl SteppingState {
         } else {
             SteppingPhase::Stepping
         };
-        SteppingState { phase, iterations: 0, t: 1.0, halvings_this_iteration: 0, total_halvings: 0, heavy_streak: 0 }
+        SteppingState {
+            phase,
+            iterations: 0,
+            t: 1.0,
+            halvings_this_iteration: 0,
+            total_halvings: 0,
+            heavy_streak: 0,
+        }
     }
 
     pub fn is_stepping(&self) -> bool {
@@ -215,7 +236,10 @@ impl SteppingState {
                 options.stall_iterations, options.stall_halvings
             ));
         } else if self.iterations >= options.max_iterations {
-            self.phase = SteppingPhase::Stalled(format!("iteration cap of {} reached", options.max_iterations));
+            self.phase = SteppingPhase::Stalled(format!(
+                "iteration cap of {} reached",
+                options.max_iterations
+            ));
         }
     }
 
@@ -232,7 +256,11 @@ mod tests {
     #[test]
     fn halving_then_acceptance_then_reached() {
         let o = SteppingOptions::DEFAULT;
-        let problem = StepProblem { constraint_vertices: vec![0], targets: vec![DVec2::ONE], ..Default::default() };
+        let problem = StepProblem {
+            constraint_vertices: vec![0],
+            targets: vec![DVec2::ONE],
+            ..Default::default()
+        };
         let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
         assert!(s.is_stepping());
         s.record_guard(false, 0.0, &o);
@@ -246,7 +274,11 @@ mod tests {
     #[test]
     fn two_heavy_iterations_stall() {
         let o = SteppingOptions::DEFAULT;
-        let problem = StepProblem { constraint_vertices: vec![0], targets: vec![DVec2::ONE], ..Default::default() };
+        let problem = StepProblem {
+            constraint_vertices: vec![0],
+            targets: vec![DVec2::ONE],
+            ..Default::default()
+        };
         let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
         for _ in 0..2 {
             for _ in 0..6 {
@@ -254,7 +286,11 @@ mod tests {
             }
             s.record_guard(true, 0.3, &o);
         }
-        assert!(matches!(s.phase, SteppingPhase::Stalled(_)), "{:?}", s.phase);
+        assert!(
+            matches!(s.phase, SteppingPhase::Stalled(_)),
+            "{:?}",
+            s.phase
+        );
         assert_eq!(s.total_halvings, 12);
     }
 

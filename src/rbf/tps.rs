@@ -20,7 +20,10 @@ pub enum TpsError {
     #[error("centres {a} and {b} (nearly) coincide: the spline system is singular")]
     CoincidentCentres { a: usize, b: usize },
     #[error("centre and displacement counts differ ({centres} vs {displacements})")]
-    LengthMismatch { centres: usize, displacements: usize },
+    LengthMismatch {
+        centres: usize,
+        displacements: usize,
+    },
 }
 
 /// `φ(r) = r² ln r` from the squared distance, with `φ(0) = 0`
@@ -53,7 +56,10 @@ impl ThinPlateSpline {
     pub fn fit(centres: &[DVec2], displacements: &[DVec2]) -> Result<Self, TpsError> {
         let m = centres.len();
         if m != displacements.len() {
-            return Err(TpsError::LengthMismatch { centres: m, displacements: displacements.len() });
+            return Err(TpsError::LengthMismatch {
+                centres: m,
+                displacements: displacements.len(),
+            });
         }
         if m < 3 {
             return Err(TpsError::TooFewCentres { n: m });
@@ -163,7 +169,10 @@ impl ThinPlateSpline {
                 Some(l) => (1.0, l),
                 None => {
                     let neg: Vec<f64> = red.iter().map(|x| -x).collect();
-                    (-1.0, cholesky(&neg, n).ok_or(TpsError::CoincidentCentres { a: 0, b: 0 })?)
+                    (
+                        -1.0,
+                        cholesky(&neg, n).ok_or(TpsError::CoincidentCentres { a: 0, b: 0 })?,
+                    )
                 }
             };
             let gx = cholesky_solve(&l, n, &dx[3..].iter().map(|x| sign * x).collect::<Vec<_>>());
@@ -195,8 +204,18 @@ impl ThinPlateSpline {
         };
         let (ax, ay) = (solve_r(&rx[..3]), solve_r(&ry[..3]));
         let lambda: Vec<DVec2> = (0..m).map(|i| DVec2::new(lx[i], ly[i])).collect();
-        let affine = [DVec2::new(ax[0], ay[0]), DVec2::new(ax[1], ay[1]), DVec2::new(ax[2], ay[2])];
-        Ok(ThinPlateSpline { centres: centres.to_vec(), lambda, affine, origin, inv_spread: 1.0 / spread })
+        let affine = [
+            DVec2::new(ax[0], ay[0]),
+            DVec2::new(ax[1], ay[1]),
+            DVec2::new(ax[2], ay[2]),
+        ];
+        Ok(ThinPlateSpline {
+            centres: centres.to_vec(),
+            lambda,
+            affine,
+            origin,
+            inv_spread: 1.0 / spread,
+        })
     }
 
     /// The displacement ΔX at `x` (Eq. 6).
@@ -261,7 +280,11 @@ mod tests {
     #[test]
     fn phi_is_zero_at_the_centre() {
         assert_eq!(phi_from_r2(0.0), 0.0);
-        assert!((phi_from_r2(std::f64::consts::E * std::f64::consts::E) - std::f64::consts::E.powi(2)).abs() < 1e-12);
+        assert!(
+            (phi_from_r2(std::f64::consts::E * std::f64::consts::E) - std::f64::consts::E.powi(2))
+                .abs()
+                < 1e-12
+        );
     }
 
     #[test]
@@ -285,7 +308,9 @@ mod tests {
         let mut rng = Rng::new(11);
         for m in [3, 4, 7, 40, 150] {
             let centres: Vec<DVec2> = (0..m).map(|_| DVec2::new(rng.f64(), rng.f64())).collect();
-            let disp: Vec<DVec2> = (0..m).map(|_| DVec2::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1))).collect();
+            let disp: Vec<DVec2> = (0..m)
+                .map(|_| DVec2::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1)))
+                .collect();
             let tps = ThinPlateSpline::fit(&centres, &disp).unwrap();
             for (c, d) in centres.iter().zip(&disp) {
                 assert!((tps.displacement(*c) - *d).length() < 1e-10, "m = {m}");
@@ -296,10 +321,19 @@ mod tests {
     #[test]
     fn degenerate_centre_sets_are_errors() {
         let two = [DVec2::ZERO, DVec2::ONE];
-        assert_eq!(ThinPlateSpline::fit(&two, &two).unwrap_err(), TpsError::TooFewCentres { n: 2 });
+        assert_eq!(
+            ThinPlateSpline::fit(&two, &two).unwrap_err(),
+            TpsError::TooFewCentres { n: 2 }
+        );
         let line: Vec<DVec2> = (0..5).map(|i| DVec2::splat(i as f64)).collect();
-        assert_eq!(ThinPlateSpline::fit(&line, &line).unwrap_err(), TpsError::CollinearCentres);
+        assert_eq!(
+            ThinPlateSpline::fit(&line, &line).unwrap_err(),
+            TpsError::CollinearCentres
+        );
         let dup = [DVec2::ZERO, DVec2::X, DVec2::Y, DVec2::X];
-        assert!(matches!(ThinPlateSpline::fit(&dup, &dup).unwrap_err(), TpsError::CoincidentCentres { .. }));
+        assert!(matches!(
+            ThinPlateSpline::fit(&dup, &dup).unwrap_err(),
+            TpsError::CoincidentCentres { .. }
+        ));
     }
 }

@@ -35,14 +35,20 @@ pub fn shared_mesh(name: &str) -> Option<PathBuf> {
     if p.is_file() {
         Some(p)
     } else {
-        eprintln!("SKIP: {} not found (../shared/meshes is beside the repository in CI)", p.display());
+        eprintln!(
+            "SKIP: {} not found (../shared/meshes is beside the repository in CI)",
+            p.display()
+        );
         None
     }
 }
 
 /// Runs the uvpin binary.
 pub fn uvpin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_uvpin")).args(args).output().expect("run uvpin")
+    Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args(args)
+        .output()
+        .expect("run uvpin")
 }
 
 pub fn stderr(o: &Output) -> String {
@@ -55,7 +61,10 @@ pub fn stdout(o: &Output) -> String {
 
 /// Writes a constraint file; `asset` is absolute or relative to it.
 pub fn write_constraints(path: &Path, asset: &Path, constraints: &[(u32, f64, f64)], extra: &str) {
-    let mut text = format!("(\n    asset: {:?},\n    constraints: [\n", asset.display().to_string());
+    let mut text = format!(
+        "(\n    asset: {:?},\n    constraints: [\n",
+        asset.display().to_string()
+    );
     for (v, u, w) in constraints {
         text += &format!("        (vertex: {v}, uv: ({u}, {w})),\n");
     }
@@ -65,7 +74,11 @@ pub fn write_constraints(path: &Path, asset: &Path, constraints: &[(u32, f64, f6
 
 /// Writes a mesh as a fresh .glb (positions and indices only).
 pub fn write_mesh_glb(path: &Path, mesh: &uvpin::mesh::TriMesh) {
-    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let positions: Vec<[f32; 3]> = mesh
+        .positions
+        .iter()
+        .map(|p| p.as_vec3().to_array())
+        .collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "test");
     uvpin::io::gltf_file::write_new_document(&json, &blob, path).expect("write glb");
@@ -77,10 +90,20 @@ pub fn write_mesh_glb(path: &Path, mesh: &uvpin::mesh::TriMesh) {
 /// orientation TEXCOORD_<set> gives. `None` (with a message) without python3.
 pub fn python_uv_orientation(path: &Path, uv_set: u32) -> Option<serde_json::Value> {
     let script = repo().join("tests/helpers/read_gltf.py");
-    let out = Command::new("python3").arg(script).arg(path).arg(uv_set.to_string()).output();
+    let out = Command::new("python3")
+        .arg(script)
+        .arg(path)
+        .arg(uv_set.to_string())
+        .output();
     match out {
-        Ok(o) if o.status.success() => Some(serde_json::from_slice(&o.stdout).expect("reader JSON")),
-        Ok(o) => panic!("independent reader failed on {}: {}", path.display(), String::from_utf8_lossy(&o.stderr)),
+        Ok(o) if o.status.success() => {
+            Some(serde_json::from_slice(&o.stdout).expect("reader JSON"))
+        }
+        Ok(o) => panic!(
+            "independent reader failed on {}: {}",
+            path.display(),
+            String::from_utf8_lossy(&o.stderr)
+        ),
         Err(e) => {
             eprintln!("SKIP independent reader: python3 not available ({e})");
             None

@@ -1,0 +1,132 @@
+//! Property tests: random curved disks with holes × random constraint sets.
+//! Whatever the constraints ask, no layout uvpin returns may contain a
+//! triangle with zero or positive signed area in glTF (u, v) numbers.
+
+mod common;
+use glam::DVec2;
+use uvpin::param::{uv_to_xy, xy_to_uv};
+use uvpin::rbf::stepping::SteppingOptions;
+use uvpin::report::Status;
+use uvpin::testing::{Rng, random_disk, smooth_warp};
+
+/// Vertices not on the outer boundary (the longest loop).
+fn interior_vertices(mesh: &uvpin::mesh::TriMesh) -> Vec<u32> {
+    let topo = uvpin::mesh::topology::Topology::build(mesh).expect("disk");
+    let outer = topo.outer_loop();
+    (0..mesh.n_vertices() as u32)
+        .filter(|v| !outer.contains(v))
+        .collect()
+}
+
+#[test]
+fn random_disks_and_random_constraints_never_fold() {
+    let mut reached = 0;
+    let mut partial = 0;
+    let mut bulged = 0;
+    let cases = 240;
+    for case in 0..cases {
+        let mut rng = Rng::new(1000 + case);
+        let n = 8 + rng.below(14);
+        let holes = rng.below(4);
+        let mesh = random_disk(&mut rng, n, holes);
+        let (step1, uvs) =
+            uvpin::solve_mesh(&mesh, &[], None, SteppingOptions::DEFAULT).expect("step 1");
+        assert_eq!(step1.status, Status::Reached);
+        assert!(step1.orientation.is_clean(), "case {case}: step 1 folds");
+        if step1.boundary.as_ref().unwrap().shape != uvpin::param::boundary::BoundaryShape::Square {
+            bulged += 1;
+        }
+        let interior = interior_vertices(&mesh);
+        let k = 1 + rng.below(12.min(interior.len()));
+        let mut constraints: Vec<(u32, DVec2)> = Vec::new();
+        let warp = case % 2 == 0;
+        let amp = rng.range(0.02, 0.14);
+        while constraints.len() < k {
+            let v = interior[rng.below(interior.len())];
+            if constraints.iter().any(|c| c.0 == v) {
+                continue;
+            }
+            let at = DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
+            let target = if warp {
+                xy_to_uv(smooth_warp(uv_to_xy(at), amp))
+            } else {
+                DVec2::new(rng.range(0.02, 0.98), rng.range(0.02, 0.98))
+            };
+            constraints.push((v, target));
+        }
+        let (report, uvs) = uvpin::solve_mesh(&mesh, &constraints, None, SteppingOptions::DEFAULT)
+            .unwrap_or_else(|e| panic!("case {case}: {e}"));
+        // The report counts virtual hole triangles too; check the real ones independently.
+        assert!(
+            report.orientation.is_clean(),
+            "case {case}: {:?}",
+            report.orientation
+        );
+        let counts = uvpin::guard::count_uv_orientations(&uvs, &mesh.triangles);
+        assert!(counts.is_clean(), "case {case}: {counts:?}");
+        match report.status {
+            Status::Reached => {
+                reached += 1;
+                assert!(report.max_residual <= 1e-9, "case {case}");
+                for (v, t) in &constraints {
+                    let got = DVec2::new(uvs[*v as usize][0] as f64, uvs[*v as usize][1] as f64);
+                    assert!(got.distance(*t) < 1e-6, "case {case}: vertex {v}");
+                }
+            }
+            Status::Partial => {
+                partial += 1;
+                assert!(report.message.is_some());
+                assert!(report.constraints.iter().any(|c| !c.reached));
+            }
+            Status::Error => panic!("case {case}: {:?}", report.message),
+        }
+    }
+    eprintln!(
+        "{cases} cases: {reached} reached, {partial} partial, 0 folded; {bulged} needed the bulged boundary"
+    );
+    assert!(
+        bulged * 20 <= cases as usize,
+        "the square should be kept in nearly every case ({bulged} bulged)"
+    );
+    assert_eq!(reached + partial, cases as usize);
+    assert!(
+        reached > 0 && partial > 0,
+        "the corpus should exercise both outcomes"
+    );
+}
+
+#[test]
+fn fewer_than_three_constraints_are_handled() {
+    // One or two constraints alone make the spline system singular; the
+    // boundary anchors make it well posed.
+    let mut rng = Rng::new(9);
+    let mesh = random_disk(&mut rng, 15, 1);
+    let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, SteppingOptions::DEFAULT).unwrap();
+    let interior = interior_vertices(&mesh);
+    for k in 1..=2 {
+        let constraints: Vec<(u32, DVec2)> = interior
+            .iter()
+            .take(k)
+            .map(|&v| {
+                (
+                    v,
+                    xy_to_uv(smooth_warp(
+                        uv_to_xy(DVec2::new(
+                            uvs[v as usize][0] as f64,
+                            uvs[v as usize][1] as f64,
+                        )),
+                        0.05,
+                    )),
+                )
+            })
+            .collect();
+        let (report, _) =
+            uvpin::solve_mesh(&mesh, &constraints, None, SteppingOptions::DEFAULT).unwrap();
+        assert_eq!(
+            report.status,
+            Status::Reached,
+            "{k} constraints: {:?}",
+            report.message
+        );
+    }
+}
