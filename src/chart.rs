@@ -216,10 +216,7 @@ pub fn assemble_uvs(
             map.iter()
                 .enumerate()
                 .map(|(i, w)| match prepared.chart.local_of(*w) {
-                    Some(local) => {
-                        let uv = xy_to_uv(layout[local as usize]);
-                        [uv.x as f32, uv.y as f32]
-                    }
+                    Some(local) => guard::stored_uv(layout[local as usize]),
                     None => prim.uvs.as_ref().map_or([0.0, 0.0], |u| u[i]),
                 })
                 .collect()
@@ -230,12 +227,6 @@ pub fn assemble_uvs(
 /// Orientation of the solved chart exactly as it will be stored (f32 UVs),
 /// real and virtual hole triangles.
 pub fn written_orientation(prepared: &PreparedChart, layout: &[DVec2]) -> OrientationCounts {
-    let uvs: Vec<[f32; 2]> = layout
-        .iter()
-        .map(|p| {
-            let uv = xy_to_uv(*p);
-            [uv.x as f32, uv.y as f32]
-        })
-        .collect();
+    let uvs: Vec<[f32; 2]> = layout.iter().map(|p| guard::stored_uv(*p)).collect();
     guard::count_uv_orientations(&uvs, &prepared.filled.mesh.triangles)
 }

@@ -25,6 +25,26 @@ pub fn all_positive(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool {
     first_non_positive(layout, triangles).is_none()
 }
 
+/// A layout point as glTF stores it: `(u, v) = (x, 1 − y)` rounded to f32.
+#[inline]
+pub fn stored_uv(p: DVec2) -> [f32; 2] {
+    [p.x as f32, (1.0 - p.y) as f32]
+}
+
+/// `true` when every triangle keeps its orientation both in double
+/// precision and as stored (f32 glTF texture coordinates): the guard every
+/// accepted layout must pass, so anything accepted can be written.
+pub fn all_positive_as_stored(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool {
+    all_positive(layout, triangles)
+        && triangles.iter().all(|t| {
+            let [a, b, c] = t.map(|v| {
+                let [u, w] = stored_uv(layout[v as usize]);
+                DVec2::new(u as f64, w as f64)
+            });
+            orientation(a, b, c) < 0.0
+        })
+}
+
 /// The first triangle whose area is zero or negative.
 pub fn first_non_positive(layout: &[DVec2], triangles: &[[u32; 3]]) -> Option<usize> {
     triangles.iter().position(|t| {
@@ -128,6 +148,15 @@ mod tests {
             DVec2::new(0.5, 0.5 + 1e-15),
         ];
         assert!(all_positive(&tiny, &[[0, 1, 2]]));
+    }
+
+    #[test]
+    fn a_triangle_too_small_for_f32_is_not_storable() {
+        let tiny = vec![DVec2::new(0.5, 0.5), DVec2::new(0.5 + 1e-9, 0.5), DVec2::new(0.5, 0.5 + 1e-9)];
+        assert!(all_positive(&tiny, &[[0, 1, 2]]));
+        assert!(!all_positive_as_stored(&tiny, &[[0, 1, 2]]));
+        let fine = vec![DVec2::new(0.5, 0.5), DVec2::new(0.5 + 1e-5, 0.5), DVec2::new(0.5, 0.5 + 1e-5)];
+        assert!(all_positive_as_stored(&fine, &[[0, 1, 2]]));
     }
 
     #[test]

@@ -178,7 +178,8 @@ pub fn step_constraints(
 }
 
 /// Accepts a candidate only if every triangle, virtual ones included, keeps
-/// its orientation (Eq. 3, exactly); otherwise halves the step.
+/// its orientation (Eq. 3, exactly) in double precision and as stored in f32;
+/// otherwise halves the step.
 pub fn guard_foldovers(
     mut commands: Commands,
     mut charts: Query<(
@@ -193,7 +194,7 @@ pub fn guard_foldovers(
 ) {
     for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
         let t0 = Instant::now();
-        let accepted = guard::all_positive(&candidate.0, &data.0.filled.mesh.triangles);
+        let accepted = guard::all_positive_as_stored(&candidate.0, &data.0.filled.mesh.triangles);
         let options = &job.constraints.file.solver;
         if accepted {
             let residual = stepping.problem.max_residual(&candidate.0);
