@@ -152,10 +152,18 @@ mod tests {
 
     #[test]
     fn a_triangle_too_small_for_f32_is_not_storable() {
-        let tiny = vec![DVec2::new(0.5, 0.5), DVec2::new(0.5 + 1e-9, 0.5), DVec2::new(0.5, 0.5 + 1e-9)];
+        let tiny = vec![
+            DVec2::new(0.5, 0.5),
+            DVec2::new(0.5 + 1e-9, 0.5),
+            DVec2::new(0.5, 0.5 + 1e-9),
+        ];
         assert!(all_positive(&tiny, &[[0, 1, 2]]));
         assert!(!all_positive_as_stored(&tiny, &[[0, 1, 2]]));
-        let fine = vec![DVec2::new(0.5, 0.5), DVec2::new(0.5 + 1e-5, 0.5), DVec2::new(0.5, 0.5 + 1e-5)];
+        let fine = vec![
+            DVec2::new(0.5, 0.5),
+            DVec2::new(0.5 + 1e-5, 0.5),
+            DVec2::new(0.5, 0.5 + 1e-5),
+        ];
         assert!(all_positive_as_stored(&fine, &[[0, 1, 2]]));
     }
 

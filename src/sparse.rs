@@ -17,7 +17,7 @@ use thiserror::Error;
 
 /// Below this many unknowns the simplicial factorisation is used: faer's
 /// supernodal analysis costs more than it saves on small charts.
-const SIMPLICIAL_BELOW: usize = 20_000;
+const SIMPLICIAL_BELOW: usize = 10_000;
 
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SparseError {

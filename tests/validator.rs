@@ -13,7 +13,10 @@ fn validator_module() -> Option<PathBuf> {
         std::env::var_os("GLTF_VALIDATOR_MODULE").map(PathBuf::from),
         Some(repo().join(".tools/node_modules/gltf-validator")),
     ];
-    let found = candidates.into_iter().flatten().find(|p| p.join("package.json").is_file());
+    let found = candidates
+        .into_iter()
+        .flatten()
+        .find(|p| p.join("package.json").is_file());
     if found.is_none() {
         let msg = "gltf-validator not installed (run `npm install --prefix .tools gltf-validator`, as .ci/run does)";
         assert!(std::env::var_os("CI").is_none(), "{msg}");
@@ -23,19 +26,34 @@ fn validator_module() -> Option<PathBuf> {
 }
 
 fn validate(files: &[&Path]) -> Vec<serde_json::Value> {
-    let Some(module) = validator_module() else { return Vec::new() };
+    let Some(module) = validator_module() else {
+        return Vec::new();
+    };
     let o = Command::new("node")
         .arg(repo().join("tests/helpers/validate.mjs"))
         .args(files)
         .env("GLTF_VALIDATOR_MODULE", &module)
         .output()
         .expect("node");
-    assert!(o.status.success(), "validator: {}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout).lines().map(|l| serde_json::from_str(l).expect("validator JSON")).collect()
+    assert!(
+        o.status.success(),
+        "validator: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("validator JSON"))
+        .collect()
 }
 
 fn solve(ron: &Path, out: &Path) {
-    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--quiet"]);
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
     assert!(matches!(o.status.code(), Some(0 | 2)), "{}", stderr(&o));
 }
 
@@ -48,7 +66,11 @@ fn outputs_pass_the_khronos_validator_with_zero_errors() {
     outputs.push(sample);
     // .gltf with external .bin.
     let mesh = uvpin::testing::grid_mesh(10, 10);
-    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let positions: Vec<[f32; 3]> = mesh
+        .positions
+        .iter()
+        .map(|p| p.as_vec3().to_array())
+        .collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "grid");
     uvpin::io::gltf_file::write_new_document(&json, &blob, &tmp.path("grid.gltf")).unwrap();
@@ -58,12 +80,27 @@ fn outputs_pass_the_khronos_validator_with_zero_errors() {
     solve(&ron, &gltf_out);
     outputs.push(gltf_out);
     for (name, vertex) in [("Duck.glb", 0u32), ("DamagedHelmet.glb", 0)] {
-        let Some(asset) = shared_mesh(name) else { continue };
+        let Some(asset) = shared_mesh(name) else {
+            continue;
+        };
         // Solve the chart holding vertex 0 with no move (its own step-1 layout).
         let ron = tmp.path(&format!("{name}.uvpin.ron"));
-        std::fs::write(&ron, format!("(asset: {:?}, constraints: [])", asset.display().to_string())).unwrap();
+        std::fs::write(
+            &ron,
+            format!(
+                "(asset: {:?}, constraints: [])",
+                asset.display().to_string()
+            ),
+        )
+        .unwrap();
         let out = tmp.path(name);
-        let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--quiet"]);
+        let o = uvpin(&[
+            "solve",
+            ron.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
         if o.status.code() == Some(1) {
             // The largest chart may not be a disk; constrain a vertex of a chart that is.
             let asset_data = uvpin::io::load_asset(&asset, None, 0).unwrap();
@@ -72,7 +109,9 @@ fn outputs_pass_the_khronos_validator_with_zero_errors() {
                 .filter(|&c| uvpin::mesh::topology::Topology::build(&welded.chart(c).mesh).is_ok())
                 .find_map(|c| {
                     welded.vertex_of.iter().enumerate().find_map(|(p, m)| {
-                        m.iter().position(|&w| welded.chart_of_vertex[w as usize] == Some(c)).map(|i| (p, i as u32))
+                        m.iter()
+                            .position(|&w| welded.chart_of_vertex[w as usize] == Some(c))
+                            .map(|i| (p, i as u32))
                     })
                 })
                 .unwrap_or((0, vertex));
@@ -99,6 +138,9 @@ fn outputs_pass_the_khronos_validator_with_zero_errors() {
     assert_eq!(reports.len(), outputs.len());
     for r in &reports {
         assert_eq!(r["errors"], 0, "{r}");
-        eprintln!("{}: {} errors, {} warnings, {} infos", r["file"], r["errors"], r["warnings"], r["infos"]);
+        eprintln!(
+            "{}: {} errors, {} warnings, {} infos",
+            r["file"], r["errors"], r["warnings"], r["infos"]
+        );
     }
 }

@@ -377,7 +377,9 @@ pub fn write_with_uvs(
             // Keep external references valid from the output's folder.
             let mut referenced: Vec<PathBuf> = Vec::new();
             for key in ["buffers", "images"] {
-                let Some(items) = json.get_mut(key).and_then(Value::as_array_mut) else { continue };
+                let Some(items) = json.get_mut(key).and_then(Value::as_array_mut) else {
+                    continue;
+                };
                 for item in items {
                     let Some(uri) = item.get("uri").and_then(Value::as_str).map(str::to_string)
                     else {

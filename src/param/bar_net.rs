@@ -107,7 +107,7 @@ pub fn force_densities(mesh: &TriMesh, edges: &[[u32; 2]]) -> Vec<f64> {
 }
 
 /// Free unknowns from which the geometric nested-dissection order replaces AMD.
-const NESTED_DISSECTION_FROM: usize = 20_000;
+const NESTED_DISSECTION_FROM: usize = 200_000;
 
 /// Compressed adjacency (offsets, neighbours) of the free unknowns from the
 /// off-diagonal entries `(row, col)`.
