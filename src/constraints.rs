@@ -99,9 +99,10 @@ pub struct ConstraintFile {
     /// Corner vertices (default: chosen automatically at arc-length quarters).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corners: Option<CornerSpec>,
-    /// Spline stepping limits (see [`SteppingOptions`] for the defaults).
-    #[serde(default)]
-    pub solver: SteppingOptions,
+    /// Spline stepping limits (see [`SteppingOptions`] for the defaults; a
+    /// configuration file's `solver` applies when this is absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<SteppingOptions>,
 }
 
 #[derive(Debug, Error)]
@@ -140,6 +141,8 @@ pub struct LoadedConstraints {
     pub corners_position: (usize, usize),
     /// (line, column) of the `asset` value.
     pub asset_position: (usize, usize),
+    /// The solver options in force: the file's `solver`, else the defaults given at load.
+    pub solver: SteppingOptions,
 }
 
 /// A constraint resolved against the asset.
@@ -171,11 +174,19 @@ impl LoadedConstraints {
     /// `uv`/`px`; `px` without `image_size`; a target outside the unit square;
     /// one vertex given two different targets.
     pub fn load(path: &Path) -> Result<Self, ConstraintFileError> {
+        Self::load_with_defaults(path, &SteppingOptions::DEFAULT)
+    }
+
+    /// As [`LoadedConstraints::load`], with `defaults` for a file without `solver`.
+    pub fn load_with_defaults(
+        path: &Path,
+        defaults: &SteppingOptions,
+    ) -> Result<Self, ConstraintFileError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConstraintFileError::Read {
             path: path.to_path_buf(),
             source,
         })?;
-        Self::parse(path, &text)
+        Self::parse_with_defaults(path, &text, defaults)
     }
 
     /// Wraps an in-memory constraint file (for the library API); `path` names it in messages.
@@ -184,6 +195,7 @@ impl LoadedConstraints {
     /// The same checks as [`LoadedConstraints::load`] after parsing.
     pub fn from_file(path: &Path, file: ConstraintFile) -> Result<Self, ConstraintFileError> {
         let loaded = LoadedConstraints {
+            solver: file.solver.unwrap_or_default(),
             path: path.to_path_buf(),
             item_positions: vec![(1, 1); file.constraints.len()],
             corners_position: (1, 1),
@@ -196,6 +208,15 @@ impl LoadedConstraints {
 
     /// Parses constraint-file text; `path` is used for messages and to resolve `asset`.
     pub fn parse(path: &Path, text: &str) -> Result<Self, ConstraintFileError> {
+        Self::parse_with_defaults(path, text, &SteppingOptions::DEFAULT)
+    }
+
+    /// As [`LoadedConstraints::parse`], with `defaults` for a file without `solver`.
+    pub fn parse_with_defaults(
+        path: &Path,
+        text: &str,
+        defaults: &SteppingOptions,
+    ) -> Result<Self, ConstraintFileError> {
         let options = ron::Options::default()
             .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
         let file: ConstraintFile =
@@ -211,6 +232,7 @@ impl LoadedConstraints {
         let mut item_positions = scan.items;
         item_positions.resize(file.constraints.len(), scan.constraints.unwrap_or((1, 1)));
         let loaded = LoadedConstraints {
+            solver: file.solver.unwrap_or(*defaults),
             path: path.to_path_buf(),
             item_positions,
             corners_position: scan.corners.unwrap_or((1, 1)),
@@ -291,7 +313,7 @@ impl LoadedConstraints {
                 format!("image size must be positive, got ({w}, {h})"),
             ));
         }
-        let tol = self.file.solver.tolerance;
+        let tol = self.solver.tolerance;
         if !(tol.is_finite() && tol > 0.0) {
             return Err(self.asset_error(
                 "solver.tolerance",
@@ -672,7 +694,7 @@ mod tests {
         assert_eq!(l.asset_position, (3, 12));
         assert_eq!(l.asset_path(), Path::new("dir/face.glb"));
         assert_eq!(l.target_uv(&l.file.constraints[2]), DVec2::new(0.5, 0.5));
-        assert_eq!(l.file.solver, SteppingOptions::DEFAULT);
+        assert_eq!(l.solver, SteppingOptions::DEFAULT);
     }
 
     fn err(text: &str) -> String {

@@ -14,6 +14,8 @@ pub enum Error {
     Constraints(#[from] ConstraintFileError),
     #[error(transparent)]
     Asset(#[from] AssetError),
+    #[error(transparent)]
+    Config(#[from] crate::config::ConfigError),
     #[error(
         "{path}: mesh {mesh}, chart {chart} ({n_vertices} vertices, {n_triangles} triangles): {source}"
     )]

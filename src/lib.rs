@@ -22,6 +22,7 @@
 
 pub mod chart;
 pub mod cli;
+pub mod config;
 pub mod constraints;
 pub mod ecs;
 pub mod error;

@@ -217,7 +217,7 @@ pub fn build(s: &SolveSummary) -> Report {
     use crate::param::xy_to_uv;
     use crate::rbf::stepping::SteppingPhase;
     let p = s.prepared;
-    let tolerance = s.constraints.file.solver.tolerance;
+    let tolerance = s.constraints.solver.tolerance;
     let mut on_outer = vec![false; p.filled.mesh.n_vertices()];
     for &v in &s.boundary.loop_vertices {
         on_outer[v as usize] = true;

@@ -24,7 +24,18 @@ pub const MAX_TICKS: usize = 1_000_000;
 /// # Errors
 /// Constraint-file and asset errors.
 pub fn load(constraints_path: &Path) -> Result<(LoadedConstraints, SourceAsset), Error> {
-    let loaded = LoadedConstraints::load(constraints_path)?;
+    load_with_defaults(constraints_path, &SteppingOptions::DEFAULT)
+}
+
+/// As [`load`], with solver `defaults` for a constraint file without `solver`.
+///
+/// # Errors
+/// Constraint-file and asset errors.
+pub fn load_with_defaults(
+    constraints_path: &Path,
+    defaults: &SteppingOptions,
+) -> Result<(LoadedConstraints, SourceAsset), Error> {
+    let loaded = LoadedConstraints::load_with_defaults(constraints_path, defaults)?;
     let asset_path = loaded.asset_path();
     let asset = io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set)
         .map_err(|e| match e {
@@ -73,8 +84,21 @@ pub fn spawn_job(
 /// # Errors
 /// Any input error: constraint file, asset, topology.
 pub fn solve_file(constraints_path: &Path, output: Option<&Path>) -> Result<Report, Error> {
+    solve_file_with_defaults(constraints_path, output, &SteppingOptions::DEFAULT)
+}
+
+/// As [`solve_file`], with solver `defaults` (e.g. from `config/uvpin.ron`)
+/// for a constraint file without `solver`.
+///
+/// # Errors
+/// Any input error: constraint file, asset, topology.
+pub fn solve_file_with_defaults(
+    constraints_path: &Path,
+    output: Option<&Path>,
+    defaults: &SteppingOptions,
+) -> Result<Report, Error> {
     let t0 = Instant::now();
-    let (loaded, asset) = load(constraints_path)?;
+    let (loaded, asset) = load_with_defaults(constraints_path, defaults)?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut world = World::new();
     let entity = spawn_job(
@@ -147,7 +171,7 @@ pub fn solve_mesh(
             bottom_right: c[2],
             top_right: c[3],
         }),
-        solver: options,
+        solver: Some(options),
     };
     let loaded = LoadedConstraints::from_file(Path::new("<memory>"), file)?;
     let asset = io::SourceAsset::from_mesh(mesh);

@@ -283,6 +283,38 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
 }
 
 #[test]
+fn non_triangle_primitives_and_missing_meshes_are_named_errors() {
+    let tmp = TempDir::new("lines");
+    let mesh = grid_mesh(4, 4);
+    let positions: Vec<[f32; 3]> = mesh
+        .positions
+        .iter()
+        .map(|p| p.as_vec3().to_array())
+        .collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let (mut json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "lines");
+    json["meshes"][0]["primitives"][0]["mode"] = serde_json::json!(1);
+    let asset = tmp.path("lines.glb");
+    uvpin::io::gltf_file::write_new_document(&json, &blob, &asset).unwrap();
+    let ron = tmp.path("l.uvpin.ron");
+    write_constraints(&ron, &asset, &[(5, 0.5, 0.5)], "");
+    assert_fails_writing_nothing(
+        &ron,
+        &tmp,
+        &["lines.glb", "mesh 0 primitive 0", "LINES", "only TRIANGLES"],
+    );
+    write_constraints(&ron, &repo().join("assets/face.glb"), &[], "  mesh: 3,\n");
+    assert_fails_writing_nothing(&ron, &tmp, &["mesh 3 does not exist", "0..1"]);
+    write_constraints(
+        &ron,
+        &repo().join("assets/face.glb"),
+        &[],
+        "  mesh: \"Head\",\n",
+    );
+    assert_fails_writing_nothing(&ron, &tmp, &["no mesh named \"Head\"", "face"]);
+}
+
+#[test]
 fn corrupt_glb_files_are_named_errors() {
     let tmp = TempDir::new("corrupt");
     let good = std::fs::read(repo().join("assets/face.glb")).unwrap();
@@ -396,6 +428,58 @@ fn obj_input_writes_obj_or_glb() {
     assert_eq!(o.status.code(), Some(1));
     assert!(
         stderr(&o).contains("q.obj:5") && stderr(&o).contains("only triangles"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn config_file_supplies_solver_defaults_unless_the_constraint_file_has_its_own() {
+    let tmp = TempDir::new("config");
+    let asset = grid_asset(&tmp, 21);
+    let ron = tmp.path("c.uvpin.ron");
+    // The crossing case stalls; with max_halvings 0 it stalls at the first fold.
+    let corners =
+        "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n";
+    write_constraints(
+        &ron,
+        &asset,
+        &[(6 + 21 * 10, 0.7, 0.5), (14 + 21 * 10, 0.3, 0.5)],
+        corners,
+    );
+    let config = tmp.path("uvpin.ron");
+    std::fs::write(&config, "(solver: (max_halvings: 0))").unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["solve", ron.to_str().unwrap(), "--report", "-", "--quiet"];
+        args.extend_from_slice(extra);
+        let o = uvpin(&args);
+        serde_json::from_slice::<serde_json::Value>(&o.stdout)
+            .unwrap_or_else(|_| panic!("{}", stderr(&o)))
+    };
+    let default = run(&[]);
+    let configured = run(&["--config", config.to_str().unwrap()]);
+    assert!(default["halvings"].as_u64().unwrap() > 1);
+    assert_eq!(configured["halvings"], 1, "{configured}");
+    // The constraint file's own `solver` wins over the configuration.
+    write_constraints(
+        &ron,
+        &asset,
+        &[(6 + 21 * 10, 0.7, 0.5), (14 + 21 * 10, 0.3, 0.5)],
+        &format!("{corners}    solver: (max_halvings: 3),\n"),
+    );
+    let own = run(&["--config", config.to_str().unwrap()]);
+    assert!(own["halvings"].as_u64().unwrap() >= 4, "{own}");
+    // A broken configuration is a located error.
+    std::fs::write(&config, "(solver: (max_halvingz: 0))").unwrap();
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("uvpin.ron:1:11") && stderr(&o).contains("max_halvingz"),
         "{}",
         stderr(&o)
     );

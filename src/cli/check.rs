@@ -99,7 +99,7 @@ pub fn run(
     let mut tolerance = crate::rbf::stepping::SteppingOptions::DEFAULT.tolerance;
     if let Some(path) = constraints {
         let loaded = LoadedConstraints::load(path)?;
-        tolerance = loaded.file.solver.tolerance;
+        tolerance = loaded.solver.tolerance;
         for r in loaded.resolve(&asset.primitives, &welded)? {
             let actual = uv_of[r.welded as usize];
             // glTF stores f32: measure against the target as it can be stored.

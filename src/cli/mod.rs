@@ -35,6 +35,10 @@ pub enum Command {
         /// No summary on standard error.
         #[arg(short, long)]
         quiet: bool,
+        /// Configuration file (e.g. config/uvpin.ron): solver defaults for
+        /// constraint files without a `solver` section.
+        #[arg(long)]
+        config: Option<PathBuf>,
     },
     /// Measure existing UVs: folds, zero-area triangles and stretch per chart,
     /// and constraint residuals. Works on UVs from any tool.
@@ -65,7 +69,14 @@ pub fn main() -> ExitCode {
             output,
             report,
             quiet,
-        } => solve(&constraints, output.as_deref(), report.as_deref(), quiet),
+            config,
+        } => solve(
+            &constraints,
+            output.as_deref(),
+            report.as_deref(),
+            quiet,
+            config.as_deref(),
+        ),
         Command::Check {
             asset,
             uv_set,
@@ -105,8 +116,17 @@ fn solve(
     output: Option<&std::path::Path>,
     report_path: Option<&std::path::Path>,
     quiet: bool,
+    config: Option<&std::path::Path>,
 ) -> ExitCode {
-    match crate::solve::solve_file(constraints, output) {
+    let result = match config.map(crate::config::Config::load).transpose() {
+        Ok(c) => crate::solve::solve_file_with_defaults(
+            constraints,
+            output,
+            &c.unwrap_or_default().solver,
+        ),
+        Err(e) => Err(e.into()),
+    };
+    match result {
         Ok(report) => {
             if !quiet {
                 eprint!("{}", report.summary());

@@ -132,7 +132,7 @@ pub fn start_stepping(
             commands.entity(entity).insert(Failed(Arc::new(err)));
             continue;
         }
-        let options = &job.constraints.file.solver;
+        let options = &job.constraints.solver;
         match chart::step_problem(
             c,
             &job.constraints,
@@ -195,7 +195,7 @@ pub fn guard_foldovers(
     for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
         let t0 = Instant::now();
         let accepted = guard::all_positive_as_stored(&candidate.0, &data.0.filled.mesh.triangles);
-        let options = &job.constraints.file.solver;
+        let options = &job.constraints.solver;
         if accepted {
             let residual = stepping.problem.max_residual(&candidate.0);
             layout.0.clone_from(&candidate.0);
