@@ -10,8 +10,8 @@
 use glam::DVec2;
 use std::path::{Path, PathBuf};
 use uvpin::mesh::TriMesh;
+use uvpin::options::SolverOptions;
 use uvpin::param::{uv_to_xy, xy_to_uv};
-use uvpin::rbf::stepping::SteppingOptions;
 use uvpin::report::{Report, StageTimes};
 use uvpin::testing::{Rng, grid_mesh, smooth_warp};
 
@@ -67,17 +67,14 @@ fn print_row(r: &Row) {
         fmt(m(|t| t.stepping_ms)),
         fmt(m(|t| t.guard_ms)),
         fmt(m(|t| t.export_ms)),
-        fmt(m(|t| t.topology_ms
-            + t.boundary_ms
-            + t.factor_ms
-            + t.solve_ms)),
+        fmt(m(|t| t.topology_ms + t.boundary_ms + t.factor_ms + t.solve_ms)),
         fmt(m(|t| t.total_ms())),
     );
 }
 
 /// `k` interior vertices with targets = the step-1 layout through the smooth warp.
 fn warp_constraints(mesh: &TriMesh, k: usize, seed: u64) -> Vec<(u32, DVec2)> {
-    let (_, uvs) = uvpin::solve_mesh(mesh, &[], None, SteppingOptions::DEFAULT).expect("step 1");
+    let (_, uvs) = uvpin::solve_mesh(mesh, &[], None, SolverOptions::DEFAULT).expect("step 1");
     let mut rng = Rng::new(seed);
     let mut out: Vec<(u32, DVec2)> = Vec::new();
     let mut tries = 0;
@@ -97,8 +94,7 @@ fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: us
     let mut times = Vec::new();
     let mut status = String::new();
     for _ in 0..runs {
-        let (report, _) =
-            uvpin::solve_mesh(mesh, constraints, None, SteppingOptions::DEFAULT).expect("solve");
+        let (report, _) = uvpin::solve_mesh(mesh, constraints, None, SolverOptions::DEFAULT).expect("solve");
         status = format!("{:?}", report.status).to_lowercase();
         times.push(report.times);
     }

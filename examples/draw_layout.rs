@@ -26,7 +26,12 @@ fn panel(
     // Layout (x, y up) → picture: u right, v down, like the texture.
     let at = |p: DVec2| (x0 + MARGIN + p.x * SIZE, MARGIN + 24.0 + (1.0 - p.y) * SIZE);
     let (ox, oy) = at(DVec2::new(0.0, 1.0));
-    writeln!(svg, r##"<text x="{}" y="20" font-family="sans-serif" font-size="15" fill="#222">{title}</text>"##, ox).unwrap();
+    writeln!(
+        svg,
+        r##"<text x="{}" y="20" font-family="sans-serif" font-size="15" fill="#222">{title}</text>"##,
+        ox
+    )
+    .unwrap();
     writeln!(
         svg,
         r##"<rect x="{ox}" y="{oy}" width="{SIZE}" height="{SIZE}" fill="#fbfaf6" stroke="#bbb"/>"##
@@ -37,7 +42,12 @@ fn panel(
     for (i, t) in filled.mesh.triangles.iter().enumerate() {
         let pts: Vec<(f64, f64)> = t.iter().map(|&v| at(layout[v as usize])).collect();
         if i >= filled.n_real_triangles {
-            writeln!(svg, r##"<polygon points="{:.2},{:.2} {:.2},{:.2} {:.2},{:.2}" fill="#d9d4c7" stroke="none"/>"##, pts[0].0, pts[0].1, pts[1].0, pts[1].1, pts[2].0, pts[2].1).unwrap();
+            writeln!(
+                svg,
+                r##"<polygon points="{:.2},{:.2} {:.2},{:.2} {:.2},{:.2}" fill="#d9d4c7" stroke="none"/>"##,
+                pts[0].0, pts[0].1, pts[1].0, pts[1].1, pts[2].0, pts[2].1
+            )
+            .unwrap();
         } else {
             write!(
                 path,
@@ -77,7 +87,12 @@ fn panel(
             )
             .unwrap();
         } else {
-            writeln!(svg, r##"<circle cx="{:.2}" cy="{:.2}" r="4" fill="{colour}" stroke="white" stroke-width="1"/>"##, b.0, b.1).unwrap();
+            writeln!(
+                svg,
+                r##"<circle cx="{:.2}" cy="{:.2}" r="4" fill="{colour}" stroke="white" stroke-width="1"/>"##,
+                b.0, b.1
+            )
+            .unwrap();
         }
     }
 }
@@ -99,25 +114,13 @@ fn main() {
         .constraints
         .iter()
         .zip(&data.constraint_vertices)
-        .map(|(c, &v)| {
-            (
-                step1[v as usize],
-                uvpin::param::uv_to_xy(c.target),
-                c.reached,
-            )
-        })
+        .map(|(c, &v)| (step1[v as usize], uvpin::param::uv_to_xy(c.target), c.reached))
         .collect();
     let finals: Vec<(DVec2, DVec2, bool)> = report
         .constraints
         .iter()
         .zip(&data.constraint_vertices)
-        .map(|(c, &v)| {
-            (
-                layout[v as usize],
-                uvpin::param::uv_to_xy(c.target),
-                c.reached,
-            )
-        })
+        .map(|(c, &v)| (layout[v as usize], uvpin::param::uv_to_xy(c.target), c.reached))
         .collect();
     let width = 2.0 * (SIZE + 2.0 * MARGIN);
     let height = SIZE + 2.0 * MARGIN + 24.0;
@@ -143,15 +146,7 @@ fn main() {
         report.constraints.len(),
         report.orientation.flipped
     );
-    panel(
-        &mut svg,
-        SIZE + 2.0 * MARGIN,
-        &title,
-        layout,
-        data,
-        boundary,
-        &finals,
-    );
+    panel(&mut svg, SIZE + 2.0 * MARGIN, &title, layout, data, boundary, &finals);
     svg += "</svg>\n";
     std::fs::write(out, svg).expect("write svg");
     println!("wrote {}", out.display());

@@ -74,10 +74,7 @@ fn main() {
             Err(TopologyError::NonManifoldVertex { vertex, .. }) => {
                 let p = m.positions[vertex as usize].truncate();
                 let orig = pts.iter().position(|q| *q == p).expect("vertex") as u32;
-                let first = tris
-                    .iter()
-                    .position(|t| t.contains(&orig))
-                    .expect("triangle");
+                let first = tris.iter().position(|t| t.contains(&orig)).expect("triangle");
                 tris.remove(first);
             }
             Err(e) => panic!("sample mesh: {e}"),
@@ -87,19 +84,13 @@ fn main() {
     // Keep only the largest connected piece (removals can split off slivers).
     let prim = uvpin::mesh::weld::PrimitiveGeometry {
         index: 0,
-        positions: mesh
-            .positions
-            .iter()
-            .map(|p| p.as_vec3().to_array())
-            .collect(),
+        positions: mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect(),
         indices: mesh.triangles.iter().flatten().copied().collect(),
         uvs: None,
     };
     let welded = uvpin::mesh::weld::weld(std::slice::from_ref(&prim));
     let sizes = welded.chart_sizes();
-    let biggest = (0..sizes.len())
-        .max_by_key(|&c| sizes[c].1)
-        .expect("a chart") as u32;
+    let biggest = (0..sizes.len()).max_by_key(|&c| sizes[c].1).expect("a chart") as u32;
     let mut mesh = welded.chart(biggest).mesh;
     // Snap boundary vertices onto their outline where that keeps every triangle positive.
     let topo = Topology::build(&mesh).expect("clean patch");
@@ -108,11 +99,7 @@ fn main() {
             let p = mesh.positions[v as usize].truncate();
             let shape = std::iter::once(OUTER)
                 .chain(HOLES)
-                .min_by(|a, b| {
-                    (inside(p, *a) - 1.0)
-                        .abs()
-                        .total_cmp(&(inside(p, *b) - 1.0).abs())
-                })
+                .min_by(|a, b| (inside(p, *a) - 1.0).abs().total_cmp(&(inside(p, *b) - 1.0).abs()))
                 .expect("shapes");
             let q = (p - shape.0) / shape.1;
             let snapped = shape.0 + q.normalize() * shape.1;
@@ -134,15 +121,10 @@ fn main() {
         mesh.n_triangles(),
         topo.loops.len()
     );
-    let positions: Vec<[f32; 3]> = mesh
-        .positions
-        .iter()
-        .map(|p| p.as_vec3().to_array())
-        .collect();
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "face");
-    uvpin::io::gltf_file::write_new_document(&json, &blob, std::path::Path::new("assets/face.glb"))
-        .expect("write");
+    uvpin::io::gltf_file::write_new_document(&json, &blob, std::path::Path::new("assets/face.glb")).expect("write");
 
     // Landmarks: the vertex nearest each named 2D point of the face.
     let nearest = |p: DVec2| -> u32 {
@@ -178,16 +160,8 @@ fn main() {
             DVec2::new(0.785, 0.385),
         ),
         ("nose tip", DVec2::new(0.0, -0.12), DVec2::new(0.5, 0.58)),
-        (
-            "right mouth corner",
-            DVec2::new(-0.22, -0.45),
-            DVec2::new(0.355, 0.73),
-        ),
-        (
-            "left mouth corner",
-            DVec2::new(0.22, -0.45),
-            DVec2::new(0.645, 0.73),
-        ),
+        ("right mouth corner", DVec2::new(-0.22, -0.45), DVec2::new(0.355, 0.73)),
+        ("left mouth corner", DVec2::new(0.22, -0.45), DVec2::new(0.645, 0.73)),
         ("upper lip", DVec2::new(0.0, -0.39), DVec2::new(0.5, 0.695)),
         ("chin", DVec2::new(0.0, -0.78), DVec2::new(0.5, 0.88)),
         ("right brow", DVec2::new(-0.3, 0.4), DVec2::new(0.3, 0.29)),

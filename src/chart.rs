@@ -39,9 +39,8 @@ pub struct PreparedChart {
 pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<PreparedChart, Error> {
     let welded = weld(&asset.primitives);
     let constraints = loaded.resolve(&asset.primitives, &welded)?;
-    let chart_of = |c: &ResolvedConstraint| {
-        welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used")
-    };
+    let chart_of =
+        |c: &ResolvedConstraint| welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used");
     let chart_id = match constraints.first() {
         Some(first) => {
             let id = chart_of(first);
@@ -160,11 +159,7 @@ pub fn step_problem(
         on_outer[v as usize] = Some(i);
     }
     let mut problem = StepProblem::default();
-    for (c, &v) in prepared
-        .constraints
-        .iter()
-        .zip(&prepared.constraint_vertices)
-    {
+    for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
         let target = uv_to_xy(c.target_uv);
         match on_outer[v as usize] {
             Some(i) => {
@@ -195,19 +190,13 @@ pub fn step_problem(
         max_boundary_centres,
         &boundary.corner_vertices(),
     );
-    problem.movable = (0..n as u32)
-        .filter(|&v| on_outer[v as usize].is_none())
-        .collect();
+    problem.movable = (0..n as u32).filter(|&v| on_outer[v as usize].is_none()).collect();
     Ok(problem)
 }
 
 /// Final per-primitive UVs (glTF texture coordinates, f32): the solved chart's
 /// from `layout`, every other vertex's as it was (or (0, 0) without UVs).
-pub fn assemble_uvs(
-    asset: &SourceAsset,
-    prepared: &PreparedChart,
-    layout: &[DVec2],
-) -> Vec<Vec<[f32; 2]>> {
+pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> Vec<Vec<[f32; 2]>> {
     asset
         .primitives
         .iter()

@@ -1,6 +1,6 @@
 //! `config/uvpin.ron`: defaults shared by every constraint file.
 
-use crate::rbf::stepping::SteppingOptions;
+use crate::options::SolverOptions;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -10,16 +10,13 @@ use thiserror::Error;
 #[serde(deny_unknown_fields, default)]
 pub struct Config {
     /// Solver options for constraint files without a `solver` section.
-    pub solver: SteppingOptions,
+    pub solver: SolverOptions,
 }
 
 #[derive(Debug, Error)]
 pub enum ConfigError {
     #[error("{path}: cannot read the configuration: {source}")]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Read { path: PathBuf, source: std::io::Error },
     #[error("{path}:{line}:{column}: {message}")]
     Syntax {
         path: PathBuf,
@@ -57,8 +54,7 @@ mod tests {
 
     #[test]
     fn the_shipped_config_documents_the_built_in_defaults() {
-        let shipped =
-            Config::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("config/uvpin.ron")).unwrap();
+        let shipped = Config::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("config/uvpin.ron")).unwrap();
         assert_eq!(shipped, Config::default());
     }
 }

@@ -14,7 +14,7 @@
 //! Every error names the file, line and column, and the field.
 
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
-use crate::rbf::stepping::SteppingOptions;
+use crate::options::SolverOptions;
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -68,12 +68,7 @@ pub struct CornerSpec {
 
 impl CornerSpec {
     pub fn as_array(&self) -> [u32; 4] {
-        [
-            self.top_left,
-            self.bottom_left,
-            self.bottom_right,
-            self.top_right,
-        ]
+        [self.top_left, self.bottom_left, self.bottom_right, self.top_right]
     }
 }
 
@@ -99,19 +94,16 @@ pub struct ConstraintFile {
     /// Corner vertices (default: chosen automatically at arc-length quarters).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corners: Option<CornerSpec>,
-    /// Spline stepping limits (see [`SteppingOptions`] for the defaults; a
+    /// Spline stepping limits (see [`SolverOptions`] for the defaults; a
     /// configuration file's `solver` applies when this is absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub solver: Option<SteppingOptions>,
+    pub solver: Option<SolverOptions>,
 }
 
 #[derive(Debug, Error)]
 pub enum ConstraintFileError {
     #[error("{path}: cannot read the constraint file: {source}")]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Read { path: PathBuf, source: std::io::Error },
     #[error("{path}:{line}:{column}: {message}")]
     Syntax {
         path: PathBuf,
@@ -142,7 +134,7 @@ pub struct LoadedConstraints {
     /// (line, column) of the `asset` value.
     pub asset_position: (usize, usize),
     /// The solver options in force: the file's `solver`, else the defaults given at load.
-    pub solver: SteppingOptions,
+    pub solver: SolverOptions,
 }
 
 /// A constraint resolved against the asset.
@@ -174,14 +166,11 @@ impl LoadedConstraints {
     /// `uv`/`px`; `px` without `image_size`; a target outside the unit square;
     /// one vertex given two different targets.
     pub fn load(path: &Path) -> Result<Self, ConstraintFileError> {
-        Self::load_with_defaults(path, &SteppingOptions::DEFAULT)
+        Self::load_with_defaults(path, &SolverOptions::DEFAULT)
     }
 
     /// As [`LoadedConstraints::load`], with `defaults` for a file without `solver`.
-    pub fn load_with_defaults(
-        path: &Path,
-        defaults: &SteppingOptions,
-    ) -> Result<Self, ConstraintFileError> {
+    pub fn load_with_defaults(path: &Path, defaults: &SolverOptions) -> Result<Self, ConstraintFileError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConstraintFileError::Read {
             path: path.to_path_buf(),
             source,
@@ -208,26 +197,18 @@ impl LoadedConstraints {
 
     /// Parses constraint-file text; `path` is used for messages and to resolve `asset`.
     pub fn parse(path: &Path, text: &str) -> Result<Self, ConstraintFileError> {
-        Self::parse_with_defaults(path, text, &SteppingOptions::DEFAULT)
+        Self::parse_with_defaults(path, text, &SolverOptions::DEFAULT)
     }
 
     /// As [`LoadedConstraints::parse`], with `defaults` for a file without `solver`.
-    pub fn parse_with_defaults(
-        path: &Path,
-        text: &str,
-        defaults: &SteppingOptions,
-    ) -> Result<Self, ConstraintFileError> {
-        let options = ron::Options::default()
-            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-        let file: ConstraintFile =
-            options
-                .from_str(text)
-                .map_err(|e| ConstraintFileError::Syntax {
-                    path: path.to_path_buf(),
-                    line: e.span.start.line,
-                    column: e.span.start.col,
-                    message: e.code.to_string(),
-                })?;
+    pub fn parse_with_defaults(path: &Path, text: &str, defaults: &SolverOptions) -> Result<Self, ConstraintFileError> {
+        let options = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        let file: ConstraintFile = options.from_str(text).map_err(|e| ConstraintFileError::Syntax {
+            path: path.to_path_buf(),
+            line: e.span.start.line,
+            column: e.span.start.col,
+            message: e.code.to_string(),
+        })?;
         let scan = scan_positions(text);
         let mut item_positions = scan.items;
         item_positions.resize(file.constraints.len(), scan.constraints.unwrap_or((1, 1)));
@@ -254,12 +235,7 @@ impl LoadedConstraints {
     }
 
     /// An error located at constraint `index`.
-    pub fn error_at(
-        &self,
-        index: usize,
-        field: &str,
-        message: impl Into<String>,
-    ) -> ConstraintFileError {
+    pub fn error_at(&self, index: usize, field: &str, message: impl Into<String>) -> ConstraintFileError {
         let (line, column) = self.item_positions.get(index).copied().unwrap_or((1, 1));
         ConstraintFileError::Invalid {
             path: self.path.clone(),
@@ -308,33 +284,19 @@ impl LoadedConstraints {
         if let Some((w, h)) = f.image_size
             && (w == 0 || h == 0)
         {
-            return Err(self.asset_error(
-                "image_size",
-                format!("image size must be positive, got ({w}, {h})"),
-            ));
+            return Err(self.asset_error("image_size", format!("image size must be positive, got ({w}, {h})")));
         }
         let tol = self.solver.tolerance;
         if !(tol.is_finite() && tol > 0.0) {
-            return Err(self.asset_error(
-                "solver.tolerance",
-                format!("must be a positive number, got {tol}"),
-            ));
+            return Err(self.asset_error("solver.tolerance", format!("must be a positive number, got {tol}")));
         }
         for (i, c) in f.constraints.iter().enumerate() {
             match (c.vertex, c.near) {
                 (None, None) => {
-                    return Err(self.error_at(
-                        i,
-                        "vertex",
-                        "give `vertex: <id>` or `near: (x, y, z)`",
-                    ));
+                    return Err(self.error_at(i, "vertex", "give `vertex: <id>` or `near: (x, y, z)`"));
                 }
                 (Some(_), Some(_)) => {
-                    return Err(self.error_at(
-                        i,
-                        "near",
-                        "give either `vertex` or `near`, not both",
-                    ));
+                    return Err(self.error_at(i, "near", "give either `vertex` or `near`, not both"));
                 }
                 (None, Some(p)) if !p.is_finite() => {
                     return Err(self.error_at(i, "near", format!("not a finite point: {p:?}")));
@@ -343,21 +305,13 @@ impl LoadedConstraints {
             }
             match (c.uv, c.px) {
                 (None, None) => {
-                    return Err(self.error_at(
-                        i,
-                        "uv",
-                        "give a target: `uv: (u, v)` or `px: (x, y)`",
-                    ));
+                    return Err(self.error_at(i, "uv", "give a target: `uv: (u, v)` or `px: (x, y)`"));
                 }
                 (Some(_), Some(_)) => {
                     return Err(self.error_at(i, "px", "give either `uv` or `px`, not both"));
                 }
                 (None, Some(_)) if f.image_size.is_none() => {
-                    return Err(self.error_at(
-                        i,
-                        "px",
-                        "pixel targets need `image_size: (width, height)` in the file",
-                    ));
+                    return Err(self.error_at(i, "px", "pixel targets need `image_size: (width, height)` in the file"));
                 }
                 _ => {}
             }
@@ -367,7 +321,10 @@ impl LoadedConstraints {
                 return Err(self.error_at(
                     i,
                     field,
-                    format!("target ({}, {}) in texture coordinates is outside the unit square [0, 1] × [0, 1]", t.x, t.y),
+                    format!(
+                        "target ({}, {}) in texture coordinates is outside the unit square [0, 1] × [0, 1]",
+                        t.x, t.y
+                    ),
                 ));
             }
         }
@@ -399,7 +356,10 @@ impl LoadedConstraints {
                         return Err(self.error_at(
                             i,
                             "vertex",
-                            format!("vertex {v} is out of range: primitive {prim_index} has vertices 0..{n} (0 to {})", n.saturating_sub(1)),
+                            format!(
+                                "vertex {v} is out of range: primitive {prim_index} has vertices 0..{n} (0 to {})",
+                                n.saturating_sub(1)
+                            ),
                         ));
                     }
                     (p, v, None)
@@ -417,19 +377,14 @@ impl LoadedConstraints {
                             if !used[v] {
                                 continue;
                             }
-                            let d = DVec3::new(pos[0] as f64, pos[1] as f64, pos[2] as f64)
-                                .distance(point);
+                            let d = DVec3::new(pos[0] as f64, pos[1] as f64, pos[2] as f64).distance(point);
                             if d < best.2 {
                                 best = (p, v as u32, d);
                             }
                         }
                     }
                     if best.0 == usize::MAX {
-                        return Err(self.error_at(
-                            i,
-                            "near",
-                            "the mesh has no vertices to snap to",
-                        ));
+                        return Err(self.error_at(i, "near", "the mesh has no vertices to snap to"));
                     }
                     (best.0, best.1, Some(best.2))
                 }
@@ -437,11 +392,7 @@ impl LoadedConstraints {
             };
             let w = welded.vertex_of[prim_pos][vertex as usize];
             if welded.chart_of_vertex[w as usize].is_none() {
-                return Err(self.error_at(
-                    i,
-                    "vertex",
-                    format!("vertex {vertex} is used by no triangle"),
-                ));
+                return Err(self.error_at(i, "vertex", format!("vertex {vertex} is used by no triangle")));
             }
             let target_uv = self.target_uv(c);
             if let Some(prev) = out.iter().find(|r| r.welded == w) {
@@ -477,19 +428,16 @@ impl LoadedConstraints {
         index: usize,
         item: Option<usize>,
     ) -> Result<usize, ConstraintFileError> {
-        primitives
-            .iter()
-            .position(|p| p.index == index)
-            .ok_or_else(|| {
-                let msg = format!(
-                    "primitive {index} does not exist (the mesh has TRIANGLES primitives {:?})",
-                    primitives.iter().map(|p| p.index).collect::<Vec<_>>()
-                );
-                match item {
-                    Some(i) => self.error_at(i, "primitive", msg),
-                    None => self.asset_error("primitive", msg),
-                }
-            })
+        primitives.iter().position(|p| p.index == index).ok_or_else(|| {
+            let msg = format!(
+                "primitive {index} does not exist (the mesh has TRIANGLES primitives {:?})",
+                primitives.iter().map(|p| p.index).collect::<Vec<_>>()
+            );
+            match item {
+                Some(i) => self.error_at(i, "primitive", msg),
+                None => self.asset_error("primitive", msg),
+            }
+        })
     }
 
     /// The corner vertices as welded ids.
@@ -694,7 +642,7 @@ mod tests {
         assert_eq!(l.asset_position, (3, 12));
         assert_eq!(l.asset_path(), Path::new("dir/face.glb"));
         assert_eq!(l.target_uv(&l.file.constraints[2]), DVec2::new(0.5, 0.5));
-        assert_eq!(l.solver, SteppingOptions::DEFAULT);
+        assert_eq!(l.solver, SolverOptions::DEFAULT);
     }
 
     fn err(text: &str) -> String {
@@ -714,9 +662,7 @@ mod tests {
 
     #[test]
     fn semantic_errors_point_at_the_item() {
-        let e = err(
-            "(asset: \"a.glb\", constraints: [\n (vertex: 1, uv: (0.5, 0.5)),\n (vertex: 2, uv: (1.5, 0.5))])",
-        );
+        let e = err("(asset: \"a.glb\", constraints: [\n (vertex: 1, uv: (0.5, 0.5)),\n (vertex: 2, uv: (1.5, 0.5))])");
         assert!(
             e.starts_with("f.ron:3:2: constraints[1].uv") && e.contains("outside the unit square"),
             "{e}"
@@ -742,28 +688,17 @@ mod tests {
         let welded = crate::mesh::weld::weld(std::slice::from_ref(&prim));
         let same = "(asset: \"a\", constraints: [(vertex: 1, uv: (0.5, 0.5)), (vertex: 1, uv: (0.5, 0.5))])";
         let l = LoadedConstraints::parse(Path::new("f.ron"), same).unwrap();
-        assert_eq!(
-            l.resolve(std::slice::from_ref(&prim), &welded)
-                .unwrap()
-                .len(),
-            1
-        );
+        assert_eq!(l.resolve(std::slice::from_ref(&prim), &welded).unwrap().len(), 1);
         let diff = "(asset: \"a\", constraints: [(vertex: 1, uv: (0.5, 0.5)),\n (vertex: 1, uv: (0.5, 0.6))])";
         let l = LoadedConstraints::parse(Path::new("f.ron"), diff).unwrap();
-        let e = l
-            .resolve(std::slice::from_ref(&prim), &welded)
-            .unwrap_err()
-            .to_string();
+        let e = l.resolve(std::slice::from_ref(&prim), &welded).unwrap_err().to_string();
         assert!(
             e.starts_with("f.ron:2:2: constraints[1].uv") && e.contains("already constrained"),
             "{e}"
         );
         let out = "(asset: \"a\", constraints: [(vertex: 7, uv: (0.5, 0.5))])";
         let l = LoadedConstraints::parse(Path::new("f.ron"), out).unwrap();
-        let e = l
-            .resolve(std::slice::from_ref(&prim), &welded)
-            .unwrap_err()
-            .to_string();
+        let e = l.resolve(std::slice::from_ref(&prim), &welded).unwrap_err().to_string();
         assert!(e.contains("out of range") && e.contains("0..3"), "{e}");
         let near = "(asset: \"a\", constraints: [(near: (0.9, 0.1, 0), uv: (0.5, 0.5))])";
         let l = LoadedConstraints::parse(Path::new("f.ron"), near).unwrap();

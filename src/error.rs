@@ -16,9 +16,7 @@ pub enum Error {
     Asset(#[from] AssetError),
     #[error(transparent)]
     Config(#[from] crate::config::ConfigError),
-    #[error(
-        "{path}: mesh {mesh}, chart {chart} ({n_vertices} vertices, {n_triangles} triangles): {source}"
-    )]
+    #[error("{path}: mesh {mesh}, chart {chart} ({n_vertices} vertices, {n_triangles} triangles): {source}")]
     Topology {
         path: PathBuf,
         mesh: usize,

@@ -127,10 +127,7 @@ mod tests {
             DVec2::new(2.0, 0.0),
         ];
         assert!(all_positive(&layout, &[[0, 1, 2]]));
-        assert_eq!(
-            first_non_positive(&layout, &[[0, 1, 2], [0, 2, 1]]),
-            Some(1)
-        );
+        assert_eq!(first_non_positive(&layout, &[[0, 1, 2], [0, 2, 1]]), Some(1));
         // Exactly collinear: zero, not positive.
         assert_eq!(first_non_positive(&layout, &[[0, 1, 3]]), Some(0));
         let c = count_orientations(&layout, &[[0, 1, 2], [0, 2, 1], [0, 1, 3]]);

@@ -22,6 +22,7 @@
 
 pub mod chart;
 pub mod cli;
+pub mod complete;
 pub mod config;
 pub mod constraints;
 pub mod ecs;
@@ -30,6 +31,7 @@ pub mod guard;
 pub mod io;
 pub mod mesh;
 pub mod metrics;
+pub mod options;
 pub mod param;
 pub mod rbf;
 pub mod report;

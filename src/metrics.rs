@@ -87,33 +87,19 @@ mod tests {
             .map(|p| p.truncate() * 0.37 + DVec2::new(0.1, 0.2))
             .collect();
         let s = sander_stretch(&m.positions, &layout, &m.triangles);
-        assert!(
-            (s.l2 - 1.0).abs() < 1e-12 && (s.linf - 1.0).abs() < 1e-12,
-            "{s:?}"
-        );
+        assert!((s.l2 - 1.0).abs() < 1e-12 && (s.linf - 1.0).abs() < 1e-12, "{s:?}");
     }
 
     #[test]
     fn anisotropic_stretch_is_measured() {
         let m = grid_mesh(4, 4);
         // Squash y by 2 and widen x by 2: areas match, singular values 2 and 1/2 of the inverse map.
-        let layout: Vec<DVec2> = m
-            .positions
-            .iter()
-            .map(|p| DVec2::new(p.x * 2.0, p.y * 0.5))
-            .collect();
+        let layout: Vec<DVec2> = m.positions.iter().map(|p| DVec2::new(p.x * 2.0, p.y * 0.5)).collect();
         let s = sander_stretch(&m.positions, &layout, &m.triangles);
         assert!((s.linf - 2.0).abs() < 1e-12, "{s:?}");
-        assert!(
-            (s.l2 - ((4.0 + 0.25) / 2.0f64).sqrt()).abs() < 1e-12,
-            "{s:?}"
-        );
+        assert!((s.l2 - ((4.0 + 0.25) / 2.0f64).sqrt()).abs() < 1e-12, "{s:?}");
         let mut flipped = layout.clone();
         flipped[5].x += 10.0;
-        assert!(
-            sander_stretch(&m.positions, &flipped, &m.triangles)
-                .l2
-                .is_infinite()
-        );
+        assert!(sander_stretch(&m.positions, &flipped, &m.triangles).l2.is_infinite());
     }
 }

@@ -68,6 +68,10 @@ pub struct StageTimes {
     pub solve_ms: f64,
     /// Spline fits and evaluations (Eq. 6).
     pub stepping_ms: f64,
+    /// Completion phase (soft-to-hard Newton steps).
+    pub complete_ms: f64,
+    /// Distortion polish.
+    pub polish_ms: f64,
     /// Orientation checks of candidate layouts.
     pub guard_ms: f64,
     /// Metrics, final checks, writing the file.
@@ -82,6 +86,8 @@ impl StageTimes {
             + self.factor_ms
             + self.solve_ms
             + self.stepping_ms
+            + self.complete_ms
+            + self.polish_ms
             + self.guard_ms
             + self.export_ms
     }
@@ -129,8 +135,19 @@ pub struct Report {
     pub orientation: OrientationCounts,
     /// Stretch of the step-1 (bar-net) layout.
     pub stretch_step1: Stretch,
+    /// Stretch once the targets were reached, before the polish.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stretch_before_polish: Option<Stretch>,
     /// Stretch of the final layout.
     pub stretch_final: Stretch,
+    /// What the completion phase and polish did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub completion: Option<crate::complete::CompletionStats>,
+    /// For a partial result: which constraints conflict and where the mesh is squeezed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hint: Option<String>,
+    /// What each phase did, one line each (`uvpin solve --explain`).
+    pub explain: Vec<String>,
     pub iterations: u32,
     pub halvings: u32,
     pub times: StageTimes,
@@ -177,14 +194,14 @@ impl Report {
         if let Some(m) = &self.message {
             s += &format!("  {m}\n");
         }
+        if let Some(h) = &self.hint {
+            s += &format!("  hint: {h}\n");
+        }
         for c in self.constraints.iter().filter(|c| !c.reached) {
             s += &format!(
                 "  unreached: constraints[{}]{} vertex {}: target ({:.4}, {:.4}), at ({:.4}, {:.4}), residual {:.4}\n",
                 c.index,
-                c.label
-                    .as_ref()
-                    .map(|l| format!(" \"{l}\""))
-                    .unwrap_or_default(),
+                c.label.as_ref().map(|l| format!(" \"{l}\"")).unwrap_or_default(),
                 c.vertex,
                 c.target.x,
                 c.target.y,
@@ -209,6 +226,9 @@ pub struct SolveSummary<'a> {
     pub step1: &'a [DVec2],
     pub layout: &'a [DVec2],
     pub state: &'a crate::rbf::stepping::SteppingState,
+    pub completion: Option<&'a crate::complete::CompletionStats>,
+    pub stretch_before_polish: Option<Stretch>,
+    pub problem: &'a crate::rbf::stepping::StepProblem,
     pub times: StageTimes,
 }
 
@@ -251,25 +271,37 @@ pub fn build(s: &SolveSummary) -> Report {
         constraints.iter().map(|c| c.residual).sum::<f64>() / constraints.len() as f64
     };
     let all_reached = constraints.iter().all(|c| c.reached);
+    let completion_ran = s.completion.is_some_and(|c| c.soft);
     let (status, message) = match (&s.state.phase, all_reached) {
         (_, true) => (Status::Reached, None),
+        (_, false) if completion_ran => (
+            Status::Partial,
+            Some(if s.completion.is_some_and(|c| c.out_of_time) {
+                "the time budget ran out before every constraint was placed; the layout is the best fold-free one so far".into()
+            } else {
+                "no fold-free layout with every constraint on its target was found; the layout is the best fold-free one".into()
+            }),
+        ),
         (SteppingPhase::Stalled(reason), false) => (
             Status::Partial,
             Some(format!(
-                "the spline path stalled ({reason}); the layout is the last fold-free step"
+                "the spline path stalled ({reason}); the layout is the last fold-free step (completion: Never)"
             )),
         ),
-        (_, false) => (
-            Status::Partial,
-            Some("some constraints are outside tolerance".into()),
-        ),
+        (_, false) => (Status::Partial, Some("some constraints are outside tolerance".into())),
     };
+    let unreached: Vec<(usize, u32)> = constraints
+        .iter()
+        .zip(&p.constraint_vertices)
+        .filter(|(c, _)| !c.reached)
+        .map(|(c, &v)| (c.index, v))
+        .collect();
+    let hint =
+        (!unreached.is_empty()).then(|| crate::complete::partial_hint(&p.filled, s.layout, s.problem, &unreached));
     let n_real = p.filled.n_real_vertices;
     let real = &p.chart.mesh;
-    let stretch_step1 =
-        crate::metrics::sander_stretch(&real.positions, &s.step1[..n_real], &real.triangles);
-    let stretch_final =
-        crate::metrics::sander_stretch(&real.positions, &s.layout[..n_real], &real.triangles);
+    let stretch_step1 = crate::metrics::sander_stretch(&real.positions, &s.step1[..n_real], &real.triangles);
+    let stretch_final = crate::metrics::sander_stretch(&real.positions, &s.layout[..n_real], &real.triangles);
     let gltf_id = |local: u32| -> Option<u32> {
         let w = p.chart.welded_ids[local as usize];
         p.welded
@@ -285,6 +317,7 @@ pub fn build(s: &SolveSummary) -> Report {
             s.boundary.trapped_on_square
         ));
     }
+    let explain = explain_lines(s, status, &stretch_step1, &stretch_final, max_residual);
     Report {
         status,
         message,
@@ -297,7 +330,11 @@ pub fn build(s: &SolveSummary) -> Report {
         mean_residual,
         orientation: crate::guard::count_orientations(s.layout, &p.filled.mesh.triangles),
         stretch_step1,
+        stretch_before_polish: s.stretch_before_polish,
         stretch_final,
+        completion: s.completion.cloned(),
+        hint,
+        explain,
         iterations: s.state.iterations,
         halvings: s.state.total_halvings,
         times: s.times,
@@ -317,4 +354,83 @@ pub fn build(s: &SolveSummary) -> Report {
         }),
         warnings,
     }
+}
+
+/// One line per phase, for `--explain`.
+fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stretch, max_residual: f64) -> Vec<String> {
+    use crate::param::boundary::{BoundaryShape, CornerSource};
+    use crate::rbf::stepping::SteppingPhase;
+    let p = s.prepared;
+    let t = &s.times;
+    let mut out = vec![format!(
+        "step 1 (bar-net, Eq. 1-2): outer loop of {} vertices on the {} (corners {}); {} holes fan-filled; \
+         {} free vertices solved; stretch L2 {:.4}, L∞ {:.4}; {:.2} ms",
+        s.boundary.loop_vertices.len(),
+        if s.boundary.shape == BoundaryShape::Square {
+            "square"
+        } else {
+            "bulged square (zero-area trap)"
+        },
+        match s.boundary.corner_source {
+            CornerSource::Given => "given".to_string(),
+            CornerSource::Automatic { shift } => format!("automatic, {shift} shifts"),
+        },
+        p.filled.n_holes(),
+        s.problem.movable.len(),
+        step1.l2,
+        step1.linf,
+        t.boundary_ms + t.factor_ms + t.solve_ms
+    )];
+    let st = s.state;
+    out.push(match &st.phase {
+        SteppingPhase::Skipped => "spline path (Eq. 6): skipped (completion: Always)".into(),
+        SteppingPhase::Reached if st.iterations == 0 => "spline path (Eq. 6): nothing to move".into(),
+        SteppingPhase::Reached => format!(
+            "spline path (Eq. 6): reached in {} steps, {} halvings; {:.2} ms",
+            st.iterations,
+            st.total_halvings,
+            t.stepping_ms + t.guard_ms
+        ),
+        SteppingPhase::Stalled(reason) => format!(
+            "spline path (Eq. 6): stalled after {} steps, {} halvings ({reason}); {:.2} ms",
+            st.iterations,
+            st.total_halvings,
+            t.stepping_ms + t.guard_ms
+        ),
+        SteppingPhase::Stepping => "spline path (Eq. 6): unfinished".into(),
+    });
+    match s.completion {
+        Some(c) if c.soft => out.push(format!(
+            "completion (soft-to-hard symmetric Dirichlet): {} rounds, {} Newton steps, {}; energy {:.4} → {:.4}{}; {:.2} ms",
+            c.rounds,
+            c.newton_steps,
+            match c.snapped_at_round {
+                Some(r) => format!("snapped onto the targets in round {}", r + 1),
+                None => "could not snap onto the targets".into(),
+            },
+            c.energy_start,
+            c.energy_end,
+            if c.out_of_time { " (time budget)" } else { "" },
+            t.complete_ms
+        )),
+        _ => out.push("completion: not needed".into()),
+    }
+    match (s.completion, s.stretch_before_polish) {
+        (Some(c), Some(before)) if c.polish => out.push(format!(
+            "polish (constraints and boundary held): {} Newton steps; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}; {:.2} ms",
+            c.polish_steps, before.l2, last.l2, before.linf, last.linf, t.polish_ms
+        )),
+        _ => out.push("polish: not run".into()),
+    }
+    out.push(format!(
+        "result: {}, max residual {:.3e}, {:.2} ms in all",
+        match status {
+            Status::Reached => "reached",
+            Status::Partial => "partial",
+            Status::Error => "error",
+        },
+        max_residual,
+        t.total_ms()
+    ));
+    out
 }

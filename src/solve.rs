@@ -8,7 +8,7 @@ use crate::ecs::{self, ChartData, Exported, Failed, Layout, SolveJob, Timings};
 use crate::error::Error;
 use crate::io::{self, SourceAsset};
 use crate::mesh::TriMesh;
-use crate::rbf::stepping::SteppingOptions;
+use crate::options::SolverOptions;
 use crate::report::Report;
 use bevy_ecs::prelude::*;
 use glam::DVec2;
@@ -24,7 +24,7 @@ pub const MAX_TICKS: usize = 1_000_000;
 /// # Errors
 /// Constraint-file and asset errors.
 pub fn load(constraints_path: &Path) -> Result<(LoadedConstraints, SourceAsset), Error> {
-    load_with_defaults(constraints_path, &SteppingOptions::DEFAULT)
+    load_with_defaults(constraints_path, &SolverOptions::DEFAULT)
 }
 
 /// As [`load`], with solver `defaults` for a constraint file without `solver`.
@@ -33,21 +33,16 @@ pub fn load(constraints_path: &Path) -> Result<(LoadedConstraints, SourceAsset),
 /// Constraint-file and asset errors.
 pub fn load_with_defaults(
     constraints_path: &Path,
-    defaults: &SteppingOptions,
+    defaults: &SolverOptions,
 ) -> Result<(LoadedConstraints, SourceAsset), Error> {
     let loaded = LoadedConstraints::load_with_defaults(constraints_path, defaults)?;
     let asset_path = loaded.asset_path();
-    let asset = io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set)
-        .map_err(|e| match e {
-            io::AssetError::Read { source, .. }
-                if source.kind() == std::io::ErrorKind::NotFound =>
-            {
-                loaded
-                    .asset_error("asset", format!("{} does not exist", asset_path.display()))
-                    .into()
-            }
-            e => Error::from(e),
-        })?;
+    let asset = io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set).map_err(|e| match e {
+        io::AssetError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => loaded
+            .asset_error("asset", format!("{} does not exist", asset_path.display()))
+            .into(),
+        e => Error::from(e),
+    })?;
     Ok((loaded, asset))
 }
 
@@ -72,9 +67,7 @@ pub fn spawn_job(
         asset: Arc::new(asset),
         output,
     };
-    Ok(world
-        .spawn((job, ChartData(Arc::new(prepared)), timings))
-        .id())
+    Ok(world.spawn((job, ChartData(Arc::new(prepared)), timings)).id())
 }
 
 /// Solves `constraints_path` and writes `output` (if given). Returns the
@@ -84,7 +77,7 @@ pub fn spawn_job(
 /// # Errors
 /// Any input error: constraint file, asset, topology.
 pub fn solve_file(constraints_path: &Path, output: Option<&Path>) -> Result<Report, Error> {
-    solve_file_with_defaults(constraints_path, output, &SteppingOptions::DEFAULT)
+    solve_file_with_defaults(constraints_path, output, &SolverOptions::DEFAULT)
 }
 
 /// As [`solve_file`], with solver `defaults` (e.g. from `config/uvpin.ron`)
@@ -95,19 +88,13 @@ pub fn solve_file(constraints_path: &Path, output: Option<&Path>) -> Result<Repo
 pub fn solve_file_with_defaults(
     constraints_path: &Path,
     output: Option<&Path>,
-    defaults: &SteppingOptions,
+    defaults: &SolverOptions,
 ) -> Result<Report, Error> {
     let t0 = Instant::now();
     let (loaded, asset) = load_with_defaults(constraints_path, defaults)?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut world = World::new();
-    let entity = spawn_job(
-        &mut world,
-        loaded,
-        asset,
-        output.map(Path::to_path_buf),
-        load_ms,
-    )?;
+    let entity = spawn_job(&mut world, loaded, asset, output.map(Path::to_path_buf), load_ms)?;
     run_job(world, entity).map(|(report, _)| report)
 }
 
@@ -122,9 +109,7 @@ fn run_job(mut world: World, entity: Entity) -> Result<(Report, Vec<Vec<[f32; 2]
     let report = world
         .get::<Exported>(entity)
         .map(|e| e.0.clone())
-        .ok_or_else(|| {
-            Error::Internal(format!("the solve did not finish within {MAX_TICKS} ticks"))
-        })?;
+        .ok_or_else(|| Error::Internal(format!("the solve did not finish within {MAX_TICKS} ticks")))?;
     let (job, data, layout) = (
         world.get::<SolveJob>(entity).expect("job"),
         world.get::<ChartData>(entity).expect("chart"),
@@ -148,7 +133,7 @@ pub fn solve_mesh(
     mesh: &TriMesh,
     constraints: &[(u32, DVec2)],
     corners: Option<[u32; 4]>,
-    options: SteppingOptions,
+    options: SolverOptions,
 ) -> Result<(Report, Vec<[f32; 2]>), Error> {
     let t0 = Instant::now();
     let file = ConstraintFile {

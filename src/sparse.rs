@@ -7,8 +7,7 @@
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
-    factorize_symbolic_cholesky,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, Par, Side};
@@ -53,13 +52,8 @@ impl SpdPattern {
 
     /// As [`SpdPattern::new`] with a fill-reducing elimination order
     /// (`order[k]` = the unknown eliminated k-th), e.g. from [`nested_dissection`].
-    pub fn with_ordering(
-        n: usize,
-        entries: &[(usize, usize)],
-        order: Option<&[usize]>,
-    ) -> Result<Self, SparseError> {
-        let pairs: Vec<Pair<usize, usize>> =
-            entries.iter().map(|&(r, c)| Pair::new(r, c)).collect();
+    pub fn with_ordering(n: usize, entries: &[(usize, usize)], order: Option<&[usize]>) -> Result<Self, SparseError> {
+        let pairs: Vec<Pair<usize, usize>> = entries.iter().map(|&(r, c)| Pair::new(r, c)).collect();
         let (symbolic, argsort) = SymbolicSparseColMat::<usize>::try_new_from_indices(n, n, &pairs)
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         let params = CholeskySymbolicParams {
@@ -78,14 +72,11 @@ impl SpdPattern {
             inv
         });
         let ordering = match (order, &inverse) {
-            (Some(fwd), Some(inv)) => {
-                SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(fwd, inv, n))
-            }
+            (Some(fwd), Some(inv)) => SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(fwd, inv, n)),
             _ => SymmetricOrdering::Amd,
         };
-        let cholesky =
-            factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, ordering, params)
-                .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
+        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, ordering, params)
+            .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         Ok(SpdPattern {
             n,
             symbolic,
@@ -100,12 +91,8 @@ impl SpdPattern {
 
     /// Numeric factorisation with `values` in the order of the `entries` given to [`SpdPattern::new`].
     pub fn factor(&self, values: &[f64]) -> Result<SpdFactor, SparseError> {
-        let a = SparseColMat::<usize, f64>::new_from_argsort(
-            self.symbolic.clone(),
-            &self.argsort,
-            values,
-        )
-        .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
+        let a = SparseColMat::<usize, f64>::new_from_argsort(self.symbolic.clone(), &self.argsort, values)
+            .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         let mut l_values = vec![0.0f64; self.cholesky.len_val()];
         let mut mem = MemBuffer::new(
             self.cholesky
@@ -157,10 +144,7 @@ const DISSECTION_LEAF: usize = 96;
 /// far less fill than minimum degree and costs O(n log n).
 ///
 /// `neighbours(i)` lists the unknowns coupled to unknown `i`.
-pub fn nested_dissection<'a>(
-    points: &[[f64; 3]],
-    neighbours: impl Fn(usize) -> &'a [u32],
-) -> Vec<usize> {
+pub fn nested_dissection<'a>(points: &[[f64; 3]], neighbours: impl Fn(usize) -> &'a [u32]) -> Vec<usize> {
     let n = points.len();
     let mut order = Vec::with_capacity(n);
     // side[v]: which part of the current split v belongs to, tagged by split id.
@@ -204,11 +188,9 @@ pub fn nested_dissection<'a>(
         for &v in &right {
             side[v as usize] = (id, true);
         }
-        let (sep, left): (Vec<u32>, Vec<u32>) = set.into_iter().partition(|&v| {
-            neighbours(v as usize)
-                .iter()
-                .any(|&u| side[u as usize] == (id, true))
-        });
+        let (sep, left): (Vec<u32>, Vec<u32>) = set
+            .into_iter()
+            .partition(|&v| neighbours(v as usize).iter().any(|&u| side[u as usize] == (id, true)));
         // Pushed in reverse: left half, right half, then the separator.
         stack.push(Work::Emit(sep));
         stack.push(Work::Order(right));
@@ -287,9 +269,7 @@ mod tests {
                 }
             }
         }
-        let points: Vec<[f64; 3]> = (0..n)
-            .map(|v| [(v % nx) as f64, (v / nx) as f64, 0.0])
-            .collect();
+        let points: Vec<[f64; 3]> = (0..n).map(|v| [(v % nx) as f64, (v / nx) as f64, 0.0]).collect();
         let order = nested_dissection(&points, |i| &adjacency[i]);
         let mut seen = order.clone();
         seen.sort_unstable();

@@ -11,11 +11,7 @@ pub fn grid_mesh(nx: usize, ny: usize) -> TriMesh {
     let mut positions = Vec::with_capacity(nx * ny);
     for j in 0..ny {
         for i in 0..nx {
-            positions.push(DVec3::new(
-                i as f64 / (nx - 1) as f64,
-                j as f64 / (ny - 1) as f64,
-                0.0,
-            ));
+            positions.push(DVec3::new(i as f64 / (nx - 1) as f64, j as f64 / (ny - 1) as f64, 0.0));
         }
     }
     let mut triangles = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
@@ -33,10 +29,7 @@ pub fn grid_mesh(nx: usize, ny: usize) -> TriMesh {
             }
         }
     }
-    TriMesh {
-        positions,
-        triangles,
-    }
+    TriMesh { positions, triangles }
 }
 
 /// Deterministic xorshift64* generator for property tests.
@@ -76,11 +69,7 @@ impl Rng {
 pub fn random_disk(rng: &mut Rng, n: usize, n_holes: usize) -> TriMesh {
     let mut mesh = grid_mesh(n, n);
     let h = 1.0 / (n - 1) as f64;
-    let (a, b, c) = (
-        rng.range(-0.4, 0.4),
-        rng.range(-0.4, 0.4),
-        rng.range(1.0, 4.0),
-    );
+    let (a, b, c) = (rng.range(-0.4, 0.4), rng.range(-0.4, 0.4), rng.range(1.0, 4.0));
     for (i, p) in mesh.positions.iter_mut().enumerate() {
         let (ix, iy) = (i % n, i / n);
         if ix > 0 && iy > 0 && ix < n - 1 && iy < n - 1 {
@@ -96,16 +85,12 @@ pub fn random_disk(rng: &mut Rng, n: usize, n_holes: usize) -> TriMesh {
             break;
         }
         let (ix, iy) = (3 + rng.below(n - 6), 3 + rng.below(n - 6));
-        if centres
-            .iter()
-            .all(|&(x, y)| x.abs_diff(ix) > 3 || y.abs_diff(iy) > 3)
-        {
+        if centres.iter().all(|&(x, y)| x.abs_diff(ix) > 3 || y.abs_diff(iy) > 3) {
             centres.push((ix, iy));
         }
     }
     let removed: Vec<u32> = centres.iter().map(|&(x, y)| (x + y * n) as u32).collect();
-    mesh.triangles
-        .retain(|t| !t.iter().any(|v| removed.contains(v)));
+    mesh.triangles.retain(|t| !t.iter().any(|v| removed.contains(v)));
     compact(mesh)
 }
 
@@ -126,15 +111,8 @@ pub fn compact(mesh: TriMesh) -> TriMesh {
             positions.push(mesh.positions[v]);
         }
     }
-    let triangles = mesh
-        .triangles
-        .iter()
-        .map(|t| t.map(|v| new_id[v as usize]))
-        .collect();
-    TriMesh {
-        positions,
-        triangles,
-    }
+    let triangles = mesh.triangles.iter().map(|t| t.map(|v| new_id[v as usize])).collect();
+    TriMesh { positions, triangles }
 }
 
 /// A smooth bijective warp of the unit square that fixes its boundary:

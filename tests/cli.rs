@@ -22,8 +22,7 @@ fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains("reached"), "{}", stderr(&o));
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(r["status"], "reached");
     assert_eq!(r["orientation"]["flipped"], 0);
     assert_eq!(r["orientation"]["zero_area"], 0);
@@ -66,12 +65,7 @@ fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
         assert_eq!(py[0]["negative"], tris.len(), "{}", py[0]["positive"]);
     }
     // `uvpin check` agrees with the constraint file.
-    let o = uvpin(&[
-        "check",
-        out.to_str().unwrap(),
-        "--constraints",
-        ron.to_str().unwrap(),
-    ]);
+    let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
     assert!(stdout(&o).contains("flipped      0"), "{}", stdout(&o));
 }
@@ -84,9 +78,7 @@ pub fn gltf_import(path: &std::path::Path) -> (gltf::Document, Vec<Vec<u8>>, ())
     for b in g.document.buffers() {
         match b.source() {
             gltf::buffer::Source::Bin => buffers.push(g.blob.clone().unwrap()),
-            gltf::buffer::Source::Uri(uri) => {
-                buffers.push(std::fs::read(path.parent().unwrap().join(uri)).unwrap())
-            }
+            gltf::buffer::Source::Uri(uri) => buffers.push(std::fs::read(path.parent().unwrap().join(uri)).unwrap()),
         }
     }
     (g.document, buffers, ())
@@ -113,20 +105,16 @@ fn grid_asset(tmp: &TempDir, n: usize) -> std::path::PathBuf {
 }
 
 #[test]
-fn crossing_constraints_end_partial_fold_free_with_exit_code_2() {
+fn crossing_constraints_are_reached_by_the_completion_phase() {
     // The paper's Fig. 8: two constraints asked to swap sides. The spline path
-    // (straight lines) cannot do it; the result is written, fold-free, Partial.
+    // (straight lines) stalls; the completion phase reaches both exactly.
     let tmp = TempDir::new("crossing");
     let asset = grid_asset(&tmp, 21);
     // Grid vertex (i, j) = i + 21 j sits near (i/20, j/20) in step 1 (corners given).
     let (a, b) = (6 + 21 * 10, 14 + 21 * 10);
     let ron = tmp.path("c.uvpin.ron");
-    write_constraints(
-        &ron,
-        &asset,
-        &[(a, 0.7, 0.5), (b, 0.3, 0.5)],
-        "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n",
-    );
+    let corners = "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n";
+    write_constraints(&ron, &asset, &[(a, 0.7, 0.5), (b, 0.3, 0.5)], corners);
     let out = tmp.path("out.glb");
     let report = tmp.path("r.json");
     let o = uvpin(&[
@@ -136,20 +124,52 @@ fn crossing_constraints_end_partial_fold_free_with_exit_code_2() {
         out.to_str().unwrap(),
         "--report",
         report.to_str().unwrap(),
+        "--explain",
     ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let err = stderr(&o);
-    assert!(
-        err.contains("partial") && err.contains("unreached: constraints[0]"),
-        "{err}"
-    );
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert!(err.contains("spline path (Eq. 6): stalled"), "{err}");
+    assert!(err.contains("snapped onto the targets"), "{err}");
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["status"], "reached");
+    assert!(r["max_residual"].as_f64().unwrap() <= 1e-9);
+    assert_eq!(r["orientation"]["flipped"], 0);
+    assert_eq!(r["completion"]["snapped"], true);
+    let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+
+    // Without the completion phase the same case ends Partial: written, fold-free, exit 2.
+    write_constraints(&ron, &asset, &[(a, 0.7, 0.5), (b, 0.3, 0.5)], &format!("{corners}    solver: (completion: Never),\n"));
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--report", report.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("unreached: constraints[0]"), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["status"], "partial");
+    assert!(r["message"].as_str().unwrap().contains("stalled"));
+    let o = uvpin(&["check", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+}
+
+#[test]
+fn mirrored_targets_end_partial_with_a_hint_and_exit_code_2() {
+    // Three corners of one triangle asked to swap into mirrored order: no
+    // fold-free layout can do it. The result is written, fold-free, Partial.
+    let tmp = TempDir::new("impossible");
+    let asset = grid_asset(&tmp, 21);
+    let corners = "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n";
+    // Triangle (v, v+1, v+22) with v = 9 + 21·10: send its corners to a mirrored triangle.
+    let v = 9 + 21 * 10;
+    let ron = tmp.path("m.uvpin.ron");
+    write_constraints(&ron, &asset, &[(v, 0.55, 0.5), (v + 1, 0.45, 0.5), (v + 22, 0.55, 0.45)], corners);
+    let out = tmp.path("out.glb");
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--report", "-", "--quiet"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(r["status"], "partial");
     assert_eq!(r["orientation"]["flipped"], 0);
-    assert!(r["max_residual"].as_f64().unwrap() > 1e-3);
-    assert!(r["message"].as_str().unwrap().contains("stalled"));
-    assert!(out.is_file(), "a partial result is written");
+    assert_eq!(r["orientation"]["zero_area"], 0);
+    let hint = r["hint"].as_str().unwrap();
+    assert!(hint.contains("cannot reach their targets") && hint.contains("constraints["), "{hint}");
     let o = uvpin(&["check", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
 }
@@ -201,12 +221,7 @@ fn broken_ron_reports_line_and_column_and_writes_nothing() {
     assert_fails_writing_nothing(
         &ron,
         &tmp,
-        &[
-            "bad.uvpin.ron:4:9",
-            "constraints[0].vertex",
-            "out of range",
-            "0..25",
-        ],
+        &["bad.uvpin.ron:4:9", "constraints[0].vertex", "out of range", "0..25"],
     );
     write_constraints(&ron, &asset, &[(6, 0.5, 0.5), (6, 0.4, 0.5)], "");
     assert_fails_writing_nothing(&ron, &tmp, &["constraints[1].uv", "already constrained"]);
@@ -214,11 +229,7 @@ fn broken_ron_reports_line_and_column_and_writes_nothing() {
     assert_fails_writing_nothing(&ron, &tmp, &["outside the unit square"]);
     // A boundary vertex (1 is on the bottom row) asked to go to the middle.
     write_constraints(&ron, &asset, &[(1, 0.5, 0.5)], "");
-    assert_fails_writing_nothing(
-        &ron,
-        &tmp,
-        &["constraints[0].uv", "outer boundary", "contradicts"],
-    );
+    assert_fails_writing_nothing(&ron, &tmp, &["constraints[0].uv", "outer boundary", "contradicts"]);
     // Corners in mirrored order.
     write_constraints(
         &ron,
@@ -229,11 +240,7 @@ fn broken_ron_reports_line_and_column_and_writes_nothing() {
     assert_fails_writing_nothing(&ron, &tmp, &["corners", "mirror"]);
     // Missing asset.
     std::fs::write(&ron, "(asset: \"nope.glb\", constraints: [])").unwrap();
-    assert_fails_writing_nothing(
-        &ron,
-        &tmp,
-        &["bad.uvpin.ron:1:9", "nope.glb", "does not exist"],
-    );
+    assert_fails_writing_nothing(&ron, &tmp, &["bad.uvpin.ron:1:9", "nope.glb", "does not exist"]);
 }
 
 #[test]
@@ -275,22 +282,14 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
     let asset = tmp.path("fin.glb");
     write_mesh_glb(&asset, &fin);
     write_constraints(&ron, &asset, &[(5, 0.5, 0.5)], "");
-    assert_fails_writing_nothing(
-        &ron,
-        &tmp,
-        &["fin.glb", "non-manifold edge (5, 6)", "3 triangles"],
-    );
+    assert_fails_writing_nothing(&ron, &tmp, &["fin.glb", "non-manifold edge (5, 6)", "3 triangles"]);
 }
 
 #[test]
 fn non_triangle_primitives_and_missing_meshes_are_named_errors() {
     let tmp = TempDir::new("lines");
     let mesh = grid_mesh(4, 4);
-    let positions: Vec<[f32; 3]> = mesh
-        .positions
-        .iter()
-        .map(|p| p.as_vec3().to_array())
-        .collect();
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (mut json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "lines");
     json["meshes"][0]["primitives"][0]["mode"] = serde_json::json!(1);
@@ -305,12 +304,7 @@ fn non_triangle_primitives_and_missing_meshes_are_named_errors() {
     );
     write_constraints(&ron, &repo().join("assets/face.glb"), &[], "  mesh: 3,\n");
     assert_fails_writing_nothing(&ron, &tmp, &["mesh 3 does not exist", "0..1"]);
-    write_constraints(
-        &ron,
-        &repo().join("assets/face.glb"),
-        &[],
-        "  mesh: \"Head\",\n",
-    );
+    write_constraints(&ron, &repo().join("assets/face.glb"), &[], "  mesh: \"Head\",\n");
     assert_fails_writing_nothing(&ron, &tmp, &["no mesh named \"Head\"", "face"]);
 }
 
@@ -342,11 +336,7 @@ fn corrupt_glb_files_are_named_errors() {
 fn gltf_with_external_buffer_round_trips_to_gltf_and_bin() {
     let tmp = TempDir::new("gltf");
     let mesh = grid_mesh(9, 9);
-    let positions: Vec<[f32; 3]> = mesh
-        .positions
-        .iter()
-        .map(|p| p.as_vec3().to_array())
-        .collect();
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (mut json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "g");
     std::fs::create_dir_all(tmp.path("in")).unwrap();
@@ -354,11 +344,7 @@ fn gltf_with_external_buffer_round_trips_to_gltf_and_bin() {
     json["buffers"][0]["uri"] = serde_json::json!("geometry%20data.bin");
     json["extras"] = serde_json::json!({"studio": "kept"});
     json["x_unknown_field"] = serde_json::json!([1, 2, 3]);
-    std::fs::write(
-        tmp.path("in/g.gltf"),
-        serde_json::to_vec_pretty(&json).unwrap(),
-    )
-    .unwrap();
+    std::fs::write(tmp.path("in/g.gltf"), serde_json::to_vec_pretty(&json).unwrap()).unwrap();
     let ron = tmp.path("in/g.uvpin.ron");
     write_constraints(&ron, std::path::Path::new("g.gltf"), &[(40, 0.5, 0.5)], "");
     std::fs::create_dir_all(tmp.path("out")).unwrap();
@@ -402,27 +388,15 @@ fn obj_input_writes_obj_or_glb() {
     let ron = tmp.path("g.uvpin.ron");
     write_constraints(&ron, std::path::Path::new("g.obj"), &[(14, 0.45, 0.5)], "");
     for out in ["out.obj", "out.glb"] {
-        let o = uvpin(&[
-            "solve",
-            ron.to_str().unwrap(),
-            "-o",
-            tmp.path(out).to_str().unwrap(),
-        ]);
+        let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", tmp.path(out).to_str().unwrap()]);
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     }
     let obj = std::fs::read_to_string(tmp.path("out.obj")).unwrap();
     assert_eq!(obj.lines().filter(|l| l.starts_with("vt ")).count(), 36);
-    assert!(
-        obj.contains("f 1/1 2/2 8/8") || obj.contains("f 1/1"),
-        "{obj}"
-    );
+    assert!(obj.contains("f 1/1 2/2 8/8") || obj.contains("f 1/1"), "{obj}");
     let o = uvpin(&["check", tmp.path("out.glb").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
-    std::fs::write(
-        tmp.path("q.obj"),
-        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n",
-    )
-    .unwrap();
+    std::fs::write(tmp.path("q.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
     write_constraints(&ron, std::path::Path::new("q.obj"), &[], "");
     let o = uvpin(&["solve", ron.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
@@ -439,8 +413,7 @@ fn config_file_supplies_solver_defaults_unless_the_constraint_file_has_its_own()
     let asset = grid_asset(&tmp, 21);
     let ron = tmp.path("c.uvpin.ron");
     // The crossing case stalls; with max_halvings 0 it stalls at the first fold.
-    let corners =
-        "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n";
+    let corners = "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n";
     write_constraints(
         &ron,
         &asset,
@@ -453,8 +426,7 @@ fn config_file_supplies_solver_defaults_unless_the_constraint_file_has_its_own()
         let mut args = vec!["solve", ron.to_str().unwrap(), "--report", "-", "--quiet"];
         args.extend_from_slice(extra);
         let o = uvpin(&args);
-        serde_json::from_slice::<serde_json::Value>(&o.stdout)
-            .unwrap_or_else(|_| panic!("{}", stderr(&o)))
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap_or_else(|_| panic!("{}", stderr(&o)))
     };
     let default = run(&[]);
     let configured = run(&["--config", config.to_str().unwrap()]);
@@ -465,18 +437,13 @@ fn config_file_supplies_solver_defaults_unless_the_constraint_file_has_its_own()
         &ron,
         &asset,
         &[(6 + 21 * 10, 0.7, 0.5), (14 + 21 * 10, 0.3, 0.5)],
-        &format!("{corners}    solver: (max_halvings: 3),\n"),
+        &format!("{corners}    solver: (max_halvings: 3, completion: Never),\n"),
     );
     let own = run(&["--config", config.to_str().unwrap()]);
     assert!(own["halvings"].as_u64().unwrap() >= 4, "{own}");
     // A broken configuration is a located error.
     std::fs::write(&config, "(solver: (max_halvingz: 0))").unwrap();
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "--config",
-        config.to_str().unwrap(),
-    ]);
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "--config", config.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
     assert!(
         stderr(&o).contains("uvpin.ron:1:11") && stderr(&o).contains("max_halvingz"),

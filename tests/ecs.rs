@@ -74,27 +74,17 @@ fn a_new_boundary_re_solves_without_refactoring() {
         first.iter().zip(second).any(|(a, b)| a.distance(*b) > 1e-3),
         "the layout must change"
     );
-    assert!(
-        world.get::<Exported>(e).is_some(),
-        "the re-solve is exported again"
-    );
+    assert!(world.get::<Exported>(e).is_some(), "the re-solve is exported again");
 }
 
 #[test]
 fn input_errors_become_a_failed_component() {
     let mut world = World::new();
     // Vertex 1 is on the outer boundary; its target contradicts the boundary map.
-    let e = spawn(
-        &mut world,
-        "(asset: \"m\", constraints: [(vertex: 1, uv: (0.5, 0.5))])",
-    );
+    let e = spawn(&mut world, "(asset: \"m\", constraints: [(vertex: 1, uv: (0.5, 0.5))])");
     let mut schedule = solve_schedule();
     run_to_convergence(&mut world, &mut schedule, 100);
     let failed = world.get::<Failed>(e).expect("failed");
-    assert!(
-        failed.0.to_string().contains("outer boundary"),
-        "{}",
-        failed.0
-    );
+    assert!(failed.0.to_string().contains("outer boundary"), "{}", failed.0);
     assert!(world.get::<Exported>(e).is_none());
 }

@@ -4,8 +4,8 @@
 
 mod common;
 use glam::DVec2;
+use uvpin::options::SolverOptions;
 use uvpin::param::{uv_to_xy, xy_to_uv};
-use uvpin::rbf::stepping::SteppingOptions;
 use uvpin::report::Status;
 use uvpin::testing::{Rng, random_disk, smooth_warp};
 
@@ -13,9 +13,7 @@ use uvpin::testing::{Rng, random_disk, smooth_warp};
 fn interior_vertices(mesh: &uvpin::mesh::TriMesh) -> Vec<u32> {
     let topo = uvpin::mesh::topology::Topology::build(mesh).expect("disk");
     let outer = topo.outer_loop();
-    (0..mesh.n_vertices() as u32)
-        .filter(|v| !outer.contains(v))
-        .collect()
+    (0..mesh.n_vertices() as u32).filter(|v| !outer.contains(v)).collect()
 }
 
 #[test]
@@ -29,8 +27,7 @@ fn random_disks_and_random_constraints_never_fold() {
         let n = 8 + rng.below(14);
         let holes = rng.below(4);
         let mesh = random_disk(&mut rng, n, holes);
-        let (step1, uvs) =
-            uvpin::solve_mesh(&mesh, &[], None, SteppingOptions::DEFAULT).expect("step 1");
+        let (step1, uvs) = uvpin::solve_mesh(&mesh, &[], None, SolverOptions::DEFAULT).expect("step 1");
         assert_eq!(step1.status, Status::Reached);
         assert!(step1.orientation.is_clean(), "case {case}: step 1 folds");
         if step1.boundary.as_ref().unwrap().shape != uvpin::param::boundary::BoundaryShape::Square {
@@ -54,14 +51,10 @@ fn random_disks_and_random_constraints_never_fold() {
             };
             constraints.push((v, target));
         }
-        let (report, uvs) = uvpin::solve_mesh(&mesh, &constraints, None, SteppingOptions::DEFAULT)
+        let (report, uvs) = uvpin::solve_mesh(&mesh, &constraints, None, SolverOptions::DEFAULT)
             .unwrap_or_else(|e| panic!("case {case}: {e}"));
         // The report counts virtual hole triangles too; check the real ones independently.
-        assert!(
-            report.orientation.is_clean(),
-            "case {case}: {:?}",
-            report.orientation
-        );
+        assert!(report.orientation.is_clean(), "case {case}: {:?}", report.orientation);
         let counts = uvpin::guard::count_uv_orientations(&uvs, &mesh.triangles);
         assert!(counts.is_clean(), "case {case}: {counts:?}");
         match report.status {
@@ -81,18 +74,13 @@ fn random_disks_and_random_constraints_never_fold() {
             Status::Error => panic!("case {case}: {:?}", report.message),
         }
     }
-    eprintln!(
-        "{cases} cases: {reached} reached, {partial} partial, 0 folded; {bulged} needed the bulged boundary"
-    );
+    eprintln!("{cases} cases: {reached} reached, {partial} partial, 0 folded; {bulged} needed the bulged boundary");
     assert!(
         bulged * 20 <= cases as usize,
         "the square should be kept in nearly every case ({bulged} bulged)"
     );
     assert_eq!(reached + partial, cases as usize);
-    assert!(
-        reached > 0 && partial > 0,
-        "the corpus should exercise both outcomes"
-    );
+    assert!(reached > 0 && partial > 0, "the corpus should exercise both outcomes");
 }
 
 #[test]
@@ -101,7 +89,7 @@ fn fewer_than_three_constraints_are_handled() {
     // boundary anchors make it well posed.
     let mut rng = Rng::new(9);
     let mesh = random_disk(&mut rng, 15, 1);
-    let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, SteppingOptions::DEFAULT).unwrap();
+    let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, SolverOptions::DEFAULT).unwrap();
     let interior = interior_vertices(&mesh);
     for k in 1..=2 {
         let constraints: Vec<(u32, DVec2)> = interior
@@ -111,22 +99,13 @@ fn fewer_than_three_constraints_are_handled() {
                 (
                     v,
                     xy_to_uv(smooth_warp(
-                        uv_to_xy(DVec2::new(
-                            uvs[v as usize][0] as f64,
-                            uvs[v as usize][1] as f64,
-                        )),
+                        uv_to_xy(DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64)),
                         0.05,
                     )),
                 )
             })
             .collect();
-        let (report, _) =
-            uvpin::solve_mesh(&mesh, &constraints, None, SteppingOptions::DEFAULT).unwrap();
-        assert_eq!(
-            report.status,
-            Status::Reached,
-            "{k} constraints: {:?}",
-            report.message
-        );
+        let (report, _) = uvpin::solve_mesh(&mesh, &constraints, None, SolverOptions::DEFAULT).unwrap();
+        assert_eq!(report.status, Status::Reached, "{k} constraints: {:?}", report.message);
     }
 }

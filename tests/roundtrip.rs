@@ -51,11 +51,7 @@ fn round_trip(name: &str, uv_set: u32) {
         .vertex_of
         .iter()
         .enumerate()
-        .find_map(|(p, map)| {
-            map.iter()
-                .position(|&w| w == interior)
-                .map(|i| (p, i as u32))
-        })
+        .find_map(|(p, map)| map.iter().position(|&w| w == interior).map(|i| (p, i as u32)))
         .unwrap();
     let ron = tmp.path("c.uvpin.ron");
     std::fs::write(
@@ -87,18 +83,9 @@ fn round_trip(name: &str, uv_set: u32) {
         expected["meshes"][mesh]["primitives"][prim.index]["attributes"][&attribute] = Value::Null;
         json_out["meshes"][mesh]["primitives"][prim.index]["attributes"][&attribute] = Value::Null;
     }
-    json_out["accessors"]
-        .as_array_mut()
-        .unwrap()
-        .truncate(n_acc);
-    json_out["bufferViews"]
-        .as_array_mut()
-        .unwrap()
-        .truncate(n_views);
-    assert!(
-        json_out["buffers"][0]["byteLength"].as_u64()
-            > json_in["buffers"][0]["byteLength"].as_u64()
-    );
+    json_out["accessors"].as_array_mut().unwrap().truncate(n_acc);
+    json_out["bufferViews"].as_array_mut().unwrap().truncate(n_views);
+    assert!(json_out["buffers"][0]["byteLength"].as_u64() > json_in["buffers"][0]["byteLength"].as_u64());
     json_out["buffers"][0]["byteLength"] = json_in["buffers"][0]["byteLength"].clone();
     assert_eq!(
         json_out, expected,
@@ -106,12 +93,7 @@ fn round_trip(name: &str, uv_set: u32) {
     );
 
     // 2. Every original buffer view (so every original accessor) keeps its bytes.
-    for (i, view) in json_in["bufferViews"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .enumerate()
-    {
+    for (i, view) in json_in["bufferViews"].as_array().unwrap().iter().enumerate() {
         let off = view["byteOffset"].as_u64().unwrap_or(0) as usize;
         let len = view["byteLength"].as_u64().unwrap() as usize;
         assert_eq!(
@@ -124,12 +106,7 @@ fn round_trip(name: &str, uv_set: u32) {
     // 3. UVs: other charts bit-identical; the solved chart fold-free.
     let written = uvpin::io::load_asset(&out, None, uv_set).unwrap();
     let mut changed = 0;
-    for (p, (before, after)) in source
-        .primitives
-        .iter()
-        .zip(&written.primitives)
-        .enumerate()
-    {
+    for (p, (before, after)) in source.primitives.iter().zip(&written.primitives).enumerate() {
         assert_eq!(before.positions, after.positions);
         assert_eq!(before.indices, after.indices);
         let (old, new) = (before.uvs.as_ref(), after.uvs.as_ref().unwrap());
@@ -182,10 +159,7 @@ fn a_new_uv_set_can_be_added_beside_the_existing_one() {
     let ron = tmp.path("c.uvpin.ron");
     std::fs::write(
         &ron,
-        format!(
-            "(asset: {:?}, uv_set: 1, constraints: [])",
-            asset.display().to_string()
-        ),
+        format!("(asset: {:?}, uv_set: 1, constraints: [])", asset.display().to_string()),
     )
     .unwrap();
     let out = tmp.path("duck1.glb");

@@ -35,11 +35,7 @@ fn validate(files: &[&Path]) -> Vec<serde_json::Value> {
         .env("GLTF_VALIDATOR_MODULE", &module)
         .output()
         .expect("node");
-    assert!(
-        o.status.success(),
-        "validator: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    assert!(o.status.success(), "validator: {}", String::from_utf8_lossy(&o.stderr));
     String::from_utf8_lossy(&o.stdout)
         .lines()
         .map(|l| serde_json::from_str(l).expect("validator JSON"))
@@ -47,13 +43,7 @@ fn validate(files: &[&Path]) -> Vec<serde_json::Value> {
 }
 
 fn solve(ron: &Path, out: &Path) {
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--quiet"]);
     assert!(matches!(o.status.code(), Some(0 | 2)), "{}", stderr(&o));
 }
 
@@ -66,11 +56,7 @@ fn outputs_pass_the_khronos_validator_with_zero_errors() {
     outputs.push(sample);
     // .gltf with external .bin.
     let mesh = uvpin::testing::grid_mesh(10, 10);
-    let positions: Vec<[f32; 3]> = mesh
-        .positions
-        .iter()
-        .map(|p| p.as_vec3().to_array())
-        .collect();
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "grid");
     uvpin::io::gltf_file::write_new_document(&json, &blob, &tmp.path("grid.gltf")).unwrap();
@@ -87,20 +73,11 @@ fn outputs_pass_the_khronos_validator_with_zero_errors() {
         let ron = tmp.path(&format!("{name}.uvpin.ron"));
         std::fs::write(
             &ron,
-            format!(
-                "(asset: {:?}, constraints: [])",
-                asset.display().to_string()
-            ),
+            format!("(asset: {:?}, constraints: [])", asset.display().to_string()),
         )
         .unwrap();
         let out = tmp.path(name);
-        let o = uvpin(&[
-            "solve",
-            ron.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--quiet",
-        ]);
+        let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--quiet"]);
         if o.status.code() == Some(1) {
             // The largest chart may not be a disk; constrain a vertex of a chart that is.
             let asset_data = uvpin::io::load_asset(&asset, None, 0).unwrap();

@@ -96,7 +96,7 @@ pub fn run(
         });
     }
     let mut residuals = Vec::new();
-    let mut tolerance = crate::rbf::stepping::SteppingOptions::DEFAULT.tolerance;
+    let mut tolerance = crate::options::SolverOptions::DEFAULT.tolerance;
     if let Some(path) = constraints {
         let loaded = LoadedConstraints::load(path)?;
         tolerance = loaded.solver.tolerance;
@@ -113,8 +113,8 @@ pub fn run(
             });
         }
     }
-    let clean = charts.iter().all(|c| c.flipped == 0 && c.zero_area == 0)
-        && residuals.iter().all(|r| r.residual <= tolerance);
+    let clean =
+        charts.iter().all(|c| c.flipped == 0 && c.zero_area == 0) && residuals.iter().all(|r| r.residual <= tolerance);
     if json {
         let out = serde_json::json!({
             "asset": asset.path.display().to_string(),

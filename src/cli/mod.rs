@@ -39,6 +39,9 @@ pub enum Command {
         /// constraint files without a `solver` section.
         #[arg(long)]
         config: Option<PathBuf>,
+        /// Print what each phase did (step 1, spline path, completion, polish).
+        #[arg(long)]
+        explain: bool,
     },
     /// Measure existing UVs: folds, zero-area triangles and stretch per chart,
     /// and constraint residuals. Works on UVs from any tool.
@@ -70,12 +73,14 @@ pub fn main() -> ExitCode {
             report,
             quiet,
             config,
+            explain,
         } => solve(
             &constraints,
             output.as_deref(),
             report.as_deref(),
             quiet,
             config.as_deref(),
+            explain,
         ),
         Command::Check {
             asset,
@@ -83,21 +88,13 @@ pub fn main() -> ExitCode {
             mesh,
             constraints,
             json,
-        } => {
-            match check::run(
-                &asset,
-                uv_set,
-                mesh.as_deref(),
-                constraints.as_deref(),
-                json,
-            ) {
-                Ok(code) => ExitCode::from(code),
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::from(1)
-                }
+        } => match check::run(&asset, uv_set, mesh.as_deref(), constraints.as_deref(), json) {
+            Ok(code) => ExitCode::from(code),
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(1)
             }
-        }
+        },
     }
 }
 
@@ -117,19 +114,21 @@ fn solve(
     report_path: Option<&std::path::Path>,
     quiet: bool,
     config: Option<&std::path::Path>,
+    explain: bool,
 ) -> ExitCode {
     let result = match config.map(crate::config::Config::load).transpose() {
-        Ok(c) => crate::solve::solve_file_with_defaults(
-            constraints,
-            output,
-            &c.unwrap_or_default().solver,
-        ),
+        Ok(c) => crate::solve::solve_file_with_defaults(constraints, output, &c.unwrap_or_default().solver),
         Err(e) => Err(e.into()),
     };
     match result {
         Ok(report) => {
             if !quiet {
                 eprint!("{}", report.summary());
+            }
+            if explain {
+                for line in &report.explain {
+                    eprintln!("{line}");
+                }
             }
             if let Some(p) = report_path {
                 let json = serde_json::to_string_pretty(&report).expect("report serialises");

@@ -49,6 +49,17 @@ pub struct Stepping {
     pub state: SteppingState,
 }
 
+/// The completion phase and polish (step 3), once the spline path is over.
+#[derive(Component, Debug, Clone)]
+pub struct Completing {
+    pub state: crate::complete::CompletionState,
+    /// The spline path's last layout when it stalled: kept if the completion
+    /// ends further from the targets.
+    pub spline_layout: Option<Vec<DVec2>>,
+    /// Sander stretch before the polish started (targets reached).
+    pub stretch_before_polish: Option<crate::metrics::Stretch>,
+}
+
 /// A proposed layout waiting for the guard.
 #[derive(Component, Debug, Clone)]
 pub struct Candidate(pub Vec<DVec2>);

@@ -3,7 +3,8 @@
 //! thin adapter around one core function. One `Schedule::run` is one tick:
 //!
 //! `map_boundary → factor_bar_net → solve_force_density → start_stepping →
-//! step_constraints → guard_foldovers → finish_solve → export_layout`
+//! step_constraints → guard_foldovers → complete_constraints → finish_solve →
+//! export_layout`
 //!
 //! A tick advances every chart by at most one proposal, so the daemon can run
 //! the same schedule forever and a newer edit supersedes a running solve.
@@ -21,7 +22,8 @@ use bevy_ecs::schedule::SingleThreadedExecutor;
 pub enum SolveSystems {
     /// Step 1: boundary onto the square, bar-net factor and solve (§III).
     Unwrap,
-    /// Step 2: one spline proposal (Eq. 6) and its guard.
+    /// Step 2: one spline proposal (Eq. 6) and its guard; then step 3, one
+    /// completion or polish Newton step.
     Step,
     /// Reports and file output.
     Export,
@@ -32,14 +34,7 @@ pub enum SolveSystems {
 pub fn solve_schedule() -> Schedule {
     let mut schedule = Schedule::default();
     schedule.set_executor(SingleThreadedExecutor::default());
-    schedule.configure_sets(
-        (
-            SolveSystems::Unwrap,
-            SolveSystems::Step,
-            SolveSystems::Export,
-        )
-            .chain(),
-    );
+    schedule.configure_sets((SolveSystems::Unwrap, SolveSystems::Step, SolveSystems::Export).chain());
     schedule.add_systems((
         (
             systems::map_boundary,
@@ -49,7 +44,11 @@ pub fn solve_schedule() -> Schedule {
         )
             .chain()
             .in_set(SolveSystems::Unwrap),
-        (systems::step_constraints, systems::guard_foldovers)
+        (
+            systems::step_constraints,
+            systems::guard_foldovers,
+            systems::complete_constraints,
+        )
             .chain()
             .in_set(SolveSystems::Step),
         (systems::finish_solve, systems::export_layout)
@@ -64,8 +63,7 @@ pub fn solve_schedule() -> Schedule {
 pub fn run_to_convergence(world: &mut World, schedule: &mut Schedule, max_ticks: usize) -> usize {
     for tick in 0..max_ticks {
         schedule.run(world);
-        let mut working =
-            world.query_filtered::<(), (With<SolveJob>, Without<Exported>, Without<Failed>)>();
+        let mut working = world.query_filtered::<(), (With<SolveJob>, Without<Exported>, Without<Failed>)>();
         if working.iter(world).next().is_none() {
             return tick + 1;
         }

@@ -19,10 +19,7 @@ fn ms(since: Instant) -> f64 {
 /// Places the outer loop on the square (§III.B) for charts without a boundary layout.
 pub fn map_boundary(
     mut commands: Commands,
-    mut charts: Query<
-        (Entity, &SolveJob, &ChartData, &mut Timings),
-        (Without<BoundaryLayout>, Without<Failed>),
-    >,
+    mut charts: Query<(Entity, &SolveJob, &ChartData, &mut Timings), (Without<BoundaryLayout>, Without<Failed>)>,
 ) {
     for (entity, job, data, mut times) in &mut charts {
         let t0 = Instant::now();
@@ -78,17 +75,8 @@ pub fn factor_bar_net(
 pub fn solve_force_density(
     mut commands: Commands,
     mut charts: Query<
-        (
-            Entity,
-            &ChartData,
-            &BoundaryLayout,
-            &BarNetFactor,
-            &mut Timings,
-        ),
-        (
-            Or<(Changed<BoundaryLayout>, Added<BarNetFactor>)>,
-            Without<Failed>,
-        ),
+        (Entity, &ChartData, &BoundaryLayout, &BarNetFactor, &mut Timings),
+        (Or<(Changed<BoundaryLayout>, Added<BarNetFactor>)>, Without<Failed>),
     >,
 ) {
     for (entity, data, boundary, net, mut times) in &mut charts {
@@ -126,19 +114,12 @@ pub fn start_stepping(
         let t0 = Instant::now();
         let c = &data.0;
         if let Some(t) = guard::first_non_positive(&step1.0, &c.filled.mesh.triangles) {
-            let err = crate::Error::Internal(format!(
-                "the step-1 layout has a flipped or zero-area triangle ({t})"
-            ));
+            let err = crate::Error::Internal(format!("the step-1 layout has a flipped or zero-area triangle ({t})"));
             commands.entity(entity).insert(Failed(Arc::new(err)));
             continue;
         }
         let options = &job.constraints.solver;
-        match chart::step_problem(
-            c,
-            &job.constraints,
-            &boundary.0,
-            options.max_boundary_centres,
-        ) {
+        match chart::step_problem(c, &job.constraints, &boundary.0, options.max_boundary_centres) {
             Ok(problem) => {
                 let state = SteppingState::start(&problem, &step1.0, options);
                 commands
@@ -157,10 +138,7 @@ pub fn start_stepping(
 /// Proposes one spline step (Eq. 6) of fraction `t` for every stepping chart.
 pub fn step_constraints(
     mut commands: Commands,
-    mut charts: Query<
-        (Entity, &Layout, &mut Stepping, &mut Timings),
-        (Without<Candidate>, Without<Failed>),
-    >,
+    mut charts: Query<(Entity, &Layout, &mut Stepping, &mut Timings), (Without<Candidate>, Without<Failed>)>,
 ) {
     for (entity, layout, mut stepping, mut times) in &mut charts {
         if !stepping.state.is_stepping() {
@@ -208,7 +186,106 @@ pub fn guard_foldovers(
     }
 }
 
-/// Builds the report once stepping has stopped.
+/// Once the spline path is over: starts the completion (after a stall, or
+/// always if asked) or the polish (targets reached), then advances it one
+/// Newton step per tick within the time budget.
+pub fn complete_constraints(
+    mut commands: Commands,
+    mut charts: Query<
+        (
+            Entity,
+            &SolveJob,
+            &ChartData,
+            &Step1Layout,
+            &mut Layout,
+            &Stepping,
+            Option<&mut Completing>,
+            &mut Timings,
+        ),
+        (Without<Finished>, Without<Candidate>, Without<Failed>),
+    >,
+) {
+    use crate::complete::CompletionState;
+    use crate::rbf::stepping::SteppingPhase;
+    for (entity, job, data, step1, mut layout, stepping, completing, mut times) in &mut charts {
+        if stepping.state.is_stepping() {
+            continue;
+        }
+        let options = &job.constraints.solver;
+        let filled = &data.0.filled;
+        let real = &data.0.chart.mesh;
+        let stretch = |layout: &[DVec2]| {
+            crate::metrics::sander_stretch(&real.positions, &layout[..filled.n_real_vertices], &real.triangles)
+        };
+        let t0 = Instant::now();
+        match completing {
+            None => {
+                let reached = stepping.state.phase == SteppingPhase::Reached;
+                let polish = options.polish
+                    && filled.n_real_vertices <= options.polish_max_vertices
+                    && !stepping.problem.movable.is_empty();
+                let mut spline_layout = None;
+                let state = if reached {
+                    if polish {
+                        CompletionState::polish(filled, &stepping.problem, &layout.0)
+                    } else {
+                        Ok(CompletionState::done())
+                    }
+                } else if options.completion == crate::options::Completion::Never {
+                    Ok(CompletionState::done())
+                } else {
+                    // From the step-1 layout (algorithm.md); the spline's result is the fallback.
+                    spline_layout = Some(std::mem::replace(&mut layout.0, step1.0.clone()));
+                    CompletionState::soft(filled, &stepping.problem, &layout.0, options, polish)
+                };
+                let stretch_before_polish = (reached && polish).then(|| stretch(&layout.0));
+                match state {
+                    Ok(state) => {
+                        commands.entity(entity).insert(Completing {
+                            state,
+                            spline_layout,
+                            stretch_before_polish,
+                        });
+                    }
+                    Err(e) => {
+                        let err = crate::Error::Internal(format!("completion system: {e}"));
+                        commands.entity(entity).insert(Failed(Arc::new(err)));
+                    }
+                }
+                times.0.complete_ms += ms(t0);
+            }
+            Some(mut c) => {
+                if c.state.is_done() {
+                    continue;
+                }
+                let polishing = matches!(c.state.phase, crate::complete::CompletionPhase::Polish { .. });
+                let was_snapped = c.state.stats.snapped;
+                c.state.advance(&mut layout.0, filled, &stepping.problem, options);
+                if c.state.stats.snapped && !was_snapped {
+                    c.stretch_before_polish = Some(stretch(&layout.0));
+                }
+                if polishing {
+                    times.0.polish_ms += ms(t0);
+                } else {
+                    times.0.complete_ms += ms(t0);
+                }
+                if options.time_budget_ms.is_some_and(|b| times.0.total_ms() > b) {
+                    c.state.stop_out_of_time();
+                }
+                if c.state.is_done() && c.state.stats.soft && !c.state.stats.snapped {
+                    // Not all reached: keep whichever fold-free layout is closer to the targets.
+                    if let Some(spline) = &c.spline_layout
+                        && stepping.problem.max_residual(spline) < stepping.problem.max_residual(&layout.0)
+                    {
+                        layout.0.clone_from(spline);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Builds the report once the spline path, completion and polish are over.
 pub fn finish_solve(
     mut commands: Commands,
     charts: Query<
@@ -220,13 +297,14 @@ pub fn finish_solve(
             &Step1Layout,
             &Layout,
             &Stepping,
+            &Completing,
             &Timings,
         ),
         (Without<Finished>, Without<Candidate>, Without<Failed>),
     >,
 ) {
-    for (entity, job, data, boundary, step1, layout, stepping, times) in &charts {
-        if stepping.state.is_stepping() {
+    for (entity, job, data, boundary, step1, layout, stepping, completing, times) in &charts {
+        if stepping.state.is_stepping() || !completing.state.is_done() {
             continue;
         }
         let report = report::build(&report::SolveSummary {
@@ -237,6 +315,9 @@ pub fn finish_solve(
             step1: &step1.0,
             layout: &layout.0,
             state: &stepping.state,
+            completion: Some(&completing.state.stats),
+            stretch_before_polish: completing.stretch_before_polish,
+            problem: &stepping.problem,
             times: times.0,
         });
         commands.entity(entity).insert(Finished(report));
@@ -246,17 +327,7 @@ pub fn finish_solve(
 /// Checks the layout exactly as it will be stored and writes the file atomically.
 pub fn export_layout(
     mut commands: Commands,
-    mut charts: Query<
-        (
-            Entity,
-            &SolveJob,
-            &ChartData,
-            &Layout,
-            &Finished,
-            &mut Timings,
-        ),
-        Without<Exported>,
-    >,
+    mut charts: Query<(Entity, &SolveJob, &ChartData, &Layout, &Finished, &mut Timings), Without<Exported>>,
 ) {
     for (entity, job, data, layout, finished, mut times) in &mut charts {
         let t0 = Instant::now();

@@ -15,9 +15,7 @@ pub enum GlbError {
     Version(u32),
     #[error("GLB truncated: header says {declared} bytes, file has {actual}")]
     Truncated { declared: usize, actual: usize },
-    #[error(
-        "GLB chunk {index} at byte {offset}: length {length} runs past the end of the file ({file_len} bytes)"
-    )]
+    #[error("GLB chunk {index} at byte {offset}: length {length} runs past the end of the file ({file_len} bytes)")]
     BadChunkLength {
         index: usize,
         offset: usize,
@@ -36,8 +34,7 @@ pub struct Glb<'a> {
 }
 
 fn u32_at(b: &[u8], at: usize) -> Option<u32> {
-    b.get(at..at + 4)
-        .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+    b.get(at..at + 4).map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
 }
 
 /// Splits a GLB file into its chunks, checking every length.
@@ -85,11 +82,7 @@ pub fn parse(bytes: &[u8]) -> Result<Glb<'_>, GlbError> {
         Some((CHUNK_JSON, data)) => *data,
         _ => return Err(GlbError::NoJson),
     };
-    let bin = chunks
-        .iter()
-        .skip(1)
-        .find(|(k, _)| *k == CHUNK_BIN)
-        .map(|(_, d)| *d);
+    let bin = chunks.iter().skip(1).find(|(k, _)| *k == CHUNK_BIN).map(|(_, d)| *d);
     Ok(Glb { json, bin })
 }
 
@@ -133,10 +126,7 @@ mod tests {
         ));
         let mut bad = file.clone();
         bad[12] = 0xFF; // JSON chunk length far too large
-        assert!(matches!(
-            parse(&bad),
-            Err(GlbError::BadChunkLength { index: 0, .. })
-        ));
+        assert!(matches!(parse(&bad), Err(GlbError::BadChunkLength { index: 0, .. })));
         assert!(matches!(parse(b"glTF"), Err(GlbError::Truncated { .. })));
     }
 }

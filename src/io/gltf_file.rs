@@ -42,19 +42,14 @@ pub(super) fn load(
 
     let n_meshes = document.meshes().len();
     let mesh = match selector.unwrap_or(&MeshSelector::Index(0)) {
-        MeshSelector::Index(i) => {
-            document
-                .meshes()
-                .nth(*i)
-                .ok_or_else(|| AssetError::MeshSelection {
-                    path: p(),
-                    message: if n_meshes == 0 {
-                        "the file has no meshes".into()
-                    } else {
-                        format!("mesh {i} does not exist (the file has meshes 0..{n_meshes})")
-                    },
-                })?
-        }
+        MeshSelector::Index(i) => document.meshes().nth(*i).ok_or_else(|| AssetError::MeshSelection {
+            path: p(),
+            message: if n_meshes == 0 {
+                "the file has no meshes".into()
+            } else {
+                format!("mesh {i} does not exist (the file has meshes 0..{n_meshes})")
+            },
+        })?,
         MeshSelector::Name(name) => document
             .meshes()
             .find(|m| m.name() == Some(name.as_str()))
@@ -125,9 +120,7 @@ pub(super) fn load(
                 positions.len()
             )));
         }
-        let uvs: Option<Vec<[f32; 2]>> = reader
-            .read_tex_coords(uv_set)
-            .map(|t| t.into_f32().collect());
+        let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(uv_set).map(|t| t.into_f32().collect());
         if let Some(u) = &uvs
             && u.len() != positions.len()
         {
@@ -196,9 +189,7 @@ fn load_buffers(
 /// Bytes of a buffer URI: a base64 data URI or a file relative to `base`.
 fn read_uri(base: &Path, uri: &str) -> Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, data) = rest
-            .split_once(";base64,")
-            .ok_or("data URI without ;base64,")?;
+        let (_, data) = rest.split_once(";base64,").ok_or("data URI without ;base64,")?;
         return base64::engine::general_purpose::STANDARD
             .decode(data)
             .map_err(|e| format!("bad base64: {e}"));
@@ -214,8 +205,7 @@ fn percent_decode(s: &str) -> String {
     while i < b.len() {
         if b[i] == b'%'
             && i + 2 < b.len()
-            && let Ok(v) =
-                u8::from_str_radix(std::str::from_utf8(&b[i + 1..i + 3]).unwrap_or("zz"), 16)
+            && let Ok(v) = u8::from_str_radix(std::str::from_utf8(&b[i + 1..i + 3]).unwrap_or("zz"), 16)
         {
             out.push(v);
             i += 3;
@@ -308,20 +298,12 @@ fn push_uv_accessor(json: &mut Value, buffer: usize, offset: usize, uvs: &[[f32;
 /// Writes `asset` with `uvs` (one list per primitive of `asset.primitives`, in
 /// glTF texture coordinates) as its TEXCOORD_`uv_set`, to `out` (.glb for a
 /// .glb asset, .gltf + `<stem>.uvpin.bin` for a .gltf asset). Atomic.
-pub fn write_with_uvs(
-    asset: &SourceAsset,
-    uvs: &[Vec<[f32; 2]>],
-    out: &Path,
-) -> Result<(), AssetError> {
+pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<(), AssetError> {
     let werr = |message: String| AssetError::Write {
         path: out.to_path_buf(),
         message,
     };
-    let Container::Gltf {
-        json: original,
-        bin,
-    } = &asset.container
-    else {
+    let Container::Gltf { json: original, bin } = &asset.container else {
         return Err(werr("not a glTF asset".into()));
     };
     let out_format = AssetFormat::of(out);
@@ -338,8 +320,7 @@ pub fn write_with_uvs(
     let mut json = original.clone();
     let attribute = format!("TEXCOORD_{}", asset.uv_set);
     let set_attribute = |json: &mut Value, prim: usize, accessor: usize| {
-        json["meshes"][asset.mesh_index]["primitives"][prim]["attributes"][attribute.as_str()] =
-            json!(accessor);
+        json["meshes"][asset.mesh_index]["primitives"][prim]["attributes"][attribute.as_str()] = json!(accessor);
     };
     match asset.format {
         AssetFormat::Glb => {
@@ -369,8 +350,7 @@ pub fn write_with_uvs(
             pad4(&mut blob);
             json["buffers"][0]["byteLength"] = json!(blob.len());
             let text = serde_json::to_vec(&json).map_err(|e| werr(e.to_string()))?;
-            atomic::write_atomically(out, &glb::build(&text, Some(&blob)))
-                .map_err(|e| werr(e.to_string()))
+            atomic::write_atomically(out, &glb::build(&text, Some(&blob))).map_err(|e| werr(e.to_string()))
         }
         AssetFormat::Gltf => {
             let (in_dir, out_dir) = (absolute_dir(&asset.path), absolute_dir(out));
@@ -381,8 +361,7 @@ pub fn write_with_uvs(
                     continue;
                 };
                 for item in items {
-                    let Some(uri) = item.get("uri").and_then(Value::as_str).map(str::to_string)
-                    else {
+                    let Some(uri) = item.get("uri").and_then(Value::as_str).map(str::to_string) else {
                         continue;
                     };
                     if uri.starts_with("data:") || uri.contains("://") {
@@ -419,8 +398,7 @@ pub fn write_with_uvs(
                 .push(json!({ "uri": percent_encode_path(&bin_name), "byteLength": blob.len() }));
             let text = serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?;
             let bin_path = out.with_file_name(&bin_name);
-            atomic::write_atomically(&bin_path, &blob)
-                .map_err(|e| werr(format!("{}: {e}", bin_path.display())))?;
+            atomic::write_atomically(&bin_path, &blob).map_err(|e| werr(format!("{}: {e}", bin_path.display())))?;
             atomic::write_atomically(out, &text).map_err(|e| werr(e.to_string()))
         }
         AssetFormat::Obj => unreachable!("checked above"),
@@ -430,12 +408,7 @@ pub fn write_with_uvs(
 /// A fresh glTF document holding one mesh (positions, indices, optional
 /// TEXCOORD_0): JSON and the binary buffer. Used for OBJ → glTF and to make
 /// the sample asset.
-pub fn new_document(
-    positions: &[[f32; 3]],
-    indices: &[u32],
-    uvs: Option<&[[f32; 2]]>,
-    name: &str,
-) -> (Value, Vec<u8>) {
+pub fn new_document(positions: &[[f32; 3]], indices: &[u32], uvs: Option<&[[f32; 2]]>, name: &str) -> (Value, Vec<u8>) {
     let mut blob: Vec<u8> = positions
         .iter()
         .flat_map(|p| p.iter().flat_map(|x| x.to_le_bytes()))
@@ -484,10 +457,7 @@ pub fn write_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<(), A
         message,
     };
     let bytes = match AssetFormat::of(out) {
-        Some(AssetFormat::Glb) => glb::build(
-            &serde_json::to_vec(json).map_err(|e| werr(e.to_string()))?,
-            Some(blob),
-        ),
+        Some(AssetFormat::Glb) => glb::build(&serde_json::to_vec(json).map_err(|e| werr(e.to_string()))?, Some(blob)),
         Some(AssetFormat::Gltf) => {
             let mut json = json.clone();
             json["buffers"][0]["uri"] = json!(format!(
@@ -497,9 +467,7 @@ pub fn write_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<(), A
             serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?
         }
         _ => {
-            return Err(werr(
-                "a new glTF document must be written as .glb or .gltf".into(),
-            ));
+            return Err(werr("a new glTF document must be written as .glb or .gltf".into()));
         }
     };
     atomic::write_atomically(out, &bytes).map_err(|e| werr(e.to_string()))
@@ -507,19 +475,15 @@ pub fn write_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<(), A
 
 /// Writes the asset with new UVs in whatever form `out` asks for: the same
 /// type as the input (everything else kept), or .glb/.gltf from an OBJ.
-pub fn write_asset(
-    asset: &SourceAsset,
-    uvs: &[Vec<[f32; 2]>],
-    out: &Path,
-) -> Result<(), AssetError> {
+pub fn write_asset(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<(), AssetError> {
     match (&asset.container, AssetFormat::of(out)) {
         (Container::Obj { text }, Some(AssetFormat::Obj)) => {
-            atomic::write_atomically(out, super::obj::with_uvs(text, &uvs[0]).as_bytes()).map_err(
-                |e| AssetError::Write {
+            atomic::write_atomically(out, super::obj::with_uvs(text, &uvs[0]).as_bytes()).map_err(|e| {
+                AssetError::Write {
                     path: out.to_path_buf(),
                     message: e.to_string(),
-                },
-            )
+                }
+            })
         }
         (Container::Obj { .. }, Some(AssetFormat::Glb | AssetFormat::Gltf)) => {
             let prim = &asset.primitives[0];

@@ -15,17 +15,11 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum AssetError {
     #[error("{path}: cannot read: {source}")]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Read { path: PathBuf, source: std::io::Error },
     #[error("{path}: unsupported file type (use .glb, .gltf or .obj)")]
     UnknownFormat { path: PathBuf },
     #[error("{path}: corrupt GLB: {source}")]
-    Glb {
-        path: PathBuf,
-        source: glb::GlbError,
-    },
+    Glb { path: PathBuf, source: glb::GlbError },
     #[error("{path}: invalid glTF: {message}")]
     Gltf { path: PathBuf, message: String },
     #[error("{path}: buffer {buffer}: {message}")]
@@ -52,9 +46,7 @@ pub enum AssetError {
         primitive: usize,
         message: String,
     },
-    #[error(
-        "{path}: mesh {mesh} primitive {primitive} vertex {vertex}: position {position:?} is not finite"
-    )]
+    #[error("{path}: mesh {mesh} primitive {primitive} vertex {vertex}: position {position:?} is not finite")]
     NonFinitePosition {
         path: PathBuf,
         mesh: usize,
@@ -127,11 +119,7 @@ pub struct SourceAsset {
 /// Unreadable or corrupt files (truncated GLB, bad chunk lengths, invalid
 /// JSON, missing buffers), a mesh that does not exist, non-TRIANGLES
 /// primitives, non-finite positions, indices out of range.
-pub fn load_asset(
-    path: &Path,
-    mesh: Option<&MeshSelector>,
-    uv_set: u32,
-) -> Result<SourceAsset, AssetError> {
+pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Result<SourceAsset, AssetError> {
     let format = AssetFormat::of(path).ok_or_else(|| AssetError::UnknownFormat {
         path: path.to_path_buf(),
     })?;
@@ -177,11 +165,7 @@ impl SourceAsset {
             mesh_name: None,
             primitives: vec![PrimitiveGeometry {
                 index: 0,
-                positions: mesh
-                    .positions
-                    .iter()
-                    .map(|p| p.as_vec3().to_array())
-                    .collect(),
+                positions: mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect(),
                 indices: mesh.triangles.iter().flatten().copied().collect(),
                 uvs: None,
             }],

@@ -41,10 +41,7 @@ pub fn parse(path: &Path, text: &str) -> Result<PrimitiveGeometry, AssetError> {
                 if corners.len() != 3 {
                     return Err(err(
                         ln,
-                        format!(
-                            "face with {} corners: only triangles are supported",
-                            corners.len()
-                        ),
+                        format!("face with {} corners: only triangles are supported", corners.len()),
                     ));
                 }
                 for c in corners {
@@ -54,11 +51,7 @@ pub fn parse(path: &Path, text: &str) -> Result<PrimitiveGeometry, AssetError> {
                         .unwrap_or("")
                         .parse()
                         .map_err(|e| err(ln, format!("bad face index {c:?}: {e}")))?;
-                    let idx = if v > 0 {
-                        v - 1
-                    } else {
-                        positions.len() as i64 + v
-                    };
+                    let idx = if v > 0 { v - 1 } else { positions.len() as i64 + v };
                     if idx < 0 || idx as usize >= positions.len() {
                         return Err(err(
                             ln,
@@ -85,9 +78,7 @@ pub fn parse(path: &Path, text: &str) -> Result<PrimitiveGeometry, AssetError> {
 /// The OBJ text with `uvs` (one per `v`) as `vt` lines and faces pointing at them.
 pub fn with_uvs(text: &str, uvs: &[[f32; 2]]) -> String {
     let lines: Vec<&str> = text.lines().collect();
-    let last_v = lines
-        .iter()
-        .rposition(|l| l.split_whitespace().next() == Some("v"));
+    let last_v = lines.iter().rposition(|l| l.split_whitespace().next() == Some("v"));
     let mut out = String::with_capacity(text.len() + uvs.len() * 24);
     let mut n_v = 0i64;
     for (i, line) in lines.iter().enumerate() {

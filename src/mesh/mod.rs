@@ -25,10 +25,7 @@ impl TriMesh {
 
     /// Sum of the 3D areas of all triangles.
     pub fn area(&self) -> f64 {
-        self.triangles
-            .iter()
-            .map(|t| triangle_area_3d(self, *t))
-            .sum()
+        self.triangles.iter().map(|t| triangle_area_3d(self, *t)).sum()
     }
 }
 

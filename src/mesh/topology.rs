@@ -10,15 +10,8 @@ use thiserror::Error;
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum TopologyError {
     #[error("triangle {triangle} repeats a vertex ({a}, {b}, {c}): it has no area in any layout")]
-    DegenerateTriangle {
-        triangle: usize,
-        a: u32,
-        b: u32,
-        c: u32,
-    },
-    #[error(
-        "triangle {triangle} refers to vertex {vertex}, but the chart has only {n_vertices} vertices"
-    )]
+    DegenerateTriangle { triangle: usize, a: u32, b: u32, c: u32 },
+    #[error("triangle {triangle} refers to vertex {vertex}, but the chart has only {n_vertices} vertices")]
     VertexOutOfRange {
         triangle: usize,
         vertex: u32,
@@ -36,25 +29,14 @@ pub enum TopologyError {
     #[error(
         "edge ({a}, {b}) is used in the same direction by triangles {t0} and {t1}: their windings disagree (the surface is not consistently oriented)"
     )]
-    InconsistentOrientation {
-        a: u32,
-        b: u32,
-        t0: usize,
-        t1: usize,
-    },
+    InconsistentOrientation { a: u32, b: u32, t0: usize, t1: usize },
     #[error("non-manifold vertex {vertex}: its triangles form {n_fans} separate fans (a bow-tie)")]
     NonManifoldVertex { vertex: u32, n_fans: usize },
-    #[error(
-        "the chart is closed (no boundary edges): cut it open so it has a boundary to map onto the square"
-    )]
+    #[error("the chart is closed (no boundary edges): cut it open so it has a boundary to map onto the square")]
     Closed,
-    #[error(
-        "the chart is not a disk: genus {genus} with {n_loops} boundary loops; cut handles open first"
-    )]
+    #[error("the chart is not a disk: genus {genus} with {n_loops} boundary loops; cut handles open first")]
     NotADisk { genus: i64, n_loops: usize },
-    #[error(
-        "the outer boundary has only {n} vertices; at least 4 are needed for the square's corners"
-    )]
+    #[error("the outer boundary has only {n} vertices; at least 4 are needed for the square's corners")]
     TooFewBoundaryVertices { n: usize },
     #[error("the chart has no triangles")]
     Empty,
@@ -101,12 +83,7 @@ impl Topology {
                 }
             }
             if a == b || b == c || a == c {
-                return Err(TopologyError::DegenerateTriangle {
-                    triangle: t,
-                    a,
-                    b,
-                    c,
-                });
+                return Err(TopologyError::DegenerateTriangle { triangle: t, a, b, c });
             }
         }
         // Directed half-edges a → b grouped by their source a (compressed rows
@@ -140,10 +117,7 @@ impl Topology {
         let mut fans = UnionFind::new(n_half);
         let corner = |t: u32, v: u32| -> usize {
             let tri = mesh.triangles[t as usize];
-            let k = tri
-                .iter()
-                .position(|&x| x == v)
-                .expect("vertex of triangle");
+            let k = tri.iter().position(|&x| x == v).expect("vertex of triangle");
             t as usize * 3 + k
         };
         for (t, tri) in mesh.triangles.iter().enumerate() {
@@ -184,10 +158,7 @@ impl Topology {
                 match twin {
                     None => {
                         if boundary_next[a as usize] != u32::MAX {
-                            return Err(TopologyError::NonManifoldVertex {
-                                vertex: a,
-                                n_fans: 2,
-                            });
+                            return Err(TopologyError::NonManifoldVertex { vertex: a, n_fans: 2 });
                         }
                         boundary_next[a as usize] = b;
                         edges.push([a.min(b), a.max(b)]);
@@ -212,10 +183,7 @@ impl Topology {
                 if *slot == u32::MAX {
                     *slot = root;
                 } else if *slot != root {
-                    return Err(TopologyError::NonManifoldVertex {
-                        vertex: v,
-                        n_fans: 2,
-                    });
+                    return Err(TopologyError::NonManifoldVertex { vertex: v, n_fans: 2 });
                 }
             }
         }
@@ -254,9 +222,7 @@ impl Topology {
             });
         }
         if loops[outer].len() < 4 {
-            return Err(TopologyError::TooFewBoundaryVertices {
-                n: loops[outer].len(),
-            });
+            return Err(TopologyError::TooFewBoundaryVertices { n: loops[outer].len() });
         }
         Ok(Topology {
             loops,
@@ -285,9 +251,7 @@ impl Topology {
 /// 3D length of a closed vertex loop.
 pub fn loop_length(mesh: &TriMesh, lp: &[u32]) -> f64 {
     (0..lp.len())
-        .map(|i| {
-            mesh.positions[lp[i] as usize].distance(mesh.positions[lp[(i + 1) % lp.len()] as usize])
-        })
+        .map(|i| mesh.positions[lp[i] as usize].distance(mesh.positions[lp[(i + 1) % lp.len()] as usize]))
         .sum()
 }
 

@@ -81,8 +81,7 @@ fn weld_key(p: [f32; 3], uv: Option<[f32; 2]>) -> WeldKey {
 /// Inputs must already be validated (finite positions, indices in range).
 pub fn weld(primitives: &[PrimitiveGeometry]) -> WeldedMesh {
     let n_total: usize = primitives.iter().map(|p| p.positions.len()).sum();
-    let mut ids: FxHashMap<WeldKey, u32> =
-        FxHashMap::with_capacity_and_hasher(n_total, Default::default());
+    let mut ids: FxHashMap<WeldKey, u32> = FxHashMap::with_capacity_and_hasher(n_total, Default::default());
     let mut positions = Vec::new();
     let mut vertex_of = Vec::with_capacity(primitives.len());
     let mut triangles = Vec::new();
@@ -121,10 +120,7 @@ pub fn weld(primitives: &[PrimitiveGeometry]) -> WeldedMesh {
     }
     WeldedMesh {
         n_charts: n_charts as usize,
-        mesh: TriMesh {
-            positions,
-            triangles,
-        },
+        mesh: TriMesh { positions, triangles },
         vertex_of,
         chart_of_vertex,
     }
@@ -141,10 +137,7 @@ impl WeldedMesh {
                 welded_ids.push(v as u32);
             }
         }
-        let positions = welded_ids
-            .iter()
-            .map(|&v| self.mesh.positions[v as usize])
-            .collect();
+        let positions = welded_ids.iter().map(|&v| self.mesh.positions[v as usize]).collect();
         let triangles = self
             .mesh
             .triangles
@@ -154,10 +147,7 @@ impl WeldedMesh {
             .collect();
         Chart {
             id,
-            mesh: TriMesh {
-                positions,
-                triangles,
-            },
+            mesh: TriMesh { positions, triangles },
             welded_ids,
             local_of,
         }
@@ -183,15 +173,10 @@ mod tests {
     use super::*;
 
     fn quad(offset: f32, uv: Option<f32>) -> PrimitiveGeometry {
-        let positions = vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-        ]
-        .into_iter()
-        .map(|p: [f32; 3]| [p[0] + offset, p[1], p[2]])
-        .collect();
+        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]
+            .into_iter()
+            .map(|p: [f32; 3]| [p[0] + offset, p[1], p[2]])
+            .collect();
         PrimitiveGeometry {
             index: 0,
             positions,

@@ -52,11 +52,7 @@ pub fn fill_holes(mesh: &TriMesh, topology: &Topology) -> FilledChart {
     let holes: Vec<Vec<u32>> = topology.holes().cloned().collect();
     let mut edges = topology.edges.clone();
     for hole in &holes {
-        let centre = hole
-            .iter()
-            .map(|&v| mesh.positions[v as usize])
-            .sum::<DVec3>()
-            / hole.len() as f64;
+        let centre = hole.iter().map(|&v| mesh.positions[v as usize]).sum::<DVec3>() / hole.len() as f64;
         let c = filled.positions.len() as u32;
         filled.positions.push(centre);
         // The chart lies left of a → b; the fan triangle lies right of it: (b, a, c).
@@ -85,9 +81,7 @@ pub fn unique_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
         .collect();
     keys.sort_unstable();
     keys.dedup();
-    keys.into_iter()
-        .map(|k| [(k >> 32) as u32, k as u32])
-        .collect()
+    keys.into_iter().map(|k| [(k >> 32) as u32, k as u32]).collect()
 }
 
 /// Force densities of Eq. 2: `q_i = 1 − len(e_i) / max_j len(e_j) + ε`.
@@ -96,14 +90,8 @@ pub fn force_densities(mesh: &TriMesh, edges: &[[u32; 2]]) -> Vec<f64> {
         .iter()
         .map(|e| mesh.positions[e[0] as usize].distance(mesh.positions[e[1] as usize]))
         .collect();
-    let max = len
-        .iter()
-        .copied()
-        .fold(0.0, f64::max)
-        .max(f64::MIN_POSITIVE);
-    len.iter()
-        .map(|l| 1.0 - l / max + FORCE_DENSITY_EPSILON)
-        .collect()
+    let max = len.iter().copied().fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+    len.iter().map(|l| 1.0 - l / max + FORCE_DENSITY_EPSILON).collect()
 }
 
 /// Free unknowns from which the geometric nested-dissection order replaces AMD.
@@ -210,9 +198,7 @@ impl BarNet {
                 .iter()
                 .map(|&v| positions[v as usize].to_array())
                 .collect();
-            nested_dissection(&points, |i| {
-                &adjacency.1[adjacency.0[i]..adjacency.0[i + 1]]
-            })
+            nested_dissection(&points, |i| &adjacency.1[adjacency.0[i]..adjacency.0[i + 1]])
         });
         let pattern = SpdPattern::with_ordering(n, &entries, order.as_deref())?;
         let factor = pattern.factor(&values)?;

@@ -136,11 +136,7 @@ impl TrapCandidates {
             .iter()
             .filter(|t| sides(t[0]) & sides(t[1]) & sides(t[2]) != 0)
             .count();
-        let chords = self
-            .chords
-            .iter()
-            .filter(|e| sides(e[0]) & sides(e[1]) != 0)
-            .count();
+        let chords = self.chords.iter().filter(|e| sides(e[0]) & sides(e[1]) != 0).count();
         tris + chords
     }
 }
@@ -181,8 +177,7 @@ fn snap_to_ear_tips(mut corners: [usize; 4], tips: &[usize], n: usize) -> [usize
         let mut moved = corners;
         moved[k] = tip;
         let rel = |x: usize| dist(x, moved[0]);
-        let ordered =
-            rel(moved[1]) > 0 && rel(moved[1]) < rel(moved[2]) && rel(moved[2]) < rel(moved[3]);
+        let ordered = rel(moved[1]) > 0 && rel(moved[1]) < rel(moved[2]) && rel(moved[2]) < rel(moved[3]);
         if ordered {
             corners = moved;
         }
@@ -196,10 +191,7 @@ fn side_mask(i: usize, n: usize, corners: &[usize; 4]) -> u8 {
     let ri = rel(i);
     let mut mask = 0u8;
     for k in 0..4 {
-        let (a, b) = (
-            rel(corners[k]),
-            if k == 3 { n } else { rel(corners[k + 1]) },
-        );
+        let (a, b) = (rel(corners[k]), if k == 3 { n } else { rel(corners[k + 1]) });
         if ri >= a && ri <= b {
             mask |= 1 << k;
         }
@@ -217,8 +209,7 @@ fn arc_lengths(mesh: &TriMesh, lp: &[u32]) -> (Vec<f64>, f64) {
     let mut s = 0.0;
     for i in 0..lp.len() {
         arc.push(s);
-        s += mesh.positions[lp[i] as usize]
-            .distance(mesh.positions[lp[(i + 1) % lp.len()] as usize]);
+        s += mesh.positions[lp[i] as usize].distance(mesh.positions[lp[(i + 1) % lp.len()] as usize]);
     }
     (arc, s)
 }
@@ -244,8 +235,7 @@ fn quarter_corners(arc: &[f64], total: f64, start: usize) -> Option<[usize; 4]> 
         *c = best;
     }
     let rel = |x: usize| (x + n - start) % n;
-    (rel(corners[1]) > 0 && rel(corners[1]) < rel(corners[2]) && rel(corners[2]) < rel(corners[3]))
-        .then_some(corners)
+    (rel(corners[1]) > 0 && rel(corners[1]) < rel(corners[2]) && rel(corners[2]) < rel(corners[3])).then_some(corners)
 }
 
 /// Places the outer loop on the unit square (§III.B).
@@ -266,9 +256,7 @@ pub fn map_outer_boundary(
 ) -> Result<BoundaryMap, BoundaryError> {
     // Start the loop at its lowest vertex id so the layout is deterministic.
     let raw = topology.outer_loop();
-    let start = (0..raw.len())
-        .min_by_key(|&i| raw[i])
-        .expect("non-empty loop");
+    let start = (0..raw.len()).min_by_key(|&i| raw[i]).expect("non-empty loop");
     let loop_vertices: Vec<u32> = raw[start..].iter().chain(&raw[..start]).copied().collect();
     let n = loop_vertices.len();
     // TrapCandidates index the topology's own loop order: rotate them.
@@ -282,11 +270,7 @@ pub fn map_outer_boundary(
     let (corners, source, trapped) = match given {
         Some(vertices) => {
             let corners = given_corners(&loop_vertices, vertices)?;
-            (
-                corners,
-                CornerSource::Given,
-                traps.count_trapped(n, &corners),
-            )
+            (corners, CornerSource::Given, traps.count_trapped(n, &corners))
         }
         None => {
             let ear_tips = traps.ear_tips(n);
@@ -294,14 +278,8 @@ pub fn map_outer_boundary(
             let mut found = None;
             // Candidate starts ordered by distance from loop index 0, both ways.
             for shift in 0..n {
-                let s = if shift % 2 == 0 {
-                    shift / 2
-                } else {
-                    n - 1 - shift / 2
-                };
-                let Some(c) =
-                    quarter_corners(&arc, total, s).map(|c| snap_to_ear_tips(c, &ear_tips, n))
-                else {
+                let s = if shift % 2 == 0 { shift / 2 } else { n - 1 - shift / 2 };
+                let Some(c) = quarter_corners(&arc, total, s).map(|c| snap_to_ear_tips(c, &ear_tips, n)) else {
                     continue;
                 };
                 let trapped = traps.count_trapped(n, &c);
@@ -342,13 +320,14 @@ fn given_corners(loop_vertices: &[u32], vertices: [u32; 4]) -> Result<[usize; 4]
     let n = loop_vertices.len();
     let mut idx = [0usize; 4];
     for k in 0..4 {
-        idx[k] = loop_vertices.iter().position(|&v| v == vertices[k]).ok_or(
-            BoundaryError::CornerNotOnBoundary {
+        idx[k] = loop_vertices
+            .iter()
+            .position(|&v| v == vertices[k])
+            .ok_or(BoundaryError::CornerNotOnBoundary {
                 corner: CORNER_NAMES[k],
                 vertex: vertices[k],
                 n_loop: n,
-            },
-        )?;
+            })?;
         for j in 0..k {
             if vertices[j] == vertices[k] {
                 return Err(BoundaryError::RepeatedCorner {
@@ -365,11 +344,7 @@ fn given_corners(loop_vertices: &[u32], vertices: [u32; 4]) -> Result<[usize; 4]
     }
     let mut order: Vec<usize> = (0..4).collect();
     order.sort_by_key(|&k| rel(idx[k]));
-    let found = order
-        .iter()
-        .map(|&k| CORNER_NAMES[k])
-        .collect::<Vec<_>>()
-        .join(" → ");
+    let found = order.iter().map(|&k| CORNER_NAMES[k]).collect::<Vec<_>>().join(" → ");
     let mirrored = rel(idx[3]) < rel(idx[2]) && rel(idx[2]) < rel(idx[1]);
     Err(BoundaryError::CornerOrder {
         found,
@@ -382,12 +357,7 @@ fn given_corners(loop_vertices: &[u32], vertices: [u32; 4]) -> Result<[usize; 4]
 }
 
 /// Positions of the loop vertices: each side by 3D arc length between its corners.
-fn place_on_square(
-    arc: &[f64],
-    total: f64,
-    corners: &[usize; 4],
-    shape: BoundaryShape,
-) -> Vec<DVec2> {
+fn place_on_square(arc: &[f64], total: f64, corners: &[usize; 4], shape: BoundaryShape) -> Vec<DVec2> {
     let n = arc.len();
     let mut out = vec![DVec2::ZERO; n];
     // A tiny index term keeps vertices distinct even across zero-length edges.

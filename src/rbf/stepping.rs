@@ -11,42 +11,8 @@
 //! rescued a stalled run, so stop early and report).
 
 use super::tps::{ThinPlateSpline, TpsError};
+use crate::options::SolverOptions;
 use glam::DVec2;
-
-/// Stepping limits. Defaults in each field's doc.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SteppingOptions {
-    /// Accepted spline steps at most (default 100).
-    pub max_iterations: u32,
-    /// Halvings of one step before the path is declared stalled (default 20).
-    pub max_halvings: u32,
-    /// An iteration needing at least this many halvings is "heavy" (default 6).
-    pub stall_halvings: u32,
-    /// This many heavy iterations in a row is a stall (default 2).
-    pub stall_iterations: u32,
-    /// Outer-boundary vertices used as zero-displacement spline centres, at most (default 48).
-    pub max_boundary_centres: usize,
-    /// A constraint is reached when its residual is at most this, in texture units (default 1e-9).
-    pub tolerance: f64,
-}
-
-impl SteppingOptions {
-    pub const DEFAULT: SteppingOptions = SteppingOptions {
-        max_iterations: 100,
-        max_halvings: 20,
-        stall_halvings: 6,
-        stall_iterations: 2,
-        max_boundary_centres: 48,
-        tolerance: 1e-9,
-    };
-}
-
-impl Default for SteppingOptions {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
 
 /// The fixed data of one chart's stepping.
 #[derive(Debug, Clone, Default)]
@@ -99,11 +65,7 @@ pub fn pick_anchors(outer_loop: &[u32], max: usize, must: &[u32]) -> Vec<u32> {
 ///
 /// # Errors
 /// A [`TpsError`] when the centres make the spline system singular.
-pub fn propose_step(
-    layout: &[DVec2],
-    problem: &StepProblem,
-    t: f64,
-) -> Result<Vec<DVec2>, TpsError> {
+pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<Vec<DVec2>, TpsError> {
     let mut centres = Vec::with_capacity(problem.constraint_vertices.len() + problem.anchors.len());
     let mut displacements = Vec::with_capacity(centres.capacity());
     for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
@@ -123,11 +85,7 @@ pub fn propose_step(
     }
     for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
         let p = layout[v as usize];
-        candidate[v as usize] = if t == 1.0 {
-            target
-        } else {
-            p + (target - p) * t
-        };
+        candidate[v as usize] = if t == 1.0 { target } else { p + (target - p) * t };
     }
     Ok(candidate)
 }
@@ -165,6 +123,8 @@ pub enum SteppingPhase {
     Reached,
     /// The spline path cannot go on; the reason in words.
     Stalled(String),
+    /// Not run (`completion: Always`).
+    Skipped,
 }
 
 /// Progress of the stepping loop; advanced by [`SteppingState::record_guard`].
@@ -182,9 +142,11 @@ pub struct SteppingState {
 
 impl SteppingState {
     /// Starts stepping, or is already `Reached` when every residual is within tolerance.
-    pub fn start(problem: &StepProblem, layout: &[DVec2], options: &SteppingOptions) -> Self {
+    pub fn start(problem: &StepProblem, layout: &[DVec2], options: &SolverOptions) -> Self {
         let phase = if problem.max_residual(layout) <= options.tolerance {
             SteppingPhase::Reached
+        } else if options.completion == crate::options::Completion::Always {
+            SteppingPhase::Skipped
         } else {
             SteppingPhase::Stepping
         };
@@ -204,7 +166,7 @@ impl SteppingState {
 
     /// Records the guard's verdict on the proposal at `self.t`. On acceptance
     /// `max_residual` is the accepted layout's largest residual.
-    pub fn record_guard(&mut self, accepted: bool, max_residual: f64, options: &SteppingOptions) {
+    pub fn record_guard(&mut self, accepted: bool, max_residual: f64, options: &SolverOptions) {
         if !self.is_stepping() {
             return;
         }
@@ -236,10 +198,7 @@ impl SteppingState {
                 options.stall_iterations, options.stall_halvings
             ));
         } else if self.iterations >= options.max_iterations {
-            self.phase = SteppingPhase::Stalled(format!(
-                "iteration cap of {} reached",
-                options.max_iterations
-            ));
+            self.phase = SteppingPhase::Stalled(format!("iteration cap of {} reached", options.max_iterations));
         }
     }
 
@@ -255,7 +214,7 @@ mod tests {
 
     #[test]
     fn halving_then_acceptance_then_reached() {
-        let o = SteppingOptions::DEFAULT;
+        let o = SolverOptions::DEFAULT;
         let problem = StepProblem {
             constraint_vertices: vec![0],
             targets: vec![DVec2::ONE],
@@ -273,7 +232,7 @@ mod tests {
 
     #[test]
     fn two_heavy_iterations_stall() {
-        let o = SteppingOptions::DEFAULT;
+        let o = SolverOptions::DEFAULT;
         let problem = StepProblem {
             constraint_vertices: vec![0],
             targets: vec![DVec2::ONE],
@@ -286,11 +245,7 @@ mod tests {
             }
             s.record_guard(true, 0.3, &o);
         }
-        assert!(
-            matches!(s.phase, SteppingPhase::Stalled(_)),
-            "{:?}",
-            s.phase
-        );
+        assert!(matches!(s.phase, SteppingPhase::Stalled(_)), "{:?}", s.phase);
         assert_eq!(s.total_halvings, 12);
     }
 

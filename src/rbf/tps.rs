@@ -20,10 +20,7 @@ pub enum TpsError {
     #[error("centres {a} and {b} (nearly) coincide: the spline system is singular")]
     CoincidentCentres { a: usize, b: usize },
     #[error("centre and displacement counts differ ({centres} vs {displacements})")]
-    LengthMismatch {
-        centres: usize,
-        displacements: usize,
-    },
+    LengthMismatch { centres: usize, displacements: usize },
 }
 
 /// `φ(r) = r² ln r` from the squared distance, with `φ(0) = 0`
@@ -280,11 +277,7 @@ mod tests {
     #[test]
     fn phi_is_zero_at_the_centre() {
         assert_eq!(phi_from_r2(0.0), 0.0);
-        assert!(
-            (phi_from_r2(std::f64::consts::E * std::f64::consts::E) - std::f64::consts::E.powi(2))
-                .abs()
-                < 1e-12
-        );
+        assert!((phi_from_r2(std::f64::consts::E * std::f64::consts::E) - std::f64::consts::E.powi(2)).abs() < 1e-12);
     }
 
     #[test]

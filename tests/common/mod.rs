@@ -61,10 +61,7 @@ pub fn stdout(o: &Output) -> String {
 
 /// Writes a constraint file; `asset` is absolute or relative to it.
 pub fn write_constraints(path: &Path, asset: &Path, constraints: &[(u32, f64, f64)], extra: &str) {
-    let mut text = format!(
-        "(\n    asset: {:?},\n    constraints: [\n",
-        asset.display().to_string()
-    );
+    let mut text = format!("(\n    asset: {:?},\n    constraints: [\n", asset.display().to_string());
     for (v, u, w) in constraints {
         text += &format!("        (vertex: {v}, uv: ({u}, {w})),\n");
     }
@@ -74,11 +71,7 @@ pub fn write_constraints(path: &Path, asset: &Path, constraints: &[(u32, f64, f6
 
 /// Writes a mesh as a fresh .glb (positions and indices only).
 pub fn write_mesh_glb(path: &Path, mesh: &uvpin::mesh::TriMesh) {
-    let positions: Vec<[f32; 3]> = mesh
-        .positions
-        .iter()
-        .map(|p| p.as_vec3().to_array())
-        .collect();
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "test");
     uvpin::io::gltf_file::write_new_document(&json, &blob, path).expect("write glb");
@@ -96,9 +89,7 @@ pub fn python_uv_orientation(path: &Path, uv_set: u32) -> Option<serde_json::Val
         .arg(uv_set.to_string())
         .output();
     match out {
-        Ok(o) if o.status.success() => {
-            Some(serde_json::from_slice(&o.stdout).expect("reader JSON"))
-        }
+        Ok(o) if o.status.success() => Some(serde_json::from_slice(&o.stdout).expect("reader JSON")),
         Ok(o) => panic!(
             "independent reader failed on {}: {}",
             path.display(),

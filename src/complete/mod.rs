@@ -1,0 +1,316 @@
+//! Step 3: the completion phase, which reaches the constraints the spline
+//! path stalls on, and the distortion polish.
+//!
+//! Soft-to-hard symmetric Dirichlet (algorithm.md): from the step-1 layout,
+//! minimise `SD(x) + w/2 · Σ |x_c − t_c|²` by projected Newton
+//! ([`newton`]), the weight growing ×10 per round; after every step, if
+//! putting the constrained vertices exactly on their targets keeps every
+//! triangle positive (as stored), snap them there. Then polish: minimise SD
+//! with the constraints and the boundary held. Every layout this phase
+//! accepts is fold-free, virtual hole triangles included.
+//!
+//! [`CompletionState`] advances one Newton step per call, so the ECS can run
+//! it tick by tick.
+
+pub mod energy;
+pub mod newton;
+
+use crate::guard;
+use crate::options::SolverOptions;
+use crate::param::bar_net::FilledChart;
+use crate::rbf::stepping::StepProblem;
+use crate::sparse::SparseError;
+use energy::{RestTriangle, rest_shapes};
+use glam::DVec2;
+use newton::{NewtonSystem, SoftTargets};
+use serde::Serialize;
+
+/// Weight of virtual hole triangles in the energy, relative to their area:
+/// enough for the barrier (holes never fold), too little to resist reshaping.
+pub const VIRTUAL_WEIGHT: f64 = 0.01;
+
+/// Where the completion stands.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CompletionPhase {
+    /// Soft constraints with weight `weight`, round `round`.
+    Soft {
+        round: u32,
+        weight: f64,
+        steps_in_round: u32,
+    },
+    /// Targets reached; lowering distortion with them held.
+    Polish {
+        steps: u32,
+    },
+    Done,
+}
+
+/// What the completion and polish did (for the report and `--explain`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct CompletionStats {
+    /// The soft-to-hard phase ran.
+    pub soft: bool,
+    pub rounds: u32,
+    pub newton_steps: u32,
+    /// Constrained vertices were put exactly on their targets.
+    pub snapped: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub snapped_at_round: Option<u32>,
+    /// The polish ran.
+    pub polish: bool,
+    pub polish_steps: u32,
+    /// Symmetric Dirichlet energy (area-weighted mean, 4 = isometry) at the start and end.
+    pub energy_start: f64,
+    pub energy_end: f64,
+    /// The time budget cut the phase short.
+    pub out_of_time: bool,
+}
+
+/// The completion and polish of one chart.
+#[derive(Debug, Clone)]
+pub struct CompletionState {
+    pub phase: CompletionPhase,
+    pub stats: CompletionStats,
+    rest: Vec<RestTriangle>,
+    soft_system: Option<NewtonSystem>,
+    polish_system: Option<NewtonSystem>,
+}
+
+impl CompletionState {
+    /// Nothing to do.
+    pub fn done() -> Self {
+        CompletionState {
+            phase: CompletionPhase::Done,
+            stats: CompletionStats::default(),
+            rest: Vec::new(),
+            soft_system: None,
+            polish_system: None,
+        }
+    }
+
+    /// Soft-to-hard completion (then polish, if `polish`), from `layout`.
+    ///
+    /// # Errors
+    /// A sparsity pattern faer rejects.
+    pub fn soft(
+        filled: &FilledChart,
+        problem: &StepProblem,
+        layout: &[DVec2],
+        options: &SolverOptions,
+        polish: bool,
+    ) -> Result<Self, SparseError> {
+        let mut s = Self::with_systems(filled, problem, true, polish)?;
+        s.phase = CompletionPhase::Soft {
+            round: 0,
+            weight: options.initial_weight,
+            steps_in_round: 0,
+        };
+        s.stats.soft = true;
+        s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
+        Ok(s)
+    }
+
+    /// Polish only (the targets are already reached), from `layout`.
+    ///
+    /// # Errors
+    /// A sparsity pattern faer rejects.
+    pub fn polish(filled: &FilledChart, problem: &StepProblem, layout: &[DVec2]) -> Result<Self, SparseError> {
+        let mut s = Self::with_systems(filled, problem, false, true)?;
+        s.phase = CompletionPhase::Polish { steps: 0 };
+        s.stats.polish = true;
+        s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
+        s.stats.energy_end = s.stats.energy_start;
+        Ok(s)
+    }
+
+    fn with_systems(
+        filled: &FilledChart,
+        problem: &StepProblem,
+        soft: bool,
+        polish: bool,
+    ) -> Result<Self, SparseError> {
+        let n = filled.mesh.n_vertices();
+        let rest = rest_shapes(
+            &filled.mesh.positions,
+            &filled.mesh.triangles,
+            filled.n_real_triangles,
+            VIRTUAL_WEIGHT,
+        );
+        let mut free = vec![false; n];
+        problem.movable.iter().for_each(|&v| free[v as usize] = true);
+        let soft_system = if soft {
+            Some(NewtonSystem::new(&filled.mesh.triangles, &free)?)
+        } else {
+            None
+        };
+        let polish_system = if polish {
+            problem
+                .constraint_vertices
+                .iter()
+                .for_each(|&v| free[v as usize] = false);
+            Some(NewtonSystem::new(&filled.mesh.triangles, &free)?)
+        } else {
+            None
+        };
+        Ok(CompletionState {
+            phase: CompletionPhase::Done,
+            stats: CompletionStats::default(),
+            rest,
+            soft_system,
+            polish_system,
+        })
+    }
+
+    pub fn is_done(&self) -> bool {
+        self.phase == CompletionPhase::Done
+    }
+
+    /// Stops where it is (time budget); the layout stays the last accepted one.
+    pub fn stop_out_of_time(&mut self) {
+        if !self.is_done() {
+            self.stats.out_of_time = true;
+            self.phase = CompletionPhase::Done;
+        }
+    }
+
+    /// One Newton step (soft or polish) on `layout`, which stays fold-free.
+    pub fn advance(
+        &mut self,
+        layout: &mut [DVec2],
+        filled: &FilledChart,
+        problem: &StepProblem,
+        options: &SolverOptions,
+    ) {
+        let triangles = &filled.mesh.triangles;
+        match self.phase.clone() {
+            CompletionPhase::Done => {}
+            CompletionPhase::Soft {
+                round,
+                weight,
+                steps_in_round,
+            } => {
+                let system = self.soft_system.as_ref().expect("soft system");
+                let soft = SoftTargets {
+                    vertices: &problem.constraint_vertices,
+                    targets: &problem.targets,
+                    weight,
+                };
+                let step = system.step(layout, &self.rest, triangles, Some(soft));
+                self.stats.newton_steps += 1;
+                self.stats.rounds = round + 1;
+                if try_snap(layout, problem, triangles) {
+                    self.stats.snapped = true;
+                    self.stats.snapped_at_round = Some(round);
+                    self.phase = if self.polish_system.is_some() {
+                        self.stats.polish = true;
+                        CompletionPhase::Polish { steps: 0 }
+                    } else {
+                        CompletionPhase::Done
+                    };
+                } else if step.converged || steps_in_round + 1 >= options.newton_iterations {
+                    self.phase = if round + 1 >= options.completion_rounds {
+                        CompletionPhase::Done
+                    } else {
+                        CompletionPhase::Soft {
+                            round: round + 1,
+                            weight: weight * options.weight_growth,
+                            steps_in_round: 0,
+                        }
+                    };
+                } else {
+                    self.phase = CompletionPhase::Soft {
+                        round,
+                        weight,
+                        steps_in_round: steps_in_round + 1,
+                    };
+                }
+            }
+            CompletionPhase::Polish { steps } => {
+                let system = self.polish_system.as_ref().expect("polish system");
+                let step = system.step(layout, &self.rest, triangles, None);
+                self.stats.polish_steps = steps + 1;
+                let relative_gain = (step.energy_before - step.energy_after) / step.energy_before.max(1e-300);
+                self.phase = if step.converged || relative_gain < 1e-4 || steps + 1 >= options.polish_iterations {
+                    CompletionPhase::Done
+                } else {
+                    CompletionPhase::Polish { steps: steps + 1 }
+                };
+            }
+        }
+        if !self.rest.is_empty() {
+            self.stats.energy_end = newton::energy(layout, &self.rest, triangles, None);
+        }
+    }
+}
+
+/// Puts every constrained vertex exactly on its target if that keeps every
+/// triangle positive as stored; returns whether it did.
+pub fn try_snap(layout: &mut [DVec2], problem: &StepProblem, triangles: &[[u32; 3]]) -> bool {
+    let mut candidate = layout.to_vec();
+    for (&v, &t) in problem.constraint_vertices.iter().zip(&problem.targets) {
+        candidate[v as usize] = t;
+    }
+    if guard::all_positive_as_stored(&candidate, triangles) {
+        layout.copy_from_slice(&candidate);
+        true
+    } else {
+        false
+    }
+}
+
+/// One line on why constraints stay short: which ones, and where the mesh
+/// is squeezed hardest (the triangles that would have to fold or vanish).
+pub fn partial_hint(
+    filled: &FilledChart,
+    layout: &[DVec2],
+    problem: &StepProblem,
+    unreached: &[(usize, u32)],
+) -> String {
+    if unreached.is_empty() {
+        return String::new();
+    }
+    let rest = rest_shapes(
+        &filled.mesh.positions,
+        &filled.mesh.triangles,
+        filled.n_real_triangles,
+        1.0,
+    );
+    // Most compressed real triangle: smallest layout area relative to its rest area.
+    let (worst, ratio) = filled.mesh.triangles[..filled.n_real_triangles]
+        .iter()
+        .zip(&rest)
+        .enumerate()
+        .map(|(i, (t, r))| {
+            let [a, b, c] = t.map(|v| layout[v as usize]);
+            (i, 0.5 * (b - a).perp_dot(c - a) / r.weight.max(1e-300))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((0, 1.0));
+    let centre = filled.mesh.triangles[worst]
+        .map(|v| layout[v as usize])
+        .iter()
+        .copied()
+        .sum::<DVec2>()
+        / 3.0;
+    let names: Vec<String> = unreached.iter().map(|(i, _)| format!("constraints[{i}]")).collect();
+    // The unreached constraint nearest to the squeeze.
+    let nearest = unreached
+        .iter()
+        .filter_map(|&(i, v)| {
+            problem
+                .constraint_vertices
+                .iter()
+                .position(|&c| c == v)
+                .map(|k| (i, layout[problem.constraint_vertices[k] as usize].distance(centre)))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    format!(
+        "{} cannot reach their targets without folding: the mesh is squeezed to {:.1e} of its area around triangle {worst}{} — \
+         the targets conflict (they ask for crossing or mirrored positions) or the mesh is too coarse between them there",
+        names.join(", "),
+        ratio.max(0.0),
+        nearest
+            .map(|(i, _)| format!(", next to constraints[{i}]"))
+            .unwrap_or_default()
+    )
+}

@@ -1,0 +1,80 @@
+//! Solver options: the `solver` section of a constraint file or of
+//! `config/uvpin.ron`. Every field is optional; its default is in its doc.
+
+use serde::{Deserialize, Serialize};
+
+/// When the completion phase runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum Completion {
+    /// After the spline path stalls (default).
+    #[default]
+    Auto,
+    /// Always, from the step-1 layout, instead of the spline path.
+    Always,
+    /// Never: a stalled spline path ends `Partial`.
+    Never,
+}
+
+/// Limits and switches of every phase.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverOptions {
+    /// Spline path: accepted steps at most (default 100).
+    pub max_iterations: u32,
+    /// Spline path: halvings of one step before it counts as stalled (default 20).
+    pub max_halvings: u32,
+    /// Spline path: an iteration needing at least this many halvings is "heavy" (default 6).
+    pub stall_halvings: u32,
+    /// Spline path: this many heavy iterations in a row is a stall (default 2).
+    pub stall_iterations: u32,
+    /// Spline path: outer-boundary vertices used as zero-displacement centres, at most (default 48).
+    pub max_boundary_centres: usize,
+    /// A constraint is reached when its residual is at most this, texture units (default 1e-9).
+    pub tolerance: f64,
+    /// When the completion phase runs (default `Auto`: after a stall).
+    pub completion: Completion,
+    /// Completion: soft-constraint rounds at most; the weight grows each round (default 14).
+    pub completion_rounds: u32,
+    /// Completion: Newton steps per round at most (default 30).
+    pub newton_iterations: u32,
+    /// Completion: weight of the soft constraints in the first round (default 10).
+    pub initial_weight: f64,
+    /// Completion: factor the weight grows by per round (default 10).
+    pub weight_growth: f64,
+    /// Distortion polish (symmetric Dirichlet, constraints and boundary held)
+    /// once the targets are reached (default true).
+    pub polish: bool,
+    /// Polish: Newton steps at most (default 20).
+    pub polish_iterations: u32,
+    /// Polish only charts up to this many vertices, where it is cheap (default 200000).
+    pub polish_max_vertices: usize,
+    /// Stop the completion and polish after this many milliseconds of solving
+    /// (default none): the best fold-free layout so far is kept.
+    pub time_budget_ms: Option<f64>,
+}
+
+impl SolverOptions {
+    pub const DEFAULT: SolverOptions = SolverOptions {
+        max_iterations: 100,
+        max_halvings: 20,
+        stall_halvings: 6,
+        stall_iterations: 2,
+        max_boundary_centres: 48,
+        tolerance: 1e-9,
+        completion: Completion::Auto,
+        completion_rounds: 14,
+        newton_iterations: 30,
+        initial_weight: 10.0,
+        weight_growth: 10.0,
+        polish: true,
+        polish_iterations: 20,
+        polish_max_vertices: 200_000,
+        time_budget_ms: None,
+    };
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
