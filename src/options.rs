@@ -35,7 +35,7 @@ pub struct SolverOptions {
     pub completion: Completion,
     /// Completion: soft-constraint rounds at most; the weight grows each round (default 14).
     pub completion_rounds: u32,
-    /// Completion: Newton steps per round at most (default 30).
+    /// Completion: Newton steps per round at most (default 10).
     pub newton_iterations: u32,
     /// Completion: weight of the soft constraints in the first round (default 10).
     pub initial_weight: f64,
@@ -63,7 +63,7 @@ impl SolverOptions {
         tolerance: 1e-9,
         completion: Completion::Auto,
         completion_rounds: 14,
-        newton_iterations: 30,
+        newton_iterations: 10,
         initial_weight: 10.0,
         weight_growth: 10.0,
         polish: true,

@@ -416,9 +416,19 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
         _ => out.push("completion: not needed".into()),
     }
     match (s.completion, s.stretch_before_polish) {
-        (Some(c), Some(before)) if c.polish => out.push(format!(
-            "polish (constraints and boundary held): {} Newton steps; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}; {:.2} ms",
-            c.polish_steps, before.l2, last.l2, before.linf, last.linf, t.polish_ms
+        (Some(c), Some(before)) if c.polish || c.repair_steps > 0 => out.push(format!(
+            "polish (constraints and boundary held): {} Newton steps{}; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}; {:.2} ms",
+            c.polish_steps,
+            if c.repair_steps > 0 {
+                format!(" ({} of them spreading triangles too small for f32)", c.repair_steps)
+            } else {
+                String::new()
+            },
+            before.l2,
+            last.l2,
+            before.linf,
+            last.linf,
+            t.polish_ms
         )),
         _ => out.push("polish: not run".into()),
     }

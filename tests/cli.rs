@@ -139,8 +139,20 @@ fn crossing_constraints_are_reached_by_the_completion_phase() {
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
 
     // Without the completion phase the same case ends Partial: written, fold-free, exit 2.
-    write_constraints(&ron, &asset, &[(a, 0.7, 0.5), (b, 0.3, 0.5)], &format!("{corners}    solver: (completion: Never),\n"));
-    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--report", report.to_str().unwrap()]);
+    write_constraints(
+        &ron,
+        &asset,
+        &[(a, 0.7, 0.5), (b, 0.3, 0.5)],
+        &format!("{corners}    solver: (completion: Never),\n"),
+    );
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("unreached: constraints[0]"), "{}", stderr(&o));
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
@@ -160,16 +172,32 @@ fn mirrored_targets_end_partial_with_a_hint_and_exit_code_2() {
     // Triangle (v, v+1, v+22) with v = 9 + 21·10: send its corners to a mirrored triangle.
     let v = 9 + 21 * 10;
     let ron = tmp.path("m.uvpin.ron");
-    write_constraints(&ron, &asset, &[(v, 0.55, 0.5), (v + 1, 0.45, 0.5), (v + 22, 0.55, 0.45)], corners);
+    write_constraints(
+        &ron,
+        &asset,
+        &[(v, 0.55, 0.5), (v + 1, 0.45, 0.5), (v + 22, 0.55, 0.45)],
+        corners,
+    );
     let out = tmp.path("out.glb");
-    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "--report", "-", "--quiet"]);
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        "-",
+        "--quiet",
+    ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(r["status"], "partial");
     assert_eq!(r["orientation"]["flipped"], 0);
     assert_eq!(r["orientation"]["zero_area"], 0);
     let hint = r["hint"].as_str().unwrap();
-    assert!(hint.contains("cannot reach their targets") && hint.contains("constraints["), "{hint}");
+    assert!(
+        hint.contains("cannot reach their targets") && hint.contains("constraints["),
+        "{hint}"
+    );
     let o = uvpin(&["check", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
 }

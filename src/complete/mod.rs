@@ -29,6 +29,16 @@ use serde::Serialize;
 /// enough for the barrier (holes never fold), too little to resist reshaping.
 pub const VIRTUAL_WEIGHT: f64 = 0.01;
 
+/// A soft round ends when a Newton step gains less than this (relative):
+/// rounds are continuation steps toward the hard constraints, not solves.
+const ROUND_TOLERANCE: f64 = 1e-4;
+
+/// The polish stops when a Newton step gains less than this (relative).
+const POLISH_TOLERANCE: f64 = 1e-3;
+
+/// Newton steps at most while repairing a layout that f32 cannot store yet.
+pub const REPAIR_STEPS: u32 = 2000;
+
 /// Where the completion stands.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CompletionPhase {
@@ -58,7 +68,11 @@ pub struct CompletionStats {
     pub snapped_at_round: Option<u32>,
     /// The polish ran.
     pub polish: bool,
+    /// The polish ran (or went on) to spread triangles too small to store as f32.
+    pub repair: bool,
     pub polish_steps: u32,
+    /// Polish steps spent repairing (not counted against `polish_iterations`).
+    pub repair_steps: u32,
     /// Symmetric Dirichlet energy (area-weighted mean, 4 = isometry) at the start and end.
     pub energy_start: f64,
     pub energy_end: f64,
@@ -74,6 +88,8 @@ pub struct CompletionState {
     rest: Vec<RestTriangle>,
     soft_system: Option<NewtonSystem>,
     polish_system: Option<NewtonSystem>,
+    /// Polish for distortion (else only to repair an unstorable layout).
+    polish_enabled: bool,
 }
 
 impl CompletionState {
@@ -85,10 +101,12 @@ impl CompletionState {
             rest: Vec::new(),
             soft_system: None,
             polish_system: None,
+            polish_enabled: false,
         }
     }
 
-    /// Soft-to-hard completion (then polish, if `polish`), from `layout`.
+    /// Soft-to-hard completion (then polish, if `polish` or if the layout
+    /// cannot be stored as f32 yet), from `layout`.
     ///
     /// # Errors
     /// A sparsity pattern faer rejects.
@@ -99,7 +117,8 @@ impl CompletionState {
         options: &SolverOptions,
         polish: bool,
     ) -> Result<Self, SparseError> {
-        let mut s = Self::with_systems(filled, problem, true, polish)?;
+        let mut s = Self::with_systems(filled, problem, true)?;
+        s.polish_enabled = polish;
         s.phase = CompletionPhase::Soft {
             round: 0,
             weight: options.initial_weight,
@@ -110,25 +129,28 @@ impl CompletionState {
         Ok(s)
     }
 
-    /// Polish only (the targets are already reached), from `layout`.
+    /// Polish only (the targets are already reached), from `layout`; with
+    /// `polish` false it only repairs a layout f32 cannot store yet.
     ///
     /// # Errors
     /// A sparsity pattern faer rejects.
-    pub fn polish(filled: &FilledChart, problem: &StepProblem, layout: &[DVec2]) -> Result<Self, SparseError> {
-        let mut s = Self::with_systems(filled, problem, false, true)?;
+    pub fn polish(
+        filled: &FilledChart,
+        problem: &StepProblem,
+        layout: &[DVec2],
+        polish: bool,
+    ) -> Result<Self, SparseError> {
+        let mut s = Self::with_systems(filled, problem, false)?;
+        s.polish_enabled = polish;
         s.phase = CompletionPhase::Polish { steps: 0 };
-        s.stats.polish = true;
+        s.stats.polish = polish;
+        s.stats.repair = !guard::all_positive_as_stored(layout, &filled.mesh.triangles);
         s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
         s.stats.energy_end = s.stats.energy_start;
         Ok(s)
     }
 
-    fn with_systems(
-        filled: &FilledChart,
-        problem: &StepProblem,
-        soft: bool,
-        polish: bool,
-    ) -> Result<Self, SparseError> {
+    fn with_systems(filled: &FilledChart, problem: &StepProblem, soft: bool) -> Result<Self, SparseError> {
         let n = filled.mesh.n_vertices();
         let rest = rest_shapes(
             &filled.mesh.positions,
@@ -143,21 +165,19 @@ impl CompletionState {
         } else {
             None
         };
-        let polish_system = if polish {
-            problem
-                .constraint_vertices
-                .iter()
-                .for_each(|&v| free[v as usize] = false);
-            Some(NewtonSystem::new(&filled.mesh.triangles, &free)?)
-        } else {
-            None
-        };
+        // Always built: a snapped layout f32 cannot store yet needs the repair.
+        problem
+            .constraint_vertices
+            .iter()
+            .for_each(|&v| free[v as usize] = false);
+        let polish_system = Some(NewtonSystem::new(&filled.mesh.triangles, &free)?);
         Ok(CompletionState {
             phase: CompletionPhase::Done,
             stats: CompletionStats::default(),
             rest,
             soft_system,
             polish_system,
+            polish_enabled: false,
         })
     }
 
@@ -195,14 +215,16 @@ impl CompletionState {
                     targets: &problem.targets,
                     weight,
                 };
-                let step = system.step(layout, &self.rest, triangles, Some(soft));
+                let step = system.step(layout, &self.rest, triangles, Some(soft), ROUND_TOLERANCE);
                 self.stats.newton_steps += 1;
                 self.stats.rounds = round + 1;
                 if try_snap(layout, problem, triangles) {
                     self.stats.snapped = true;
                     self.stats.snapped_at_round = Some(round);
-                    self.phase = if self.polish_system.is_some() {
-                        self.stats.polish = true;
+                    let storable = guard::all_positive_as_stored(layout, triangles);
+                    self.stats.repair |= !storable;
+                    self.phase = if self.polish_enabled || !storable {
+                        self.stats.polish |= self.polish_enabled;
                         CompletionPhase::Polish { steps: 0 }
                     } else {
                         CompletionPhase::Done
@@ -227,10 +249,20 @@ impl CompletionState {
             }
             CompletionPhase::Polish { steps } => {
                 let system = self.polish_system.as_ref().expect("polish system");
-                let step = system.step(layout, &self.rest, triangles, None);
+                let repairing = !guard::all_positive_as_stored(layout, triangles);
+                let step = system.step(layout, &self.rest, triangles, None, POLISH_TOLERANCE);
                 self.stats.polish_steps = steps + 1;
+                if repairing {
+                    self.stats.repair_steps += 1;
+                }
                 let relative_gain = (step.energy_before - step.energy_after) / step.energy_before.max(1e-300);
-                self.phase = if step.converged || relative_gain < 1e-4 || steps + 1 >= options.polish_iterations {
+                let finished = !self.polish_enabled
+                    || step.converged
+                    || relative_gain < POLISH_TOLERANCE
+                    || steps + 1 - self.stats.repair_steps >= options.polish_iterations;
+                let storable = guard::all_positive_as_stored(layout, triangles);
+                let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
+                self.phase = if (finished && storable) || stuck {
                     CompletionPhase::Done
                 } else {
                     CompletionPhase::Polish { steps: steps + 1 }
@@ -250,7 +282,13 @@ pub fn try_snap(layout: &mut [DVec2], problem: &StepProblem, triangles: &[[u32; 
     for (&v, &t) in problem.constraint_vertices.iter().zip(&problem.targets) {
         candidate[v as usize] = t;
     }
-    if guard::all_positive_as_stored(&candidate, triangles) {
+    let storable = guard::all_positive_as_stored(layout, triangles);
+    let valid = if storable {
+        guard::all_positive_as_stored(&candidate, triangles)
+    } else {
+        guard::all_positive(&candidate, triangles)
+    };
+    if valid {
         layout.copy_from_slice(&candidate);
         true
     } else {

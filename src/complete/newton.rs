@@ -72,7 +72,7 @@ impl NewtonSystem {
                 }
             }
         }
-        let pattern = SpdPattern::new(2 * n_free.max(1), &entries)?;
+        let pattern = SpdPattern::new_supernodal(2 * n_free.max(1), &entries)?;
         Ok(NewtonSystem {
             free_row,
             n_free,
@@ -84,13 +84,16 @@ impl NewtonSystem {
         self.n_free
     }
 
-    /// One projected Newton step from `layout` (updated in place).
+    /// One projected Newton step from `layout` (updated in place). The step
+    /// counts as converged when the Newton decrement or the energy decrease
+    /// is below `tolerance` relative to the energy.
     pub fn step(
         &self,
         layout: &mut [DVec2],
         rest: &[RestTriangle],
         triangles: &[[u32; 3]],
         soft: Option<SoftTargets>,
+        tolerance: f64,
     ) -> NewtonStep {
         let n2 = 2 * self.n_free;
         let stuck = |e: f64| NewtonStep {
@@ -170,13 +173,21 @@ impl NewtonSystem {
         }
         let mut alpha = (0.9 * max_safe_step(layout, &dir, triangles)).min(1.0);
         let start: Vec<DVec2> = layout.to_vec();
+        // Once storable as f32, always storable; a layout that is not yet (a
+        // squeezed step 1) must only stay positive while the barrier spreads it.
+        let storable = guard::all_positive_as_stored(&start, triangles);
         for _ in 0..60 {
             for (v, x) in layout.iter_mut().enumerate() {
                 *x = start[v] + dir[v] * alpha;
             }
             let e = energy(layout, rest, triangles, soft);
-            if e <= total + 1e-4 * alpha * slope && guard::all_positive_as_stored(layout, triangles) {
-                let converged = -0.5 * slope < 1e-10 * total || (total - e) < 1e-12 * total;
+            let valid = if storable {
+                guard::all_positive_as_stored(layout, triangles)
+            } else {
+                guard::all_positive(layout, triangles)
+            };
+            if e <= total + 1e-4 * alpha * slope && valid {
+                let converged = -0.5 * slope < tolerance * total || (total - e) < tolerance * total;
                 return NewtonStep {
                     energy_before: total,
                     energy_after: e,

@@ -172,7 +172,14 @@ pub fn guard_foldovers(
 ) {
     for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
         let t0 = Instant::now();
-        let accepted = guard::all_positive_as_stored(&candidate.0, &data.0.filled.mesh.triangles);
+        let triangles = &data.0.filled.mesh.triangles;
+        // As stored (f32) once the current layout is storable; before that
+        // (a squeezed step 1), strictly positive in double precision.
+        let accepted = if guard::all_positive_as_stored(&layout.0, triangles) {
+            guard::all_positive_as_stored(&candidate.0, triangles)
+        } else {
+            guard::all_positive(&candidate.0, triangles)
+        };
         let options = &job.constraints.solver;
         if accepted {
             let residual = stepping.problem.max_residual(&candidate.0);
@@ -221,13 +228,14 @@ pub fn complete_constraints(
         match completing {
             None => {
                 let reached = stepping.state.phase == SteppingPhase::Reached;
-                let polish = options.polish
-                    && filled.n_real_vertices <= options.polish_max_vertices
-                    && !stepping.problem.movable.is_empty();
+                let polish = options.polish && filled.n_real_vertices <= options.polish_max_vertices;
+                // A layout f32 cannot store yet is always repaired by the polish.
+                let storable = crate::guard::all_positive_as_stored(&layout.0, &filled.mesh.triangles);
+                let has_free = !stepping.problem.movable.is_empty();
                 let mut spline_layout = None;
                 let state = if reached {
-                    if polish {
-                        CompletionState::polish(filled, &stepping.problem, &layout.0)
+                    if has_free && (polish || !storable) {
+                        CompletionState::polish(filled, &stepping.problem, &layout.0, polish)
                     } else {
                         Ok(CompletionState::done())
                     }
@@ -238,7 +246,7 @@ pub fn complete_constraints(
                     spline_layout = Some(std::mem::replace(&mut layout.0, step1.0.clone()));
                     CompletionState::soft(filled, &stepping.problem, &layout.0, options, polish)
                 };
-                let stretch_before_polish = (reached && polish).then(|| stretch(&layout.0));
+                let stretch_before_polish = (reached && has_free && (polish || !storable)).then(|| stretch(&layout.0));
                 match state {
                     Ok(state) => {
                         commands.entity(entity).insert(Completing {
