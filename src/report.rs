@@ -401,7 +401,12 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
     });
     match s.completion {
         Some(c) if c.soft => out.push(format!(
-            "completion (soft-to-hard symmetric Dirichlet): {} rounds, {} Newton steps, {}; energy {:.4} → {:.4}{}; {:.2} ms",
+            "completion (soft-to-hard symmetric Dirichlet): {}{} rounds, {} Newton steps, {}; energy {:.4} → {:.4}{}; {:.2} ms",
+            if c.repair && c.snapped_at_round.is_some() || c.repair && c.polish_steps == 0 {
+                format!("{} steps spreading triangles too small for f32, then ", c.repair_steps)
+            } else {
+                String::new()
+            },
             c.rounds,
             c.newton_steps,
             match c.snapped_at_round {

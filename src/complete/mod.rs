@@ -42,6 +42,11 @@ pub const REPAIR_STEPS: u32 = 2000;
 /// Where the completion stands.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CompletionPhase {
+    /// Spreading a start layout too squeezed to store as f32 (SD alone,
+    /// constraints free) before the soft rounds begin.
+    Repair {
+        steps: u32,
+    },
     /// Soft constraints with weight `weight`, round `round`.
     Soft {
         round: u32,
@@ -119,10 +124,15 @@ impl CompletionState {
     ) -> Result<Self, SparseError> {
         let mut s = Self::with_systems(filled, problem, true)?;
         s.polish_enabled = polish;
-        s.phase = CompletionPhase::Soft {
-            round: 0,
-            weight: options.initial_weight,
-            steps_in_round: 0,
+        s.phase = if guard::all_positive_as_stored(layout, &filled.mesh.triangles) {
+            CompletionPhase::Soft {
+                round: 0,
+                weight: options.initial_weight,
+                steps_in_round: 0,
+            }
+        } else {
+            s.stats.repair = true;
+            CompletionPhase::Repair { steps: 0 }
         };
         s.stats.soft = true;
         s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
@@ -204,16 +214,34 @@ impl CompletionState {
         let triangles = &filled.mesh.triangles;
         match self.phase.clone() {
             CompletionPhase::Done => {}
+            CompletionPhase::Repair { steps } => {
+                let system = self.soft_system.as_ref().expect("soft system");
+                let step = system.step(layout, &self.rest, triangles, None, POLISH_TOLERANCE);
+                self.stats.repair_steps += 1;
+                let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
+                self.phase = if guard::all_positive_as_stored(layout, triangles) || stuck {
+                    CompletionPhase::Soft {
+                        round: 0,
+                        weight: options.initial_weight,
+                        steps_in_round: 0,
+                    }
+                } else {
+                    CompletionPhase::Repair { steps: steps + 1 }
+                };
+            }
             CompletionPhase::Soft {
                 round,
                 weight,
                 steps_in_round,
             } => {
                 let system = self.soft_system.as_ref().expect("soft system");
+                // Scale the pull with the distortion energy (4 = isometry): a
+                // badly squeezed start has energy ~1e20 and must not drown it.
+                let scale = (newton::energy(layout, &self.rest, triangles, None) / 4.0).max(1.0);
                 let soft = SoftTargets {
                     vertices: &problem.constraint_vertices,
                     targets: &problem.targets,
-                    weight,
+                    weight: weight * scale,
                 };
                 let step = system.step(layout, &self.rest, triangles, Some(soft), ROUND_TOLERANCE);
                 self.stats.newton_steps += 1;
