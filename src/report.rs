@@ -402,7 +402,7 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
     match s.completion {
         Some(c) if c.soft => out.push(format!(
             "completion (soft-to-hard symmetric Dirichlet): {}{} rounds, {} Newton steps, {}; energy {:.4} → {:.4}{}; {:.2} ms",
-            if c.repair && c.snapped_at_round.is_some() || c.repair && c.polish_steps == 0 {
+            if c.repair_steps > 0 {
                 format!("{} steps spreading triangles too small for f32, then ", c.repair_steps)
             } else {
                 String::new()
@@ -421,11 +421,11 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
         _ => out.push("completion: not needed".into()),
     }
     match (s.completion, s.stretch_before_polish) {
-        (Some(c), Some(before)) if c.polish || c.repair_steps > 0 => out.push(format!(
+        (Some(c), Some(before)) if c.polish || c.polish_repair_steps > 0 => out.push(format!(
             "polish (constraints and boundary held): {} Newton steps{}; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}; {:.2} ms",
             c.polish_steps,
-            if c.repair_steps > 0 {
-                format!(" ({} of them spreading triangles too small for f32)", c.repair_steps)
+            if c.polish_repair_steps > 0 {
+                format!(" ({} of them spreading triangles too small for f32)", c.polish_repair_steps)
             } else {
                 String::new()
             },

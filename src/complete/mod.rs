@@ -76,8 +76,10 @@ pub struct CompletionStats {
     /// The polish ran (or went on) to spread triangles too small to store as f32.
     pub repair: bool,
     pub polish_steps: u32,
-    /// Polish steps spent repairing (not counted against `polish_iterations`).
+    /// Steps spent spreading a start too squeezed for f32, before the soft rounds.
     pub repair_steps: u32,
+    /// Polish steps spent on the same repair (not counted against `polish_iterations`).
+    pub polish_repair_steps: u32,
     /// Symmetric Dirichlet energy (area-weighted mean, 4 = isometry) at the start and end.
     pub energy_start: f64,
     pub energy_end: f64,
@@ -281,13 +283,13 @@ impl CompletionState {
                 let step = system.step(layout, &self.rest, triangles, None, POLISH_TOLERANCE);
                 self.stats.polish_steps = steps + 1;
                 if repairing {
-                    self.stats.repair_steps += 1;
+                    self.stats.polish_repair_steps += 1;
                 }
                 let relative_gain = (step.energy_before - step.energy_after) / step.energy_before.max(1e-300);
                 let finished = !self.polish_enabled
                     || step.converged
                     || relative_gain < POLISH_TOLERANCE
-                    || steps + 1 - self.stats.repair_steps >= options.polish_iterations;
+                    || steps + 1 - self.stats.polish_repair_steps >= options.polish_iterations;
                 let storable = guard::all_positive_as_stored(layout, triangles);
                 let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
                 self.phase = if (finished && storable) || stuck {
