@@ -36,9 +36,9 @@ struct Row {
 
 fn print_header() {
     println!(
-        "| case | vertices | constraints | status | runs | load | topology | boundary | factor | solve | stepping | guard | export | step 1 | total |"
+        "| case | vertices | constraints | status | runs | load | topology | boundary | factor | solve | spline | guard | completion | polish | export | step 1 | total |"
     );
-    println!("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
 }
 
 fn print_row(r: &Row) {
@@ -53,7 +53,7 @@ fn print_row(r: &Row) {
         }
     };
     println!(
-        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
         r.name,
         r.vertices,
         r.constraints,
@@ -66,6 +66,8 @@ fn print_row(r: &Row) {
         fmt(m(|t| t.solve_ms)),
         fmt(m(|t| t.stepping_ms)),
         fmt(m(|t| t.guard_ms)),
+        fmt(m(|t| t.complete_ms)),
+        fmt(m(|t| t.polish_ms)),
         fmt(m(|t| t.export_ms)),
         fmt(m(|t| t.topology_ms + t.boundary_ms + t.factor_ms + t.solve_ms)),
         fmt(m(|t| t.total_ms())),
@@ -91,10 +93,14 @@ fn warp_constraints(mesh: &TriMesh, k: usize, seed: u64) -> Vec<(u32, DVec2)> {
 }
 
 fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: usize) -> Row {
+    bench_mesh_with(name, mesh, constraints, runs, SolverOptions::DEFAULT)
+}
+
+fn bench_mesh_with(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: usize, options: SolverOptions) -> Row {
     let mut times = Vec::new();
     let mut status = String::new();
     for _ in 0..runs {
-        let (report, _) = uvpin::solve_mesh(mesh, constraints, None, SolverOptions::DEFAULT).expect("solve");
+        let (report, _) = uvpin::solve_mesh(mesh, constraints, None, options).expect("solve");
         status = format!("{:?}", report.status).to_lowercase();
         times.push(report.times);
     }
@@ -153,6 +159,15 @@ fn main() {
         let mesh = curved_grid(41, 1);
         let c = warp_constraints(&mesh, 50, 2);
         print_row(&bench_mesh("paper size: 41² curved grid", &mesh, &c, 21));
+        let mut no_polish = SolverOptions::DEFAULT;
+        no_polish.polish = false;
+        print_row(&bench_mesh_with("paper size, polish off", &mesh, &c, 21, no_polish));
+        // The paper's Fig. 8 crossing at the same size: the spline path stalls.
+        let (a, b) = (15 + 41 * 20, 25 + 41 * 20);
+        let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, no_polish).expect("step 1");
+        let at = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
+        let crossing = [(a, at(b)), (b, at(a))];
+        print_row(&bench_mesh("paper size, crossing pair", &mesh, &crossing, 11));
     }
     let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
     if shared.is_dir() {

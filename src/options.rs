@@ -46,7 +46,7 @@ pub struct SolverOptions {
     pub polish: bool,
     /// Polish: Newton steps at most (default 20).
     pub polish_iterations: u32,
-    /// Polish only charts up to this many vertices, where it is cheap (default 200000).
+    /// Polish only charts up to this many vertices, where it is cheap (default 20000).
     pub polish_max_vertices: usize,
     /// Stop the completion and polish after this many milliseconds of solving
     /// (default none): the best fold-free layout so far is kept.
@@ -68,7 +68,7 @@ impl SolverOptions {
         weight_growth: 10.0,
         polish: true,
         polish_iterations: 20,
-        polish_max_vertices: 200_000,
+        polish_max_vertices: 20_000,
         time_budget_ms: None,
     };
 }
