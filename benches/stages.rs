@@ -96,7 +96,13 @@ fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: us
     bench_mesh_with(name, mesh, constraints, runs, SolverOptions::DEFAULT)
 }
 
-fn bench_mesh_with(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: usize, options: SolverOptions) -> Row {
+fn bench_mesh_with(
+    name: &str,
+    mesh: &TriMesh,
+    constraints: &[(u32, DVec2)],
+    runs: usize,
+    options: SolverOptions,
+) -> Row {
     let mut times = Vec::new();
     let mut status = String::new();
     for _ in 0..runs {

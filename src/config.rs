@@ -17,13 +17,8 @@ pub struct Config {
 pub enum ConfigError {
     #[error("{path}: cannot read the configuration: {source}")]
     Read { path: PathBuf, source: std::io::Error },
-    #[error("{path}:{line}:{column}: {message}")]
-    Syntax {
-        path: PathBuf,
-        line: usize,
-        column: usize,
-        message: String,
-    },
+    #[error(transparent)]
+    Syntax(#[from] crate::ron_file::RonSyntaxError),
 }
 
 impl Config {
@@ -36,15 +31,7 @@ impl Config {
             path: path.into(),
             source,
         })?;
-        ron::Options::default()
-            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
-            .from_str(&text)
-            .map_err(|e| ConfigError::Syntax {
-                path: path.into(),
-                line: e.span.start.line,
-                column: e.span.start.col,
-                message: e.code.to_string(),
-            })
+        Ok(crate::ron_file::parse_ron(path, &text)?)
     }
 }
 

@@ -104,13 +104,8 @@ pub struct ConstraintFile {
 pub enum ConstraintFileError {
     #[error("{path}: cannot read the constraint file: {source}")]
     Read { path: PathBuf, source: std::io::Error },
-    #[error("{path}:{line}:{column}: {message}")]
-    Syntax {
-        path: PathBuf,
-        line: usize,
-        column: usize,
-        message: String,
-    },
+    #[error(transparent)]
+    Syntax(#[from] crate::ron_file::RonSyntaxError),
     #[error("{path}:{line}:{column}: {field}: {message}")]
     Invalid {
         path: PathBuf,
@@ -202,13 +197,7 @@ impl LoadedConstraints {
 
     /// As [`LoadedConstraints::parse`], with `defaults` for a file without `solver`.
     pub fn parse_with_defaults(path: &Path, text: &str, defaults: &SolverOptions) -> Result<Self, ConstraintFileError> {
-        let options = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-        let file: ConstraintFile = options.from_str(text).map_err(|e| ConstraintFileError::Syntax {
-            path: path.to_path_buf(),
-            line: e.span.start.line,
-            column: e.span.start.col,
-            message: e.code.to_string(),
-        })?;
+        let file: ConstraintFile = crate::ron_file::parse_ron(path, text)?;
         let scan = scan_positions(text);
         let mut item_positions = scan.items;
         item_positions.resize(file.constraints.len(), scan.constraints.unwrap_or((1, 1)));

@@ -35,6 +35,7 @@ pub mod options;
 pub mod param;
 pub mod rbf;
 pub mod report;
+pub mod ron_file;
 pub mod solve;
 pub mod sparse;
 #[doc(hidden)]

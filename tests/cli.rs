@@ -12,17 +12,9 @@ fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
     let out = tmp.path("face.glb");
     let report = tmp.path("report.json");
     let ron = repo().join("assets/face.uvpin.ron");
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--report",
-        report.to_str().unwrap(),
-    ]);
+    let (o, r) = solve_with_report(&ron, &out, &report, &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains("reached"), "{}", stderr(&o));
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(r["status"], "reached");
     assert_eq!(r["orientation"]["flipped"], 0);
     assert_eq!(r["orientation"]["zero_area"], 0);
@@ -68,6 +60,28 @@ fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
     let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
     assert!(stdout(&o).contains("flipped      0"), "{}", stdout(&o));
+}
+
+/// Runs `uvpin solve RON -o OUT --report REPORT EXTRA…`; returns the process
+/// output and the report it wrote.
+fn solve_with_report(
+    ron: &std::path::Path,
+    out: &std::path::Path,
+    report: &std::path::Path,
+    extra: &[&str],
+) -> (std::process::Output, serde_json::Value) {
+    let mut args = vec![
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = uvpin(&args);
+    let text = std::fs::read_to_string(report).unwrap_or_else(|e| panic!("no report ({e}): {}", stderr(&o)));
+    (o, serde_json::from_str(&text).unwrap())
 }
 
 /// Reads a glTF file with the gltf crate's own buffer loading.
@@ -117,20 +131,11 @@ fn crossing_constraints_are_reached_by_the_completion_phase() {
     write_constraints(&ron, &asset, &[(a, 0.7, 0.5), (b, 0.3, 0.5)], corners);
     let out = tmp.path("out.glb");
     let report = tmp.path("r.json");
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--report",
-        report.to_str().unwrap(),
-        "--explain",
-    ]);
+    let (o, r) = solve_with_report(&ron, &out, &report, &["--explain"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(err.contains("spline path (Eq. 6): stalled"), "{err}");
     assert!(err.contains("snapped onto the targets"), "{err}");
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(r["status"], "reached");
     assert!(r["max_residual"].as_f64().unwrap() <= 1e-9);
     assert_eq!(r["orientation"]["flipped"], 0);
@@ -145,17 +150,9 @@ fn crossing_constraints_are_reached_by_the_completion_phase() {
         &[(a, 0.7, 0.5), (b, 0.3, 0.5)],
         &format!("{corners}    solver: (completion: Never),\n"),
     );
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--report",
-        report.to_str().unwrap(),
-    ]);
+    let (o, r) = solve_with_report(&ron, &out, &report, &[]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("unreached: constraints[0]"), "{}", stderr(&o));
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(r["status"], "partial");
     assert!(r["message"].as_str().unwrap().contains("stalled"));
     let o = uvpin(&["check", out.to_str().unwrap()]);
