@@ -409,9 +409,10 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
             },
             c.rounds,
             c.newton_steps,
-            match c.snapped_at_round {
-                Some(r) => format!("snapped onto the targets in round {}", r + 1),
-                None => "could not snap onto the targets".into(),
+            match (c.snapped_at_round, c.arc_retry) {
+                (Some(r), false) => format!("snapped onto the targets in round {}", r + 1),
+                (Some(r), true) => format!("snapped onto the targets in round {} of a retry along arc paths", r + 1),
+                (None, _) => "could not snap onto the targets (straight and arc paths tried)".into(),
             },
             c.energy_start,
             c.energy_end,

@@ -184,8 +184,9 @@ fn solvable_procedural_cases_are_reached_exactly() {
 #[test]
 fn crossing_and_impossible_procedural_cases() {
     // Every case is fold-free (checked in `solve`). Two constraints swapping
-    // head-on can still deadlock against the barrier: at most two of these
-    // six may end Partial (a known gap; measured: 4 of 6 reached).
+    // head-on can still deadlock against the barrier when few triangles lie
+    // between them: at most one of these six may end Partial (a known gap;
+    // measured: 5 of 6 reached; straight paths alone reached 4).
     let mut unreached = Vec::new();
     for seed in 0..6u64 {
         let mut rng = Rng::new(900 + seed);
@@ -195,12 +196,15 @@ fn crossing_and_impossible_procedural_cases() {
         let r = crossing_case(&name, &mesh, seed);
         match r.status {
             Status::Reached => assert!(r.max_residual <= 1e-9, "{name}"),
-            _ => unreached.push(name),
+            _ => {
+                eprintln!("{name}: {}\n  hint: {:?}", r.explain.join("\n  "), r.hint);
+                unreached.push(name)
+            }
         }
         mirrored_case(&format!("mirrored disk {seed}"), &mesh, seed);
     }
     eprintln!("crossings not reached: {unreached:?}");
-    assert!(unreached.len() <= 2, "{unreached:?}");
+    assert!(unreached.len() <= 1, "{unreached:?}");
 }
 
 #[test]
@@ -211,10 +215,7 @@ fn shared_meshes_solvable_crossing_and_impossible() {
         eprintln!("{name} warp: {}", r.explain.join(" | "));
         let r = crossing_case(&format!("{name} crossing"), &mesh, 5);
         eprintln!("{name} crossing: {}", r.explain.join(" | "));
-        // alligator's crossing pair lies in a thin part and deadlocks (known gap).
-        if name != "alligator.glb" {
-            assert_reached(&format!("{name} crossing"), &r);
-        }
+        assert_reached(&format!("{name} crossing"), &r);
         mirrored_case(&format!("{name} mirrored"), &mesh, 9);
     }
 }

@@ -85,6 +85,8 @@ pub struct CompletionStats {
     pub energy_end: f64,
     /// The time budget cut the phase short.
     pub out_of_time: bool,
+    /// The soft rounds were retried with targets moving along arcs.
+    pub arc_retry: bool,
 }
 
 /// The completion and polish of one chart.
@@ -97,6 +99,27 @@ pub struct CompletionState {
     polish_system: Option<NewtonSystem>,
     /// Polish for distortion (else only to repair an unstorable layout).
     polish_enabled: bool,
+    /// The layout the soft rounds started from (for the arc-path retry).
+    soft_start: Option<Vec<DVec2>>,
+    /// Retries: targets move along arcs (start, final target) per constraint,
+    /// bulging right (+1) then left (−1) of the direction of travel.
+    arcs: Option<(Vec<(DVec2, DVec2)>, f64)>,
+}
+
+/// Rounds over which the retry's targets travel along their arcs.
+const ARC_ROUNDS: u32 = 6;
+
+/// How far an arc bulges sideways at its middle, relative to its length.
+const ARC_BULGE: f64 = 0.5;
+
+/// A point `s ∈ [0, 1]` of the way along the arc from `start` to `target`,
+/// bulging to the right of the direction of travel: two constraints asked to
+/// swap places head-on pass each other on opposite sides (the paper's
+/// "polyline path" for its Fig. 8).
+fn arc_point(start: DVec2, target: DVec2, s: f64, side: f64) -> DVec2 {
+    let d = target - start;
+    let right = DVec2::new(d.y, -d.x) * side;
+    (start + d * s + right * (ARC_BULGE * 4.0 * s * (1.0 - s))).clamp(DVec2::splat(1e-3), DVec2::splat(1.0 - 1e-3))
 }
 
 impl CompletionState {
@@ -109,6 +132,8 @@ impl CompletionState {
             soft_system: None,
             polish_system: None,
             polish_enabled: false,
+            soft_start: None,
+            arcs: None,
         }
     }
 
@@ -190,6 +215,8 @@ impl CompletionState {
             soft_system,
             polish_system,
             polish_enabled: false,
+            soft_start: None,
+            arcs: None,
         })
     }
 
@@ -236,13 +263,22 @@ impl CompletionState {
                 weight,
                 steps_in_round,
             } => {
+                if self.soft_start.is_none() {
+                    self.soft_start = Some(layout.to_vec());
+                }
                 let system = self.soft_system.as_ref().expect("soft system");
                 // Scale the pull with the distortion energy (4 = isometry): a
                 // badly squeezed start has energy ~1e20 and must not drown it.
                 let scale = (newton::energy(layout, &self.rest, triangles, None) / 4.0).max(1.0);
+                let arc_targets: Option<Vec<DVec2>> = self.arcs.as_ref().map(|(arcs, side)| {
+                    let s = ((round + 1) as f64 / ARC_ROUNDS as f64).min(1.0);
+                    arcs.iter()
+                        .map(|&(a, t)| if s >= 1.0 { t } else { arc_point(a, t, s, *side) })
+                        .collect()
+                });
                 let soft = SoftTargets {
                     vertices: &problem.constraint_vertices,
-                    targets: &problem.targets,
+                    targets: arc_targets.as_deref().unwrap_or(&problem.targets),
                     weight: weight * scale,
                 };
                 let step = system.step(layout, &self.rest, triangles, Some(soft), ROUND_TOLERANCE);
@@ -261,7 +297,32 @@ impl CompletionState {
                     };
                 } else if step.converged || steps_in_round + 1 >= options.newton_iterations {
                     self.phase = if round + 1 >= options.completion_rounds {
-                        CompletionPhase::Done
+                        // Retries from the same start, targets moving along arcs
+                        // bulging right, then left.
+                        let side = match &self.arcs {
+                            None => Some(1.0),
+                            Some((_, side)) if *side > 0.0 => Some(-1.0),
+                            Some(_) => None,
+                        };
+                        match (side, &self.soft_start) {
+                            (Some(side), Some(start)) => {
+                                layout.copy_from_slice(start);
+                                let paths = problem
+                                    .constraint_vertices
+                                    .iter()
+                                    .zip(&problem.targets)
+                                    .map(|(&v, &t)| (start[v as usize], t))
+                                    .collect();
+                                self.arcs = Some((paths, side));
+                                self.stats.arc_retry = true;
+                                CompletionPhase::Soft {
+                                    round: 0,
+                                    weight: options.initial_weight,
+                                    steps_in_round: 0,
+                                }
+                            }
+                            _ => CompletionPhase::Done,
+                        }
                     } else {
                         CompletionPhase::Soft {
                             round: round + 1,
