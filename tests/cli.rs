@@ -166,13 +166,20 @@ fn mirrored_targets_end_partial_with_a_hint_and_exit_code_2() {
     let tmp = TempDir::new("impossible");
     let asset = grid_asset(&tmp, 21);
     let corners = "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n";
-    // Triangle (v, v+1, v+22) with v = 9 + 21·10: send its corners to a mirrored triangle.
+    // Grid triangle (v+1, v+22, v+21) with v = 9 + 21·10, i.e. grid points
+    // (10,10), (10,11), (9,11), counter-clockwise: send it to its mirror image
+    // (x reflected about the triangle's centroid), which is clockwise.
     let v = 9 + 21 * 10;
     let ron = tmp.path("m.uvpin.ron");
+    let cx = (0.5 + 0.5 + 0.45) / 3.0;
     write_constraints(
         &ron,
         &asset,
-        &[(v, 0.55, 0.5), (v + 1, 0.45, 0.5), (v + 22, 0.55, 0.45)],
+        &[
+            (v + 1, 2.0 * cx - 0.5, 0.5),
+            (v + 22, 2.0 * cx - 0.5, 0.45),
+            (v + 21, 2.0 * cx - 0.45, 0.45),
+        ],
         corners,
     );
     let out = tmp.path("out.glb");
