@@ -32,6 +32,41 @@ struct Row {
     status: String,
     runs: usize,
     times: Vec<StageTimes>,
+    /// The last run's report (quality figures are the same every run).
+    report: Option<Report>,
+}
+
+/// Step-1-only layout against uvpin's result: stretch, residual, time.
+fn print_comparison(rows: &[Row]) {
+    println!("\n| case | step 1: L2 | L∞ | max residual | ms | uvpin: L2 | L∞ | max residual | ms |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        let Some(rep) = &r.report else { continue };
+        let step1_residual = rep
+            .constraints
+            .iter()
+            .map(|c| c.step1.distance(c.target))
+            .fold(0.0, f64::max);
+        let step1_ms = median(
+            r.times
+                .iter()
+                .map(|t| t.load_ms + t.topology_ms + t.boundary_ms + t.factor_ms + t.solve_ms)
+                .collect(),
+        );
+        let total_ms = median(r.times.iter().map(|t| t.total_ms()).collect());
+        println!(
+            "| {} | {:.3} | {:.3} | {:.3e} | {:.1} | {:.3} | {:.3} | {:.1e} | {:.1} |",
+            r.name,
+            rep.stretch_step1.l2,
+            rep.stretch_step1.linf,
+            step1_residual,
+            step1_ms,
+            rep.stretch_final.l2,
+            rep.stretch_final.linf,
+            rep.max_residual,
+            total_ms
+        );
+    }
 }
 
 fn print_header() {
@@ -105,10 +140,12 @@ fn bench_mesh_with(
 ) -> Row {
     let mut times = Vec::new();
     let mut status = String::new();
+    let mut last = None;
     for _ in 0..runs {
         let (report, _) = uvpin::solve_mesh(mesh, constraints, None, options).expect("solve");
         status = format!("{:?}", report.status).to_lowercase();
         times.push(report.times);
+        last = Some(report);
     }
     Row {
         name: name.into(),
@@ -117,6 +154,7 @@ fn bench_mesh_with(
         status,
         runs,
         times,
+        report: last,
     }
 }
 
@@ -138,6 +176,7 @@ fn bench_file(name: &str, constraints: &Path, out: &Path, runs: usize) -> Option
         status: format!("{:?}", r.status).to_lowercase(),
         runs,
         times,
+        report: Some(r),
     })
 }
 
@@ -154,26 +193,34 @@ fn main() {
     std::fs::create_dir_all(&tmp).expect("temp dir");
     println!("uvpin per-stage medians, milliseconds (release build, Par::Seq)\n");
     print_header();
+    let mut rows: Vec<Row> = Vec::new();
+    let show = |row: Row, rows: &mut Vec<Row>| {
+        print_row(&row);
+        rows.push(row);
+    };
 
     if wanted("sample") {
         let sample = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/face.uvpin.ron");
         if let Some(r) = bench_file("sample face (assets/)", &sample, &tmp.join("face.glb"), 21) {
-            print_row(&r);
+            show(r, &mut rows);
         }
     }
     if wanted("paper") {
         let mesh = curved_grid(41, 1);
         let c = warp_constraints(&mesh, 50, 2);
-        print_row(&bench_mesh("paper size: 41² curved grid", &mesh, &c, 21));
+        show(bench_mesh("paper size: 41² curved grid", &mesh, &c, 21), &mut rows);
         let mut no_polish = SolverOptions::DEFAULT;
         no_polish.polish = false;
-        print_row(&bench_mesh_with("paper size, polish off", &mesh, &c, 21, no_polish));
+        show(
+            bench_mesh_with("paper size, polish off", &mesh, &c, 21, no_polish),
+            &mut rows,
+        );
         // The paper's Fig. 8 crossing at the same size: the spline path stalls.
         let (a, b) = (15 + 41 * 20, 25 + 41 * 20);
         let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, no_polish).expect("step 1");
         let at = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
         let crossing = [(a, at(b)), (b, at(a))];
-        print_row(&bench_mesh("paper size, crossing pair", &mesh, &crossing, 11));
+        show(bench_mesh("paper size, crossing pair", &mesh, &crossing, 11), &mut rows);
     }
     let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
     if shared.is_dir() {
@@ -203,7 +250,7 @@ fn main() {
             text += "])\n";
             std::fs::write(&ron, text).expect("write");
             if let Some(r) = bench_file(&name, &ron, &tmp.join(file), runs) {
-                print_row(&r);
+                show(r, &mut rows);
             }
         }
     } else {
@@ -220,7 +267,8 @@ fn main() {
         } else {
             Vec::new()
         };
-        print_row(&bench_mesh(&name, &mesh, &c, runs));
+        show(bench_mesh(&name, &mesh, &c, runs), &mut rows);
     }
+    print_comparison(&rows);
     let _ = std::fs::remove_dir_all(&tmp);
 }

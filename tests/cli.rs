@@ -483,3 +483,36 @@ fn config_file_supplies_solver_defaults_unless_the_constraint_file_has_its_own()
         stderr(&o)
     );
 }
+
+#[test]
+fn a_time_budget_stops_the_completion_with_the_best_fold_free_layout() {
+    let tmp = TempDir::new("budget");
+    let asset = grid_asset(&tmp, 21);
+    let corners = "    corners: (top_left: 420, bottom_left: 0, bottom_right: 20, top_right: 440),\n";
+    let ron = tmp.path("b.uvpin.ron");
+    let pair = [(6 + 21 * 10, 0.7, 0.5), (14 + 21 * 10, 0.3, 0.5)];
+    write_constraints(
+        &ron,
+        &asset,
+        &pair,
+        &format!("{corners}    solver: (time_budget_ms: 1),\n"),
+    );
+    let out = tmp.path("out.glb");
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        "-",
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["status"], "partial");
+    assert_eq!(r["completion"]["out_of_time"], true);
+    assert!(r["message"].as_str().unwrap().contains("time budget"), "{r}");
+    assert_eq!(r["orientation"]["flipped"], 0);
+    let o = uvpin(&["check", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+}
