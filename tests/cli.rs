@@ -9,8 +9,9 @@ use uvpin::testing::grid_mesh;
 #[test]
 fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
     let tmp = TempDir::new("demo");
-    let out = tmp.path("face.glb");
-    let report = tmp.path("report.json");
+    // Output folders that do not exist yet are created (the README writes to out/).
+    let out = tmp.path("out/nested/face.glb");
+    let report = tmp.path("out/report.json");
     let ron = repo().join("assets/face.uvpin.ron");
     let (o, r) = solve_with_report(&ron, &out, &report, &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
