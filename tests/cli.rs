@@ -184,17 +184,8 @@ fn mirrored_targets_end_partial_with_a_hint_and_exit_code_2() {
         corners,
     );
     let out = tmp.path("out.glb");
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--report",
-        "-",
-        "--quiet",
-    ]);
+    let (o, r) = solve_json(&ron, &out);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(r["status"], "partial");
     assert_eq!(r["orientation"]["flipped"], 0);
     assert_eq!(r["orientation"]["zero_area"], 0);
@@ -499,17 +490,8 @@ fn a_time_budget_stops_the_completion_with_the_best_fold_free_layout() {
         &format!("{corners}    solver: (time_budget_ms: 1),\n"),
     );
     let out = tmp.path("out.glb");
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--report",
-        "-",
-        "--quiet",
-    ]);
+    let (o, r) = solve_json(&ron, &out);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(r["status"], "partial");
     assert_eq!(r["completion"]["out_of_time"], true);
     assert!(r["message"].as_str().unwrap().contains("time budget"), "{r}");

@@ -163,16 +163,7 @@ fn a_new_uv_set_can_be_added_beside_the_existing_one() {
     )
     .unwrap();
     let out = tmp.path("duck1.glb");
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--report",
-        "-",
-        "--quiet",
-    ]);
-    let r: Value = serde_json::from_slice(&o.stdout).unwrap_or(Value::Null);
+    let (o, r) = solve_json(&ron, &out);
     // The Duck welded by position alone is closed (no boundary): a named error, nothing written.
     if o.status.code() == Some(1) {
         assert!(

@@ -51,6 +51,22 @@ pub fn uvpin(args: &[&str]) -> Output {
         .expect("run uvpin")
 }
 
+/// Runs `uvpin solve RON -o OUT --report - --quiet`: the process output and
+/// the JSON report it printed (`Null` when it printed none, as on errors).
+pub fn solve_json(ron: &Path, out: &Path) -> (Output, serde_json::Value) {
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        "-",
+        "--quiet",
+    ]);
+    let report = serde_json::from_slice(&o.stdout).unwrap_or(serde_json::Value::Null);
+    (o, report)
+}
+
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
