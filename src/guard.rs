@@ -45,6 +45,19 @@ pub fn all_positive_as_stored(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool 
         })
 }
 
+/// The guard every step applies: a candidate layout is acceptable if it keeps
+/// every triangle positive as stored (f32) when the current layout already is
+/// (`storable_now`), or, while a squeezed start is still being spread, at
+/// least strictly positive in double precision. So once storable, always
+/// storable.
+pub fn acceptable(candidate: &[DVec2], triangles: &[[u32; 3]], storable_now: bool) -> bool {
+    if storable_now {
+        all_positive_as_stored(candidate, triangles)
+    } else {
+        all_positive(candidate, triangles)
+    }
+}
+
 /// The first triangle whose area is zero or negative.
 pub fn first_non_positive(layout: &[DVec2], triangles: &[[u32; 3]]) -> Option<usize> {
     triangles.iter().position(|t| {

@@ -328,7 +328,7 @@ pub fn build(s: &SolveSummary) -> Report {
         constraints,
         max_residual,
         mean_residual,
-        orientation: crate::guard::count_orientations(s.layout, &p.filled.mesh.triangles),
+        orientation: crate::chart::written_orientation(p, s.layout),
         stretch_step1,
         stretch_before_polish: s.stretch_before_polish,
         stretch_final,

@@ -373,13 +373,7 @@ pub fn try_snap(layout: &mut [DVec2], problem: &StepProblem, triangles: &[[u32; 
     for (&v, &t) in problem.constraint_vertices.iter().zip(&problem.targets) {
         candidate[v as usize] = t;
     }
-    let storable = guard::all_positive_as_stored(layout, triangles);
-    let valid = if storable {
-        guard::all_positive_as_stored(&candidate, triangles)
-    } else {
-        guard::all_positive(&candidate, triangles)
-    };
-    if valid {
+    if guard::acceptable(&candidate, triangles, guard::all_positive_as_stored(layout, triangles)) {
         layout.copy_from_slice(&candidate);
         true
     } else {

@@ -181,12 +181,7 @@ impl NewtonSystem {
                 *x = start[v] + dir[v] * alpha;
             }
             let e = energy(layout, rest, triangles, soft);
-            let valid = if storable {
-                guard::all_positive_as_stored(layout, triangles)
-            } else {
-                guard::all_positive(layout, triangles)
-            };
-            if e <= total + 1e-4 * alpha * slope && valid {
+            if e <= total + 1e-4 * alpha * slope && guard::acceptable(layout, triangles, storable) {
                 let converged = -0.5 * slope < tolerance * total || (total - e) < tolerance * total;
                 return NewtonStep {
                     energy_before: total,

@@ -173,13 +173,8 @@ pub fn guard_foldovers(
     for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
         let t0 = Instant::now();
         let triangles = &data.0.filled.mesh.triangles;
-        // As stored (f32) once the current layout is storable; before that
-        // (a squeezed step 1), strictly positive in double precision.
-        let accepted = if guard::all_positive_as_stored(&layout.0, triangles) {
-            guard::all_positive_as_stored(&candidate.0, triangles)
-        } else {
-            guard::all_positive(&candidate.0, triangles)
-        };
+        let storable_now = guard::all_positive_as_stored(&layout.0, triangles);
+        let accepted = guard::acceptable(&candidate.0, triangles, storable_now);
         let options = &job.constraints.solver;
         if accepted {
             let residual = stepping.problem.max_residual(&candidate.0);
@@ -340,8 +335,7 @@ pub fn export_layout(
     for (entity, job, data, layout, finished, mut times) in &mut charts {
         let t0 = Instant::now();
         let mut report = finished.0.clone();
-        let written = chart::written_orientation(&data.0, &layout.0);
-        report.orientation = written;
+        let written = report.orientation;
         if !written.is_clean() {
             report.status = report::Status::Error;
             report.message = Some(format!(
