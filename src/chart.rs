@@ -12,15 +12,20 @@ use crate::param::boundary::{BoundaryMap, TrapCandidates};
 use crate::param::{uv_to_xy, xy_to_uv};
 use crate::rbf::stepping::{StepProblem, pick_anchors};
 use glam::DVec2;
+use std::sync::Arc;
 
 /// Everything about the chart being solved that does not depend on the layout.
 #[derive(Debug, Clone)]
+///
+/// The geometry (weld, chart, topology, trap candidates, hole fill) is shared
+/// behind `Arc`s, so a constraint edit on the same asset reuses it
+/// ([`prepare_reusing`]).
 pub struct PreparedChart {
-    pub welded: WeldedMesh,
-    pub chart: Chart,
-    pub topology: Topology,
-    pub traps: TrapCandidates,
-    pub filled: FilledChart,
+    pub welded: Arc<WeldedMesh>,
+    pub chart: Arc<Chart>,
+    pub topology: Arc<Topology>,
+    pub traps: Arc<TrapCandidates>,
+    pub filled: Arc<FilledChart>,
     pub constraints: Vec<ResolvedConstraint>,
     /// Chart-local vertex of each constraint (same order as `constraints`).
     pub constraint_vertices: Vec<u32>,
@@ -37,7 +42,25 @@ pub struct PreparedChart {
 /// in several charts, corners outside the chart, topology errors of the chart
 /// (closed, non-manifold, not a disk).
 pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<PreparedChart, Error> {
-    let welded = weld(&asset.primitives);
+    prepare_reusing(loaded, asset, None)
+}
+
+/// As [`prepare`], reusing the geometry of `previous`, a chart prepared from
+/// the same asset content, mesh and UV set: its weld always, and its chart,
+/// topology, trap candidates and hole fill when the constraints fall in the
+/// same chart. Only the constraints and corners are resolved again.
+///
+/// # Errors
+/// As [`prepare`].
+pub fn prepare_reusing(
+    loaded: &LoadedConstraints,
+    asset: &SourceAsset,
+    previous: Option<&PreparedChart>,
+) -> Result<PreparedChart, Error> {
+    let welded = match previous {
+        Some(p) => p.welded.clone(),
+        None => Arc::new(weld(&asset.primitives)),
+    };
     let constraints = loaded.resolve(&asset.primitives, &welded)?;
     let chart_of =
         |c: &ResolvedConstraint| welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used");
@@ -77,17 +100,23 @@ pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<Prepar
                 })? as u32
         }
     };
-    let chart = welded.chart(chart_id);
-    let topology = Topology::build(&chart.mesh).map_err(|source| Error::Topology {
-        path: asset.path.clone(),
-        mesh: asset.mesh_index,
-        chart: chart_id,
-        n_vertices: chart.mesh.n_vertices(),
-        n_triangles: chart.mesh.n_triangles(),
-        source,
-    })?;
-    let traps = TrapCandidates::find(&chart.mesh, &topology);
-    let filled = fill_holes(&chart.mesh, &topology);
+    let (chart, topology, traps, filled) = match previous.filter(|p| p.chart.id == chart_id) {
+        Some(p) => (p.chart.clone(), p.topology.clone(), p.traps.clone(), p.filled.clone()),
+        None => {
+            let chart = welded.chart(chart_id);
+            let topology = Topology::build(&chart.mesh).map_err(|source| Error::Topology {
+                path: asset.path.clone(),
+                mesh: asset.mesh_index,
+                chart: chart_id,
+                n_vertices: chart.mesh.n_vertices(),
+                n_triangles: chart.mesh.n_triangles(),
+                source,
+            })?;
+            let traps = TrapCandidates::find(&chart.mesh, &topology);
+            let filled = fill_holes(&chart.mesh, &topology);
+            (Arc::new(chart), Arc::new(topology), Arc::new(traps), Arc::new(filled))
+        }
+    };
     let constraint_vertices = constraints
         .iter()
         .map(|c| chart.local_of(c.welded).expect("constraint in the chart"))
@@ -136,6 +165,14 @@ pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<Prepar
         corners,
         warnings,
     })
+}
+
+impl PreparedChart {
+    /// Whether `other` shares this chart's geometry (so its boundary map,
+    /// bar-net factor and step-1 layout apply here too).
+    pub fn same_geometry(&self, other: &PreparedChart) -> bool {
+        Arc::ptr_eq(&self.filled, &other.filled)
+    }
 }
 
 /// Tolerance for a constraint on the outer boundary to agree with the boundary map.

@@ -9,8 +9,77 @@ use thiserror::Error;
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Config {
+    /// `uvpin watch`: what to watch, where outputs go, debounce, log format.
+    pub watch: WatchConfig,
     /// Solver options for constraint files without a `solver` section.
     pub solver: SolverOptions,
+}
+
+/// Where `uvpin watch` writes solved assets.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum OutputMode {
+    /// Into this folder, mirroring the constraint files' names relative to
+    /// their watched folder: `assets/heads/bob.uvpin.ron` solving `bob.glb`
+    /// gives `out/heads/bob.glb` (default `Folder("out")`).
+    Folder(PathBuf),
+    /// Back into the watched asset itself (the UV set named by the constraint
+    /// file is replaced; everything else in the file is kept).
+    InPlace,
+}
+
+/// Log line format of `uvpin watch`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum LogFormat {
+    /// One readable line per event (default).
+    #[default]
+    Human,
+    /// One JSON object per line (`ts`, `level`, `event`, `file`, ...).
+    Json,
+}
+
+/// The `watch` section of `config/uvpin.ron`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WatchConfig {
+    /// Folders (watched recursively) and single constraint files to watch;
+    /// relative paths are relative to the working directory (default `["assets"]`).
+    pub paths: Vec<PathBuf>,
+    /// Where outputs go (default `Folder("out")`).
+    pub output: OutputMode,
+    /// The status file (default `uvpin-status.json` in the output folder, or in
+    /// the working directory in `InPlace` mode).
+    pub status_file: Option<PathBuf>,
+    /// Debounce window in milliseconds: events of one path are gathered this
+    /// long, because editors save in several writes (default 100).
+    pub debounce_ms: u64,
+    /// Log format (default `Human`).
+    pub log: LogFormat,
+    /// Constraint files are the files whose names end with this (default ".uvpin.ron").
+    pub constraint_suffix: String,
+}
+
+impl Default for WatchConfig {
+    fn default() -> Self {
+        WatchConfig {
+            paths: vec![PathBuf::from("assets")],
+            output: OutputMode::Folder(PathBuf::from("out")),
+            status_file: None,
+            debounce_ms: 100,
+            log: LogFormat::Human,
+            constraint_suffix: ".uvpin.ron".into(),
+        }
+    }
+}
+
+impl WatchConfig {
+    /// The status file's path.
+    pub fn status_path(&self) -> PathBuf {
+        match (&self.status_file, &self.output) {
+            (Some(p), _) => p.clone(),
+            (None, OutputMode::Folder(dir)) => dir.join("uvpin-status.json"),
+            (None, OutputMode::InPlace) => PathBuf::from("uvpin-status.json"),
+        }
+    }
 }
 
 #[derive(Debug, Error)]

@@ -40,6 +40,7 @@ pub mod solve;
 pub mod sparse;
 #[doc(hidden)]
 pub mod testing;
+pub mod watch;
 
 pub use error::{Error, Result};
 pub use report::{Report, Status};

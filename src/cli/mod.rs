@@ -1,4 +1,4 @@
-//! The command line: `uvpin solve` and `uvpin check`.
+//! The command line: `uvpin solve`, `uvpin check` and `uvpin watch`.
 
 mod check;
 
@@ -61,6 +61,45 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Watch constraint files and assets; re-solve and write the output a
+    /// moment after each save. Runs until SIGINT/SIGTERM (exit 0).
+    ///
+    /// Without arguments it watches assets/ and writes to out/ (the embedded
+    /// defaults, documented in config/uvpin.ron). Flags override the
+    /// configuration file.
+    Watch {
+        /// Folders (recursively) and constraint files to watch.
+        paths: Vec<PathBuf>,
+        /// Configuration file: its `watch` and `solver` sections.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Write outputs into this folder (mirroring the constraint files' names).
+        #[arg(long, conflicts_with = "in_place")]
+        out: Option<PathBuf>,
+        /// Write the UVs back into the watched assets themselves.
+        #[arg(long)]
+        in_place: bool,
+        /// Status file (JSON).
+        #[arg(long)]
+        status: Option<PathBuf>,
+        /// Debounce window in milliseconds.
+        #[arg(long)]
+        debounce_ms: Option<u64>,
+        /// Log format.
+        #[arg(long, value_enum)]
+        log: Option<LogArg>,
+        /// Solve everything present once, print a summary and exit
+        /// (0: all reached, 2: some partial, 1: some errors).
+        #[arg(long)]
+        once: bool,
+    },
+}
+
+/// `--log` values.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum LogArg {
+    Human,
+    Json,
 }
 
 /// Runs the command line; returns the process exit code.
@@ -95,6 +134,57 @@ pub fn main() -> ExitCode {
                 ExitCode::from(1)
             }
         },
+        Command::Watch {
+            paths,
+            config,
+            out,
+            in_place,
+            status,
+            debounce_ms,
+            log,
+            once,
+        } => {
+            let config = match config.as_deref().map(crate::config::Config::load).transpose() {
+                Ok(c) => c.unwrap_or_default(),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(1);
+                }
+            };
+            let mut watch = config.watch;
+            if !paths.is_empty() {
+                watch.paths = paths;
+            }
+            if let Some(out) = out {
+                watch.output = crate::config::OutputMode::Folder(out);
+            }
+            if in_place {
+                watch.output = crate::config::OutputMode::InPlace;
+            }
+            if status.is_some() {
+                watch.status_file = status;
+            }
+            if let Some(ms) = debounce_ms {
+                watch.debounce_ms = ms;
+            }
+            match log {
+                Some(LogArg::Human) => watch.log = crate::config::LogFormat::Human,
+                Some(LogArg::Json) => watch.log = crate::config::LogFormat::Json,
+                None => {}
+            }
+            let options = crate::watch::daemon::WatchOptions {
+                config: watch,
+                solver: config.solver,
+                once,
+            };
+            match crate::watch::daemon::run(options) {
+                Ok(outcome) => ExitCode::from(outcome.exit_code()),
+                Err(e) => {
+                    eprintln!("error: {e:#}");
+                    ExitCode::from(1)
+                }
+            }
+        }
     }
 }
 

@@ -11,6 +11,7 @@
 
 pub mod components;
 pub mod systems;
+pub mod watch;
 
 pub use components::*;
 

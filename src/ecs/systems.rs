@@ -90,12 +90,13 @@ pub fn solve_force_density(
         commands
             .entity(entity)
             .insert((Step1Layout(layout.clone()), Layout(layout)))
-            .remove::<(Finished, Exported)>();
+            .remove::<(Stepping, Completing, Candidate, Finished, Exported)>();
     }
 }
 
-/// Sets up spline stepping from a new step-1 layout (checks it is fold-free,
-/// splits boundary constraints off).
+/// Sets up spline stepping for charts with a step-1 layout and no stepping
+/// yet: a new step-1 layout, or new constraints on a kept one (the daemon).
+/// Checks the layout is fold-free and splits boundary constraints off.
 pub fn start_stepping(
     mut commands: Commands,
     mut charts: Query<
@@ -107,7 +108,7 @@ pub fn start_stepping(
             &Step1Layout,
             &mut Timings,
         ),
-        (Changed<Step1Layout>, Without<Failed>),
+        (Without<Stepping>, Without<Failed>),
     >,
 ) {
     for (entity, job, data, boundary, step1, mut times) in &mut charts {
@@ -160,15 +161,18 @@ pub fn step_constraints(
 /// otherwise halves the step.
 pub fn guard_foldovers(
     mut commands: Commands,
-    mut charts: Query<(
-        Entity,
-        &SolveJob,
-        &ChartData,
-        &mut Layout,
-        &mut Stepping,
-        &Candidate,
-        &mut Timings,
-    )>,
+    mut charts: Query<
+        (
+            Entity,
+            &SolveJob,
+            &ChartData,
+            &mut Layout,
+            &mut Stepping,
+            &Candidate,
+            &mut Timings,
+        ),
+        Without<Failed>,
+    >,
 ) {
     for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
         let t0 = Instant::now();

@@ -502,3 +502,16 @@ pub fn write_asset(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Re
         }),
     }
 }
+
+/// The external files of a glTF JSON's buffers (URIs that are not data URIs),
+/// relative to `base`, the glTF file's folder.
+pub fn external_buffer_files(json: &Value, base: &Path) -> Vec<PathBuf> {
+    json.get("buffers")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .filter_map(|b| b.get("uri").and_then(Value::as_str))
+        .filter(|uri| !uri.starts_with("data:"))
+        .map(|uri| base.join(percent_decode(uri)))
+        .collect()
+}

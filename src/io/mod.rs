@@ -155,6 +155,17 @@ pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Resu
 }
 
 impl SourceAsset {
+    /// Every file this asset was read from: the asset itself, then the
+    /// external buffers of a .gltf.
+    pub fn files(&self) -> Vec<PathBuf> {
+        let mut files = vec![self.path.clone()];
+        if let Container::Gltf { json, .. } = &self.container {
+            let base = self.path.parent().unwrap_or(Path::new("."));
+            files.extend(gltf_file::external_buffer_files(json, base));
+        }
+        files
+    }
+
     /// An in-memory asset holding `mesh` as one primitive (f32 positions), for
     /// the library API; it cannot be written back as a file.
     pub fn from_mesh(mesh: &crate::mesh::TriMesh) -> Self {

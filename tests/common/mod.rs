@@ -117,3 +117,39 @@ pub fn python_uv_orientation(path: &Path, uv_set: u32) -> Option<serde_json::Val
         }
     }
 }
+
+/// The texture coordinates (TEXCOORD_<set>) of primitive 0 of mesh 0, read
+/// back with the independent Python reader, and its flipped + zero-area
+/// triangle count. `None` (with a message) without python3.
+pub fn python_uvs(path: &Path, uv_set: u32) -> Option<(Vec<[f64; 2]>, u64)> {
+    let script = repo().join("tests/helpers/read_gltf.py");
+    let out = Command::new("python3")
+        .arg(script)
+        .arg(path)
+        .arg(uv_set.to_string())
+        .arg("uvs")
+        .output();
+    match out {
+        Ok(o) if o.status.success() => {
+            let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("reader JSON");
+            let p = &v[0];
+            let uvs = p["uv"]
+                .as_array()
+                .expect("uv list")
+                .iter()
+                .map(|c| [c[0].as_f64().unwrap(), c[1].as_f64().unwrap()])
+                .collect();
+            let bad = p["positive"].as_u64().unwrap() + p["zero"].as_u64().unwrap();
+            Some((uvs, bad))
+        }
+        Ok(o) => panic!(
+            "independent reader failed on {}: {}",
+            path.display(),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+        Err(e) => {
+            eprintln!("SKIP independent reader: python3 not available ({e})");
+            None
+        }
+    }
+}

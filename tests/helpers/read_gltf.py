@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Independent glTF reader for uvpin's tests (standard library only).
 
-Usage: read_gltf.py FILE.glb|FILE.gltf UV_SET
+Usage: read_gltf.py FILE.glb|FILE.gltf UV_SET [uvs]
 
 Parses the container, decodes accessors (float / normalised integer UVs,
 integer indices), and prints JSON per primitive of every mesh: vertex and
 triangle counts and the orientation of each triangle in TEXCOORD_<UV_SET>:
 `negative` is what a fold-free glTF layout has (front faces counter-clockwise
 as displayed, v down), `positive` is a flipped triangle, `zero` is degenerate.
+With `uvs`, each primitive also lists its texture coordinates.
 """
 import base64, json, os, struct, sys
 
@@ -80,6 +81,8 @@ def main():
                     elif d > 0: pos += 1; tri_orient.append(1)
                     else: zero += 1; tri_orient.append(0)
                 entry.update(negative=neg, positive=pos, zero=zero, uv_count=len(uv), orientation=tri_orient)
+                if len(sys.argv) > 3 and sys.argv[3] == "uvs":
+                    entry["uv"] = uv
             result.append(entry)
     print(json.dumps(result))
 

@@ -1,0 +1,692 @@
+//! The daemon's side of the ECS (`uvpin watch`). File events arrive as
+//! [`FileChanged`] messages; [`ingest_file_events`] turns them into chart
+//! entities (one per constraint file) and decides what the solve systems
+//! redo; [`report_results`] logs each result and keeps the status file.
+//!
+//! Incremental rules, all keyed by content hashes:
+//! - a constraint file whose content did not change does nothing;
+//! - a constraint edit on the same asset reuses the weld, the chart topology
+//!   and hole fill, the bar-net factorisation and, when the corners are the
+//!   same, the step-1 layout: only the spline path (and completion) run;
+//! - an asset edit redoes everything for every constraint file that names it;
+//! - the daemon's own writes (in-place mode) are recognised by hash and ignored.
+//!
+//! A new edit replaces the entity's solve state at once, so a running solve
+//! of older content is dropped and never written.
+
+use super::components::*;
+use super::{SolveSystems, solve_schedule};
+use crate::chart;
+use crate::config::OutputMode;
+use crate::constraints::LoadedConstraints;
+use crate::error::Error;
+use crate::options::SolverOptions;
+use crate::report::Status;
+use crate::watch::events::{FileEvent, FileRules};
+use crate::watch::log::Logger;
+use crate::watch::registry::{self, AssetCache, AssetSelection, WatchRoot, content_hash, display, normalize};
+use crate::watch::status::{FileState, LastSolve, StatusBoard};
+use bevy_ecs::message::Messages;
+use bevy_ecs::prelude::*;
+use serde_json::json;
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// A file event from the watcher (or the start-up scan).
+#[derive(Message, Debug, Clone)]
+pub struct FileChanged(pub FileEvent);
+
+/// What the daemon watches and where it writes.
+#[derive(Resource, Debug, Clone)]
+pub struct WatchSettings {
+    pub roots: Vec<WatchRoot>,
+    pub output: OutputMode,
+    pub rules: FileRules,
+    /// Solver options for constraint files without a `solver` section.
+    pub defaults: SolverOptions,
+    /// Working directory: relative output folders and displayed paths.
+    pub cwd: PathBuf,
+}
+
+/// Counts of what the incremental rules decided (for tests and the log).
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct WatchCounters {
+    /// Solves started (one per accepted content change).
+    pub solves_started: u64,
+    /// Events whose file content had not changed.
+    pub unchanged: u64,
+    /// Solves that reused the previous chart geometry and bar-net factor.
+    pub geometry_reused: u64,
+    /// Solves that also reused the step-1 layout.
+    pub step1_reused: u64,
+}
+
+/// The daemon's memory between ticks.
+#[derive(Resource, Debug, Default)]
+pub struct WatchRegistry {
+    /// Constraint file → its chart entity.
+    pub files: BTreeMap<PathBuf, Entity>,
+    pub assets: AssetCache,
+    /// Hash of each file the daemon wrote that is also an input (in-place mode).
+    pub written: HashMap<PathBuf, u64>,
+    /// Folders of assets outside every watched root; the daemon watches them too.
+    pub asset_folders: BTreeSet<PathBuf>,
+    pub counters: WatchCounters,
+}
+
+/// The log and the status file.
+#[derive(Resource, Debug)]
+pub struct DaemonLog {
+    pub logger: Logger,
+    pub status: StatusBoard,
+    /// Whether to write the status file (off in ECS tests).
+    pub write_status: bool,
+    /// The last status-file write error, logged once.
+    pub status_error: Option<String>,
+}
+
+/// A constraint file watched by the daemon.
+#[derive(Component, Debug, Clone)]
+pub struct WatchedFile {
+    pub path: PathBuf,
+    /// Hash of the content last acted on.
+    pub hash: Option<u64>,
+    /// The asset named by the last parsed content.
+    pub asset_path: Option<PathBuf>,
+    /// The file is gone (its last output is kept).
+    pub removed: bool,
+}
+
+/// The schedule of the daemon: file ingestion, the solve systems, then logging
+/// and the status file.
+pub fn watch_schedule() -> Schedule {
+    let mut schedule = solve_schedule();
+    schedule.add_systems(ingest_file_events.before(SolveSystems::Unwrap));
+    schedule.add_systems((report_results, write_status_file).chain().after(SolveSystems::Export));
+    schedule
+}
+
+/// Inserts the daemon's resources into `world`.
+pub fn init_watch_world(world: &mut World, settings: WatchSettings, log: DaemonLog) {
+    world.init_resource::<Messages<FileChanged>>();
+    world.insert_resource(settings);
+    world.insert_resource(log);
+    world.init_resource::<WatchRegistry>();
+}
+
+/// Whether any chart is still being solved.
+pub fn is_busy(world: &mut World) -> bool {
+    let mut working = world.query_filtered::<(), (With<SolveJob>, Without<Exported>, Without<Failed>)>();
+    working.iter(world).next().is_some()
+}
+
+/// Every constraint file and asset file under `dir` (recursively; hidden
+/// folders skipped, symbolic links not followed).
+pub fn scan_folder(dir: &Path, rules: &FileRules) -> (Vec<PathBuf>, Vec<PathBuf>) {
+    let (mut constraints, mut assets) = (Vec::new(), Vec::new());
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(&d) else { continue };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            let Ok(kind) = entry.file_type() else { continue };
+            let hidden = entry.file_name().to_string_lossy().starts_with('.');
+            if kind.is_dir() && !hidden {
+                stack.push(path);
+            } else if rules.is_constraint_file(&path) {
+                constraints.push(path);
+            } else if rules.is_asset_file(&path) {
+                assets.push(path);
+            }
+        }
+    }
+    constraints.sort();
+    assets.sort();
+    (constraints, assets)
+}
+
+/// Applies this tick's file events (exclusive system).
+pub fn ingest_file_events(world: &mut World) {
+    let events: Vec<FileEvent> = world
+        .resource_mut::<Messages<FileChanged>>()
+        .drain()
+        .map(|m| m.0)
+        .collect();
+    if events.is_empty() {
+        return;
+    }
+    let settings = world.resource::<WatchSettings>().clone();
+    // Constraint files to (re)load; `true` forces a reload of unchanged content.
+    let mut to_load: BTreeMap<PathBuf, bool> = BTreeMap::new();
+    let mut seen = HashSet::new();
+    for event in events {
+        if !seen.insert(event.clone()) {
+            continue;
+        }
+        match event {
+            FileEvent::ConstraintsChanged(p) => {
+                to_load.entry(p).or_insert(false);
+            }
+            FileEvent::AssetChanged(p) => asset_changed(world, &settings, &p, &mut to_load),
+            FileEvent::Removed(p) => {
+                let known: Vec<PathBuf> = world
+                    .resource::<WatchRegistry>()
+                    .files
+                    .keys()
+                    .filter(|f| f.starts_with(&p))
+                    .cloned()
+                    .collect();
+                for f in known {
+                    to_load.entry(f).or_insert(false);
+                }
+                let assets: Vec<PathBuf> = world
+                    .resource::<WatchRegistry>()
+                    .assets
+                    .assets
+                    .keys()
+                    .filter(|a| a.starts_with(&p))
+                    .cloned()
+                    .collect();
+                asset_changed(world, &settings, &p, &mut to_load);
+                for a in assets.into_iter().filter(|a| *a != p) {
+                    asset_changed(world, &settings, &a, &mut to_load);
+                }
+            }
+            FileEvent::FolderAppeared(dir) => {
+                let (constraints, assets) = scan_folder(&dir, &settings.rules);
+                for a in assets {
+                    asset_changed(world, &settings, &a, &mut to_load);
+                }
+                for c in constraints {
+                    to_load.entry(c).or_insert(false);
+                }
+            }
+            FileEvent::Rescan => {
+                let cached: Vec<PathBuf> = world
+                    .resource::<WatchRegistry>()
+                    .assets
+                    .assets
+                    .keys()
+                    .cloned()
+                    .collect();
+                for a in cached {
+                    asset_changed(world, &settings, &a, &mut to_load);
+                }
+                let known: Vec<PathBuf> = world.resource::<WatchRegistry>().files.keys().cloned().collect();
+                for f in known {
+                    to_load.entry(f).or_insert(false);
+                }
+                for root in &settings.roots {
+                    let (constraints, _) = scan_folder(root.folder(), &settings.rules);
+                    for c in constraints.into_iter().filter(|c| root.contains(c)) {
+                        to_load.entry(c).or_insert(false);
+                    }
+                }
+            }
+        }
+    }
+    for (path, force) in to_load {
+        load_constraint_file(world, &settings, &path, force);
+    }
+}
+
+/// Constraint files (entities) whose last parsed content names `asset`.
+fn dependants(world: &mut World, asset: &Path) -> Vec<Entity> {
+    let mut q = world.query::<(Entity, &WatchedFile)>();
+    q.iter(world)
+        .filter(|(_, w)| !w.removed && w.asset_path.as_deref() == Some(asset))
+        .map(|(e, _)| e)
+        .collect()
+}
+
+/// An asset file (or a buffer of one) was written, created or removed.
+fn asset_changed(world: &mut World, settings: &WatchSettings, file: &Path, to_load: &mut BTreeMap<PathBuf, bool>) {
+    let cached = world.resource::<WatchRegistry>().assets.assets_using(file);
+    for asset in &cached {
+        let registry = world.resource::<WatchRegistry>();
+        let entry = &registry.assets.assets[asset];
+        let now = AssetCache::current_hash(&entry.files);
+        let (was_missing, old_hash) = (entry.missing, entry.hash);
+        let written = registry.written.get(asset).copied();
+        match now {
+            Err(_) => {
+                if was_missing {
+                    continue;
+                }
+                world
+                    .resource_mut::<WatchRegistry>()
+                    .assets
+                    .assets
+                    .get_mut(asset)
+                    .expect("cached")
+                    .missing = true;
+                for e in dependants(world, asset) {
+                    let err = Error::Asset(crate::io::AssetError::Read {
+                        path: asset.clone(),
+                        source: std::io::Error::new(
+                            std::io::ErrorKind::NotFound,
+                            "the asset was removed; the last output is kept",
+                        ),
+                    });
+                    fail(world, e, err);
+                }
+            }
+            Ok(h) if h == old_hash || Some(h) == written => {
+                world.resource_mut::<WatchRegistry>().counters.unchanged += 1;
+                if was_missing {
+                    world
+                        .resource_mut::<WatchRegistry>()
+                        .assets
+                        .assets
+                        .get_mut(asset)
+                        .expect("cached")
+                        .missing = false;
+                    for e in dependants(world, asset) {
+                        if world.get::<Failed>(e).is_some() {
+                            let path = world.get::<WatchedFile>(e).expect("watched").path.clone();
+                            to_load.insert(path, true);
+                        }
+                    }
+                }
+            }
+            Ok(_) => {
+                world.resource_mut::<WatchRegistry>().assets.assets.remove(asset);
+                for e in dependants(world, asset) {
+                    let path = world.get::<WatchedFile>(e).expect("watched").path.clone();
+                    to_load.insert(path, true);
+                }
+            }
+        }
+    }
+    // Constraint files waiting for an asset that failed to load (missing,
+    // corrupt, or a missing .bin beside it): retry them.
+    let is_buffer = file.extension().is_some_and(|e| e.eq_ignore_ascii_case("bin"));
+    let mut q = world.query::<(&WatchedFile, Has<Failed>)>();
+    let waiting: Vec<PathBuf> = q
+        .iter(world)
+        .filter(|(w, failed)| {
+            *failed
+                && !w.removed
+                && w.asset_path.as_deref().is_some_and(|a| {
+                    !cached.iter().any(|c| c == a)
+                        && (a == file || (is_buffer && a.parent() == file.parent()) || a.starts_with(file))
+                })
+        })
+        .map(|(w, _)| w.path.clone())
+        .collect();
+    for p in waiting {
+        to_load.insert(p, true);
+    }
+    let _ = settings;
+}
+
+/// Marks `entity` failed: a running solve stops and nothing is written.
+fn fail(world: &mut World, entity: Entity, err: Error) {
+    world
+        .entity_mut(entity)
+        .remove::<(Finished, Exported, Candidate)>()
+        .insert(Failed(Arc::new(err)));
+}
+
+/// The constraint file is gone: its last output is kept, a running solve stops.
+fn constraint_removed(world: &mut World, settings: &WatchSettings, entity: Entity) {
+    let mut w = world.get_mut::<WatchedFile>(entity).expect("watched");
+    if w.removed {
+        return;
+    }
+    w.removed = true;
+    let name = display(&w.path, &settings.cwd);
+    if world.get::<SolveJob>(entity).is_some() && world.get::<Exported>(entity).is_none() {
+        fail(world, entity, Error::Internal("constraint file removed".into()));
+    }
+    let mut log = world.resource_mut::<DaemonLog>();
+    log.logger
+        .info("removed", Some(&name), "removed; its last output is kept", json!({}));
+    log.status.entry(&name).state = FileState::Removed;
+}
+
+/// Reads one constraint file and (re)starts its solve if its content changed
+/// (or `force`), reusing whatever the previous solve of the same asset left.
+fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path, force: bool) {
+    if !settings.rules.is_constraint_file(path) || registry::root_of(&settings.roots, path).is_none() {
+        return;
+    }
+    let root = registry::root_of(&settings.roots, path).expect("checked").clone();
+    let name = display(path, &settings.cwd);
+    let entity = match world.resource::<WatchRegistry>().files.get(path) {
+        Some(&e) => e,
+        None => {
+            if !path.is_file() {
+                return;
+            }
+            let e = world
+                .spawn(WatchedFile {
+                    path: path.to_path_buf(),
+                    hash: None,
+                    asset_path: None,
+                    removed: false,
+                })
+                .id();
+            world
+                .resource_mut::<WatchRegistry>()
+                .files
+                .insert(path.to_path_buf(), e);
+            e
+        }
+    };
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound || path.is_dir() => {
+            constraint_removed(world, settings, entity);
+            return;
+        }
+        Err(source) => {
+            let err = crate::constraints::ConstraintFileError::Read {
+                path: path.to_path_buf(),
+                source,
+            };
+            world.get_mut::<WatchedFile>(entity).expect("watched").hash = None;
+            fail(world, entity, err.into());
+            return;
+        }
+    };
+    let hash = content_hash(&bytes);
+    let watched = world.get::<WatchedFile>(entity).expect("watched").clone();
+    if watched.hash == Some(hash) && !force {
+        let cancelled = world.get::<Failed>(entity).is_some() && watched.removed;
+        if !cancelled {
+            world.get_mut::<WatchedFile>(entity).expect("watched").removed = false;
+            if watched.removed {
+                // Back with the same content (an editor's delete + recreate).
+                let state = match world.get::<Exported>(entity).map(|e| e.0.status) {
+                    Some(Status::Reached) => FileState::Reached,
+                    Some(Status::Partial) => FileState::Partial,
+                    Some(Status::Error) | None => FileState::Error,
+                };
+                world.resource_mut::<DaemonLog>().status.entry(&name).state = state;
+            }
+            world.resource_mut::<WatchRegistry>().counters.unchanged += 1;
+            return;
+        }
+    }
+    {
+        let mut w = world.get_mut::<WatchedFile>(entity).expect("watched");
+        w.hash = Some(hash);
+        w.removed = false;
+    }
+    let t0 = Instant::now();
+    let text = match String::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let err = crate::constraints::ConstraintFileError::Read {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()),
+            };
+            fail(world, entity, err.into());
+            return;
+        }
+    };
+    let loaded = match LoadedConstraints::parse_with_defaults(path, &text, &settings.defaults) {
+        Ok(l) => l,
+        Err(e) => {
+            fail(world, entity, e.into());
+            return;
+        }
+    };
+    let asset_path = normalize(&loaded.asset_path(), &settings.cwd);
+    world.get_mut::<WatchedFile>(entity).expect("watched").asset_path = Some(asset_path.clone());
+    if let Some(folder) = asset_path.parent()
+        && !settings
+            .roots
+            .iter()
+            .any(|r| !r.single_file && folder.starts_with(&r.path))
+    {
+        world
+            .resource_mut::<WatchRegistry>()
+            .asset_folders
+            .insert(folder.to_path_buf());
+    }
+    let selection = AssetSelection {
+        mesh: loaded.file.mesh.clone(),
+        uv_set: loaded.file.uv_set,
+    };
+    let asset = match world
+        .resource_mut::<WatchRegistry>()
+        .assets
+        .load(&asset_path, &selection)
+    {
+        Ok(a) => a,
+        Err(crate::io::AssetError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+            let err = loaded.asset_error(
+                "asset",
+                format!("{} does not exist", display(&asset_path, &settings.cwd)),
+            );
+            fail(world, entity, err.into());
+            return;
+        }
+        Err(e) => {
+            fail(world, entity, e.into());
+            return;
+        }
+    };
+    let output = registry::output_path(
+        &settings.output,
+        &root,
+        path,
+        &settings.rules.constraint_suffix,
+        &asset_path,
+        &settings.cwd,
+    );
+    if settings.output == OutputMode::InPlace {
+        let mut q = world.query::<(Entity, &WatchedFile, &SolveJob)>();
+        let other = q
+            .iter(world)
+            .find(|(e, w, j)| *e != entity && !w.removed && j.output.as_deref() == Some(output.as_path()))
+            .map(|(_, w, _)| display(&w.path, &settings.cwd));
+        if let Some(other) = other {
+            let err = loaded.asset_error(
+                "asset",
+                format!(
+                    "in-place mode: {} is already written by {other}; one constraint file per asset",
+                    display(&asset_path, &settings.cwd)
+                ),
+            );
+            fail(world, entity, err.into());
+            return;
+        }
+    }
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let previous = world
+        .get::<SolveJob>(entity)
+        .filter(|j| Arc::ptr_eq(&j.asset, &asset))
+        .and_then(|_| world.get::<ChartData>(entity))
+        .map(|d| d.0.clone());
+    let prepared = match chart::prepare_reusing(&loaded, &asset, previous.as_deref()) {
+        Ok(p) => p,
+        Err(e) => {
+            fail(world, entity, e);
+            return;
+        }
+    };
+    let keep_geometry = previous.as_ref().is_some_and(|p| prepared.same_geometry(p));
+    let keep_step1 = keep_geometry && previous.as_ref().is_some_and(|p| p.corners == prepared.corners);
+    let superseded = world.get::<SolveJob>(entity).is_some()
+        && world.get::<Exported>(entity).is_none()
+        && world.get::<Failed>(entity).is_none();
+    let n_constraints = prepared.constraints.len();
+    let mut times = crate::report::StageTimes {
+        load_ms,
+        ..Default::default()
+    };
+    times.topology_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let mut e = world.entity_mut(entity);
+    e.remove::<(Stepping, Completing, Candidate, Finished, Exported, Failed)>();
+    if !keep_geometry {
+        e.remove::<(BoundaryLayout, BarNetFactor, Step1Layout, Layout)>();
+    } else if !keep_step1 {
+        e.remove::<(BoundaryLayout, Step1Layout, Layout)>();
+    } else if let Some(step1) = e.get::<Step1Layout>() {
+        let layout = Layout(step1.0.clone());
+        e.insert(layout);
+    }
+    e.insert((
+        SolveJob {
+            constraints: Arc::new(loaded),
+            asset,
+            output: Some(output),
+        },
+        ChartData(Arc::new(prepared)),
+        Timings(times),
+    ));
+    let mut registry = world.resource_mut::<WatchRegistry>();
+    registry.counters.solves_started += 1;
+    registry.counters.geometry_reused += u64::from(keep_geometry);
+    registry.counters.step1_reused += u64::from(keep_step1);
+    let mut log = world.resource_mut::<DaemonLog>();
+    let reuse = if keep_step1 {
+        "reusing the step-1 layout"
+    } else if keep_geometry {
+        "reusing the chart and its factorisation"
+    } else {
+        "from scratch"
+    };
+    let message = format!(
+        "solving {n_constraints} constraints, {reuse}{}",
+        if superseded {
+            " (supersedes the running solve)"
+        } else {
+            ""
+        }
+    );
+    log.logger.info(
+        "solving",
+        Some(&name),
+        &message,
+        json!({ "constraints": n_constraints, "reuse_geometry": keep_geometry, "reuse_step1": keep_step1, "superseded": superseded }),
+    );
+    let entry = log.status.entry(&name);
+    entry.state = FileState::Solving;
+    entry.asset = Some(display(&asset_path, &settings.cwd));
+    entry.last_error = None;
+}
+
+/// Logs every finished solve and every failure, updates the status board,
+/// and remembers the hash of outputs that are also inputs (in-place mode).
+pub fn report_results(
+    mut log: ResMut<DaemonLog>,
+    mut registry: ResMut<WatchRegistry>,
+    settings: Res<WatchSettings>,
+    exported: Query<(&WatchedFile, &Exported), Changed<Exported>>,
+    failed: Query<(&WatchedFile, &Failed), Changed<Failed>>,
+) {
+    for (watched, Exported(report)) in &exported {
+        let name = display(&watched.path, &settings.cwd);
+        if report.status == Status::Error {
+            let message = report.message.clone().unwrap_or_else(|| "the write failed".into());
+            log.logger.error("error", Some(&name), &message, json!({}));
+            let entry = log.status.entry(&name);
+            entry.state = FileState::Error;
+            entry.last_error = Some(message);
+            continue;
+        }
+        if let Some(out) = &report.output {
+            let out = PathBuf::from(out);
+            let files = registry
+                .assets
+                .assets
+                .get(&out)
+                .map_or_else(|| vec![out.clone()], |a| a.files.clone());
+            if registry.assets.assets.contains_key(&out) || settings.output == OutputMode::InPlace {
+                if let Ok(h) = AssetCache::current_hash(&files) {
+                    registry.written.insert(out, h);
+                }
+            }
+        }
+        let reached = report.constraints.iter().filter(|c| c.reached).count();
+        let output = report
+            .output
+            .as_deref()
+            .map(|o| display(Path::new(o), &settings.cwd))
+            .unwrap_or_default();
+        let status = if report.status == Status::Reached {
+            "reached"
+        } else {
+            "partial"
+        };
+        let message = format!(
+            "{status} {reached}/{} constraints, max residual {:.1e}, {} flipped, stretch {:.3}, {:.1} ms -> {output}",
+            report.constraints.len(),
+            report.max_residual,
+            report.orientation.flipped,
+            report.stretch_final.l2,
+            report.total_ms,
+        );
+        log.logger.info(
+            "solved",
+            Some(&name),
+            &message,
+            json!({
+                "status": status,
+                "reached": reached,
+                "constraints": report.constraints.len(),
+                "max_residual": report.max_residual,
+                "flipped": report.orientation.flipped,
+                "zero_area": report.orientation.zero_area,
+                "stretch_l2": report.stretch_final.l2,
+                "time_ms": report.total_ms,
+                "output": output,
+            }),
+        );
+        if report.status == Status::Partial
+            && let Some(hint) = &report.hint
+        {
+            log.logger.warn("hint", Some(&name), hint, json!({}));
+        }
+        let entry = log.status.entry(&name);
+        entry.state = if report.status == Status::Reached {
+            FileState::Reached
+        } else {
+            FileState::Partial
+        };
+        entry.last_error = None;
+        let mut last = LastSolve::from_report(report);
+        last.output = Some(output);
+        entry.last_solve = Some(last);
+    }
+    for (watched, Failed(err)) in &failed {
+        if watched.removed {
+            continue;
+        }
+        let name = display(&watched.path, &settings.cwd);
+        let message = err.to_string();
+        log.logger.error(
+            "error",
+            Some(&name),
+            &format!("{message} (the last good output is kept)"),
+            json!({}),
+        );
+        let entry = log.status.entry(&name);
+        entry.state = FileState::Error;
+        entry.last_error = Some(message);
+    }
+}
+
+/// Rewrites the status file when it changed.
+pub fn write_status_file(mut log: ResMut<DaemonLog>) {
+    if !log.write_status {
+        return;
+    }
+    match log.status.write_if_dirty() {
+        Ok(()) => log.status_error = None,
+        Err(e) => {
+            let message = format!("cannot write the status file {}: {e}", log.status.path.display());
+            if log.status_error.as_deref() != Some(message.as_str()) {
+                log.logger.warn("status_file", None, &message, json!({}));
+                log.status_error = Some(message);
+            }
+        }
+    }
+}

@@ -1,0 +1,390 @@
+//! The daemon loop: a debounced notify watcher sends [`FileEvent`]s over a
+//! crossbeam channel; the loop hands them to the ECS World as messages and
+//! runs the watch schedule one tick at a time while there is work, and blocks
+//! (no polling) while idle. SIGINT/SIGTERM end it after the tick in progress,
+//! so a write in progress is finished.
+
+use super::events::{FileEvent, FileRules};
+use super::log::Logger;
+use super::registry::{WatchRoot, display, normalize};
+use super::status::{FileState, StatusBoard};
+use crate::config::{OutputMode, WatchConfig};
+use crate::ecs::watch::{
+    DaemonLog, FileChanged, WatchRegistry, WatchSettings, init_watch_world, is_busy, watch_schedule,
+};
+use crate::options::SolverOptions;
+use anyhow::{Context, bail};
+use bevy_ecs::prelude::{Schedule, World};
+use crossbeam_channel::{Receiver, select};
+use notify::RecursiveMode;
+use notify_debouncer_full::{DebounceEventResult, Debouncer, RecommendedCache, new_debouncer};
+use serde_json::json;
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// What `uvpin watch` was asked to do.
+#[derive(Debug, Clone)]
+pub struct WatchOptions {
+    pub config: WatchConfig,
+    pub solver: SolverOptions,
+    /// Process everything present, print a summary and exit.
+    pub once: bool,
+}
+
+/// How the daemon ended (its exit code).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Stopped by a signal, or `--once` with every constraint reached: 0.
+    Clean,
+    /// `--once`: some results partial: 2.
+    Partial,
+    /// `--once`: some files had errors: 1.
+    Errors,
+}
+
+impl Outcome {
+    pub fn exit_code(self) -> u8 {
+        match self {
+            Outcome::Clean => 0,
+            Outcome::Partial => 2,
+            Outcome::Errors => 1,
+        }
+    }
+}
+
+/// The watched roots of `config`, absolute.
+fn roots(config: &WatchConfig, rules: &FileRules, cwd: &Path) -> Vec<WatchRoot> {
+    config
+        .paths
+        .iter()
+        .map(|p| {
+            let path = normalize(p, cwd);
+            let single_file = path.is_file() || rules.is_constraint_file(&path);
+            WatchRoot { path, single_file }
+        })
+        .collect()
+}
+
+/// The event that makes the ECS scan an existing root.
+fn scan_event(root: &WatchRoot) -> FileEvent {
+    if root.single_file {
+        FileEvent::ConstraintsChanged(root.path.clone())
+    } else {
+        FileEvent::FolderAppeared(root.path.clone())
+    }
+}
+
+/// Runs `uvpin watch`.
+///
+/// # Errors
+/// Only start-up failures (no working directory, the watcher cannot start,
+/// the signal handler cannot be set). Everything later is logged.
+pub fn run(options: WatchOptions) -> anyhow::Result<Outcome> {
+    let cwd = std::env::current_dir()
+        .and_then(|d| d.canonicalize())
+        .context("cannot read the working directory")?;
+    let config = &options.config;
+    let rules = FileRules {
+        constraint_suffix: config.constraint_suffix.clone(),
+    };
+    let roots = roots(config, &rules, &cwd);
+    if roots.is_empty() {
+        bail!("nothing to watch: give a folder or a constraint file, or set watch.paths in the configuration");
+    }
+    let logger = Logger { format: config.log };
+    let status_path = normalize(&config.status_path(), &cwd);
+    let mut world = World::new();
+    init_watch_world(
+        &mut world,
+        WatchSettings {
+            roots: roots.clone(),
+            output: config.output.clone(),
+            rules: rules.clone(),
+            defaults: options.solver,
+            cwd: cwd.clone(),
+        },
+        DaemonLog {
+            logger: logger.clone(),
+            status: StatusBoard::new(status_path.clone()),
+            write_status: true,
+            status_error: None,
+        },
+    );
+    let mut schedule = watch_schedule();
+    let output = match &config.output {
+        OutputMode::Folder(dir) => format!("{}/", display(&normalize(dir, &cwd), &cwd)),
+        OutputMode::InPlace => "in place".into(),
+    };
+    let names: Vec<String> = roots.iter().map(|r| display(&r.path, &cwd)).collect();
+    logger.info(
+        "start",
+        None,
+        &format!(
+            "{} {} -> {output}; debounce {} ms; status {}",
+            if options.once { "solving" } else { "watching" },
+            names.join(", "),
+            config.debounce_ms,
+            display(&status_path, &cwd)
+        ),
+        json!({ "paths": names, "output": output, "debounce_ms": config.debounce_ms, "once": options.once }),
+    );
+    if options.once {
+        return Ok(run_once(&mut world, &mut schedule, &roots, &logger, &cwd));
+    }
+    run_daemon(&mut world, &mut schedule, roots, config, &rules, &logger, &cwd)
+}
+
+/// `--once`: solve every constraint file present, then summarise.
+fn run_once(world: &mut World, schedule: &mut Schedule, roots: &[WatchRoot], logger: &Logger, cwd: &Path) -> Outcome {
+    let mut missing = 0;
+    for root in roots {
+        if root.path.exists() {
+            world.write_message(FileChanged(scan_event(root)));
+        } else {
+            missing += 1;
+            logger.error("error", Some(&display(&root.path, cwd)), "does not exist", json!({}));
+        }
+    }
+    crate::ecs::run_to_convergence(world, schedule, crate::solve::MAX_TICKS);
+    let log = world.resource::<DaemonLog>();
+    let count = |s: FileState| log.status.files.values().filter(|f| f.state == s).count();
+    let (reached, partial, errors) = (
+        count(FileState::Reached),
+        count(FileState::Partial),
+        count(FileState::Error) + missing,
+    );
+    let total = log.status.files.len();
+    logger.info(
+        "summary",
+        None,
+        &format!("{total} constraint files: {reached} reached, {partial} partial, {errors} errors"),
+        json!({ "files": total, "reached": reached, "partial": partial, "errors": errors }),
+    );
+    if total == 0 && missing == 0 {
+        logger.warn("summary", None, "no constraint files found", json!({}));
+    }
+    if errors > 0 {
+        Outcome::Errors
+    } else if partial > 0 {
+        Outcome::Partial
+    } else {
+        Outcome::Clean
+    }
+}
+
+/// The OS watches: armed roots, roots waiting for their folder, extra folders.
+struct Watches {
+    debouncer: Debouncer<notify::RecommendedWatcher, RecommendedCache>,
+    /// Folders watched, and whether recursively.
+    watched: HashSet<(PathBuf, bool)>,
+    armed: Vec<WatchRoot>,
+    pending: Vec<WatchRoot>,
+}
+
+impl Watches {
+    fn watch(&mut self, dir: &Path, recursive: bool, logger: &Logger, cwd: &Path) -> bool {
+        if self.watched.contains(&(dir.to_path_buf(), recursive)) {
+            return true;
+        }
+        let mode = if recursive {
+            RecursiveMode::Recursive
+        } else {
+            RecursiveMode::NonRecursive
+        };
+        match self.debouncer.watch(dir, mode) {
+            Ok(()) => {
+                self.watched.insert((dir.to_path_buf(), recursive));
+                true
+            }
+            Err(e) => {
+                logger.warn(
+                    "watch",
+                    Some(&display(dir, cwd)),
+                    &format!("cannot watch: {e}"),
+                    json!({}),
+                );
+                false
+            }
+        }
+    }
+
+    /// Arms `root` if its folder exists (returns the scan event), else
+    /// watches its nearest existing ancestor and keeps it pending.
+    fn arm(&mut self, root: WatchRoot, logger: &Logger, cwd: &Path) -> Option<FileEvent> {
+        let ready = if root.single_file {
+            root.folder().is_dir()
+        } else {
+            root.path.is_dir()
+        };
+        if ready && self.watch(&root.path_to_watch(), !root.single_file, logger, cwd) {
+            let event = scan_event(&root);
+            self.armed.push(root);
+            return Some(event);
+        }
+        let mut ancestor = root.folder().to_path_buf();
+        while !ancestor.is_dir() && ancestor.pop() {}
+        if !self.pending.contains(&root) {
+            logger.warn(
+                "waiting",
+                Some(&display(&root.path, cwd)),
+                "does not exist yet; it is picked up when it appears",
+                json!({}),
+            );
+            self.pending.push(root);
+        }
+        if ancestor.is_dir() {
+            self.watch(&ancestor, false, logger, cwd);
+        }
+        None
+    }
+
+    /// Re-checks pending roots and armed roots whose folder vanished.
+    fn refresh(&mut self, logger: &Logger, cwd: &Path) -> Vec<FileEvent> {
+        let gone: Vec<WatchRoot> = self.armed.iter().filter(|r| !r.folder().is_dir()).cloned().collect();
+        for root in gone {
+            self.armed.retain(|r| *r != root);
+            let dir = root.path_to_watch();
+            let recursive = !root.single_file;
+            self.watched.remove(&(dir.clone(), recursive));
+            let _ = self.debouncer.unwatch(&dir);
+            self.arm(root, logger, cwd);
+        }
+        let pending = std::mem::take(&mut self.pending);
+        let mut events = Vec::new();
+        for root in pending {
+            let was_pending_name = root.path.clone();
+            let ready = if root.single_file {
+                root.folder().is_dir()
+            } else {
+                root.path.is_dir()
+            };
+            if ready {
+                if let Some(e) = self.arm(root, logger, cwd) {
+                    logger.info(
+                        "appeared",
+                        Some(&display(&was_pending_name, cwd)),
+                        "now watched",
+                        json!({}),
+                    );
+                    events.push(e);
+                }
+            } else {
+                self.pending.push(root.clone());
+                let mut ancestor = root.folder().to_path_buf();
+                while !ancestor.is_dir() && ancestor.pop() {}
+                if ancestor.is_dir() {
+                    self.watch(&ancestor, false, logger, cwd);
+                }
+            }
+        }
+        events
+    }
+}
+
+impl WatchRoot {
+    /// The folder the OS watch is put on.
+    fn path_to_watch(&self) -> PathBuf {
+        self.folder().to_path_buf()
+    }
+}
+
+fn run_daemon(
+    world: &mut World,
+    schedule: &mut Schedule,
+    roots: Vec<WatchRoot>,
+    config: &WatchConfig,
+    rules: &FileRules,
+    logger: &Logger,
+    cwd: &Path,
+) -> anyhow::Result<Outcome> {
+    let (shutdown_tx, shutdown_rx) = crossbeam_channel::bounded::<()>(4);
+    ctrlc::set_handler(move || {
+        let _ = shutdown_tx.try_send(());
+    })
+    .context("cannot install the SIGINT/SIGTERM handler")?;
+    let (event_tx, event_rx) = crossbeam_channel::unbounded::<FileEvent>();
+    let handler_rules = rules.clone();
+    let handler_logger = logger.clone();
+    let debouncer = new_debouncer(
+        Duration::from_millis(config.debounce_ms.max(1)),
+        None,
+        move |result: DebounceEventResult| match result {
+            Ok(events) => {
+                for event in events {
+                    for e in handler_rules.classify(&event.kind, &event.paths, event.need_rescan()) {
+                        let _ = event_tx.send(e);
+                    }
+                }
+            }
+            Err(errors) => {
+                for e in errors {
+                    handler_logger.warn("watch", None, &format!("file watcher: {e}"), json!({}));
+                }
+            }
+        },
+    )
+    .context("cannot start the file watcher")?;
+    let mut watches = Watches {
+        debouncer,
+        watched: HashSet::new(),
+        armed: Vec::new(),
+        pending: Vec::new(),
+    };
+    let mut pending_events: Vec<FileEvent> = Vec::new();
+    for root in roots {
+        pending_events.extend(watches.arm(root, logger, cwd));
+    }
+    let mut asset_folders_watched: HashSet<PathBuf> = HashSet::new();
+    loop {
+        if pending_events.is_empty() && !is_busy(world) {
+            // Idle: block until a file event or a signal.
+            select! {
+                recv(event_rx) -> e => match e {
+                    Ok(e) => pending_events.push(e),
+                    Err(_) => bail!("the file watcher stopped"),
+                },
+                recv(shutdown_rx) -> _ => break,
+            }
+        }
+        drain(&event_rx, &mut pending_events);
+        if shutdown_rx.try_recv().is_ok() {
+            break;
+        }
+        if !pending_events.is_empty() {
+            if !watches.pending.is_empty()
+                || pending_events
+                    .iter()
+                    .any(|e| matches!(e, FileEvent::Removed(_) | FileEvent::Rescan))
+            {
+                pending_events.extend(watches.refresh(logger, cwd));
+            }
+            for e in pending_events.drain(..) {
+                world.write_message(FileChanged(e));
+            }
+        }
+        schedule.run(world);
+        let folders: Vec<PathBuf> = world
+            .resource::<WatchRegistry>()
+            .asset_folders
+            .iter()
+            .filter(|f| !asset_folders_watched.contains(*f))
+            .cloned()
+            .collect();
+        for folder in folders {
+            if folder.is_dir() && watches.watch(&folder, false, logger, cwd) {
+                asset_folders_watched.insert(folder);
+            }
+        }
+    }
+    logger.info("stop", None, "stopping (signal)", json!({}));
+    let mut log = world.resource_mut::<DaemonLog>();
+    let _ = log.status.write_if_dirty();
+    Ok(Outcome::Clean)
+}
+
+fn drain(rx: &Receiver<FileEvent>, into: &mut Vec<FileEvent>) {
+    while let Ok(e) = rx.try_recv() {
+        into.push(e);
+    }
+}

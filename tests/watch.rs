@@ -1,0 +1,398 @@
+//! `uvpin watch` end to end: the real binary on a temp folder, files saved the
+//! way editors save them, outputs read back with the independent reader.
+
+mod common;
+
+use common::*;
+use serde_json::Value;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use uvpin::testing::grid_mesh;
+
+const N: usize = 12;
+/// Interior grid vertices used as constraints.
+const A: u32 = (6 + 6 * N) as u32;
+const B: u32 = (4 + 3 * N) as u32;
+const WAIT: Duration = Duration::from_secs(60);
+/// Longer than the debounce window (100 ms) plus a debouncer tick, with margin.
+const SETTLE: Duration = Duration::from_millis(700);
+
+/// A running `uvpin watch --log json` and the log lines it printed.
+struct Daemon {
+    child: Child,
+    lines: Arc<Mutex<Vec<Value>>>,
+}
+
+impl Daemon {
+    fn start(cwd: &Path, args: &[&str]) -> Daemon {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+            .arg("watch")
+            .args(args)
+            .args(["--log", "json", "--debounce-ms", "100"])
+            .current_dir(cwd)
+            .stderr(Stdio::piped())
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("spawn uvpin watch");
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let sink = lines.clone();
+        let stderr = child.stderr.take().expect("stderr");
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                let v = serde_json::from_str(&line).unwrap_or_else(|_| serde_json::json!({ "raw": line }));
+                sink.lock().unwrap().push(v);
+            }
+        });
+        Daemon { child, lines }
+    }
+
+    fn log(&self) -> Vec<Value> {
+        self.lines.lock().unwrap().clone()
+    }
+
+    /// Number of `event` lines about a file whose name ends with `file`.
+    fn count(&self, event: &str, file: &str) -> usize {
+        self.log()
+            .iter()
+            .filter(|l| l["event"] == event && l["file"].as_str().is_some_and(|f| f.ends_with(file)))
+            .count()
+    }
+
+    /// Waits until there are `n` `event` lines about `file`; panics with the log after [`WAIT`].
+    fn wait_count(&self, event: &str, file: &str, n: usize) {
+        let t0 = Instant::now();
+        while self.count(event, file) < n {
+            assert!(
+                t0.elapsed() < WAIT,
+                "timed out waiting for {n} `{event}` lines about {file}; log:\n{}",
+                self.dump()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn dump(&self) -> String {
+        self.log().iter().map(|l| l.to_string()).collect::<Vec<_>>().join("\n")
+    }
+
+    /// Sends SIGTERM and waits for the exit.
+    fn terminate(&mut self) -> ExitStatus {
+        let pid = self.child.id().to_string();
+        Command::new("kill").args(["-TERM", &pid]).status().expect("kill");
+        let t0 = Instant::now();
+        loop {
+            if let Some(status) = self.child.try_wait().expect("wait") {
+                return status;
+            }
+            assert!(t0.elapsed() < WAIT, "no exit after SIGTERM; log:\n{}", self.dump());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// `assets/grid.glb` + `assets/grid.uvpin.ron` in `dir`.
+fn make_assets(dir: &Path) -> PathBuf {
+    let assets = dir.join("assets");
+    std::fs::create_dir_all(&assets).unwrap();
+    write_mesh_glb(&assets.join("grid.glb"), &grid_mesh(N, N));
+    let ron = assets.join("grid.uvpin.ron");
+    write_constraints(&ron, Path::new("grid.glb"), &targets(0.0), "");
+    ron
+}
+
+/// Constraint targets, shifted by `s` (a different content per save).
+fn targets(s: f64) -> Vec<(u32, f64, f64)> {
+    vec![(A, 0.50 + s, 0.45), (B, 0.36, 0.72 - s)]
+}
+
+fn constraint_text(s: f64) -> String {
+    let dir = TempDir::new(&format!("text-{}", (s * 1e4) as i64));
+    let p = dir.path("x.uvpin.ron");
+    write_constraints(&p, Path::new("grid.glb"), &targets(s), "");
+    std::fs::read_to_string(p).unwrap()
+}
+
+/// Asserts the output has the targets of shift `s`, read back independently, and no fold.
+fn assert_output(out: &Path, s: f64) {
+    let Some((uvs, bad)) = python_uvs(out, 0) else { return };
+    assert_eq!(bad, 0, "flipped or zero-area triangles in {}", out.display());
+    for (v, u, w) in targets(s) {
+        let got = uvs[v as usize];
+        assert!(
+            (got[0] - u).abs() < 1e-6 && (got[1] - w).abs() < 1e-6,
+            "vertex {v}: {got:?}, expected ({u}, {w})"
+        );
+    }
+}
+
+#[test]
+fn every_editor_save_pattern_gives_exactly_one_solve_of_the_final_content() {
+    let dir = TempDir::new("watch-saves");
+    let ron = make_assets(&dir.0);
+    let out = dir.path("out/grid.glb");
+    let d = Daemon::start(&dir.0, &[]);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    assert_output(&out, 0.0);
+    let mut solves = 1;
+
+    type Save = fn(&Path, &str);
+    let patterns: [(&str, Save); 4] = [
+        ("overwrite in place", |p, text| std::fs::write(p, text).unwrap()),
+        ("temp file + rename", |p, text| {
+            let tmp = p.with_file_name("grid.uvpin.ron.tmp~");
+            std::fs::write(&tmp, text).unwrap();
+            std::fs::rename(&tmp, p).unwrap();
+        }),
+        ("vim: backup by rename, write new, delete backup", |p, text| {
+            let backup = p.with_file_name("grid.uvpin.ron~");
+            std::fs::rename(p, &backup).unwrap();
+            std::fs::write(p, text).unwrap();
+            std::fs::remove_file(&backup).unwrap();
+        }),
+        ("several writes in one save", |p, text| {
+            use std::io::Write;
+            let mut f = std::fs::File::create(p).unwrap();
+            let bytes = text.as_bytes();
+            for chunk in bytes.chunks(bytes.len() / 3 + 1) {
+                f.write_all(chunk).unwrap();
+                f.flush().unwrap();
+                std::thread::sleep(Duration::from_millis(15));
+            }
+        }),
+    ];
+    for (k, (name, save)) in patterns.iter().enumerate() {
+        let s = 0.01 * (k + 1) as f64;
+        save(&ron, &constraint_text(s));
+        solves += 1;
+        d.wait_count("solved", "grid.uvpin.ron", solves);
+        std::thread::sleep(SETTLE);
+        assert_eq!(
+            d.count("solving", "grid.uvpin.ron"),
+            solves,
+            "{name}: expected exactly one solve; log:\n{}",
+            d.dump()
+        );
+        assert_eq!(d.count("error", "grid.uvpin.ron"), 0, "{name}: {}", d.dump());
+        assert_output(&out, s);
+        // The edit reused the chart, its factorisation and the step-1 layout.
+        let last = d.log().into_iter().rev().find(|l| l["event"] == "solving").unwrap();
+        assert_eq!(last["reuse_step1"], true, "{name}");
+    }
+
+    // A save of identical content (touch, or an editor writing unchanged text) does nothing.
+    let same = std::fs::read_to_string(&ron).unwrap();
+    std::fs::write(&ron, same).unwrap();
+    std::thread::sleep(SETTLE);
+    assert_eq!(d.count("solving", "grid.uvpin.ron"), solves, "{}", d.dump());
+    // The daemon never re-triggers on its own output or status file.
+    assert_eq!(d.count("solving", ""), solves, "{}", d.dump());
+}
+
+#[test]
+fn broken_edits_keep_the_last_output_and_the_daemon_recovers() {
+    let dir = TempDir::new("watch-broken");
+    let ron = make_assets(&dir.0);
+    let out = dir.path("out/grid.glb");
+    let status = dir.path("out/uvpin-status.json");
+    let mut d = Daemon::start(&dir.0, &[]);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    let good = std::fs::read(&out).unwrap();
+
+    // Malformed RON: one error line with line:column, output untouched.
+    let broken = constraint_text(0.02).replace("uv: (0.36", "uv: (0.36 0.5");
+    std::fs::write(&ron, &broken).unwrap();
+    d.wait_count("error", "grid.uvpin.ron", 1);
+    let line = d.log().into_iter().rev().find(|l| l["event"] == "error").unwrap();
+    let message = line["message"].as_str().unwrap();
+    assert!(message.contains("grid.uvpin.ron:5:"), "{message}");
+    std::thread::sleep(SETTLE);
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        good,
+        "output changed during a broken edit"
+    );
+    let s: Value = serde_json::from_slice(&std::fs::read(&status).unwrap()).unwrap();
+    let entry = &s["files"]["assets/grid.uvpin.ron"];
+    assert_eq!(entry["state"], "error");
+    assert!(entry["last_error"].as_str().unwrap().contains(":5:"));
+    assert_eq!(entry["last_solve"]["status"], "reached", "the last good solve is kept");
+
+    // A vertex id out of range: named with the range, output untouched.
+    let bad_vertex = constraint_text(0.02).replace(&format!("vertex: {B}"), "vertex: 9999");
+    std::fs::write(&ron, bad_vertex).unwrap();
+    d.wait_count("error", "grid.uvpin.ron", 2);
+    let line = d.log().into_iter().rev().find(|l| l["event"] == "error").unwrap();
+    assert!(line["message"].as_str().unwrap().contains("9999"), "{line}");
+    std::thread::sleep(SETTLE);
+    assert_eq!(std::fs::read(&out).unwrap(), good);
+
+    // Fixed: solved again, with the new targets.
+    std::fs::write(&ron, constraint_text(0.02)).unwrap();
+    d.wait_count("solved", "grid.uvpin.ron", 2);
+    assert_output(&out, 0.02);
+
+    // A corrupt asset: error, output kept; a deleted asset: the same; restored: solved.
+    let asset = dir.path("assets/grid.glb");
+    let glb = std::fs::read(&asset).unwrap();
+    let after_fix = std::fs::read(&out).unwrap();
+    std::fs::write(&asset, &glb[..glb.len() / 2]).unwrap();
+    d.wait_count("error", "grid.uvpin.ron", 3);
+    std::fs::remove_file(&asset).unwrap();
+    d.wait_count("error", "grid.uvpin.ron", 4);
+    std::thread::sleep(SETTLE);
+    assert_eq!(std::fs::read(&out).unwrap(), after_fix);
+    std::fs::write(&asset, &glb).unwrap();
+    d.wait_count("solved", "grid.uvpin.ron", 3);
+    assert_output(&out, 0.02);
+    let last = d.log().into_iter().rev().find(|l| l["event"] == "solving").unwrap();
+    assert_eq!(last["reuse_geometry"], false, "an asset change redoes everything");
+
+    // SIGTERM: clean exit, status file in place.
+    let status_code = d.terminate();
+    assert!(status_code.success(), "exit status {status_code:?}");
+    assert_eq!(d.count("stop", ""), 0, "stop lines have no file");
+    assert!(d.log().iter().any(|l| l["event"] == "stop"));
+}
+
+#[test]
+fn an_asset_edit_resolves_every_constraint_file_that_names_it() {
+    let dir = TempDir::new("watch-asset");
+    let ron = make_assets(&dir.0);
+    let second = dir.path("assets/sub/other.uvpin.ron");
+    std::fs::create_dir_all(second.parent().unwrap()).unwrap();
+    write_constraints(&second, Path::new("../grid.glb"), &targets(0.03), "");
+    let d = Daemon::start(&dir.0, &["assets"]);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    d.wait_count("solved", "other.uvpin.ron", 1);
+    assert_output(&dir.path("out/sub/other.glb"), 0.03);
+
+    // Re-export the mesh, bent in 3D: both re-solve from scratch.
+    let mut mesh = grid_mesh(N, N);
+    for p in &mut mesh.positions {
+        p.z = 0.3 * (p.x * 3.0).sin();
+    }
+    let tmp = dir.path("staged-grid.glb");
+    write_mesh_glb(&tmp, &mesh);
+    std::fs::rename(&tmp, dir.path("assets/grid.glb")).unwrap();
+    d.wait_count("solved", "grid.uvpin.ron", 2);
+    d.wait_count("solved", "other.uvpin.ron", 2);
+    std::thread::sleep(SETTLE);
+    assert_eq!(d.count("solving", "grid.uvpin.ron"), 2, "{}", d.dump());
+    assert_eq!(d.count("solving", "other.uvpin.ron"), 2, "{}", d.dump());
+    assert_output(&dir.path("out/grid.glb"), 0.0);
+    let _ = ron;
+}
+
+#[test]
+fn a_watched_folder_that_appears_later_is_picked_up() {
+    let dir = TempDir::new("watch-later");
+    let d = Daemon::start(&dir.0, &["later/assets"]);
+    let t0 = Instant::now();
+    while !d.log().iter().any(|l| l["event"] == "waiting") {
+        assert!(t0.elapsed() < WAIT, "{}", d.dump());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Built elsewhere, then moved into place (as a checkout or sync would).
+    let staging = TempDir::new("watch-later-staging");
+    make_assets(&staging.0);
+    std::fs::create_dir_all(dir.path("later")).unwrap();
+    std::fs::rename(staging.path("assets"), dir.path("later/assets")).unwrap();
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    assert_output(&dir.path("out/grid.glb"), 0.0);
+}
+
+#[test]
+fn in_place_mode_writes_the_watched_asset_and_never_retriggers_on_it() {
+    let dir = TempDir::new("watch-inplace");
+    let ron = make_assets(&dir.0);
+    let asset = dir.path("assets/grid.glb");
+    let d = Daemon::start(&dir.0, &["--in-place"]);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    assert_output(&asset, 0.0);
+    std::thread::sleep(SETTLE * 2);
+    assert_eq!(
+        d.count("solving", ""),
+        1,
+        "re-triggered on its own write:\n{}",
+        d.dump()
+    );
+    std::fs::write(&ron, constraint_text(0.02)).unwrap();
+    d.wait_count("solved", "grid.uvpin.ron", 2);
+    std::thread::sleep(SETTLE * 2);
+    assert_eq!(d.count("solving", ""), 2, "{}", d.dump());
+    assert_output(&asset, 0.02);
+    assert!(dir.path("uvpin-status.json").is_file());
+}
+
+#[test]
+fn once_solves_everything_present_and_exits_with_a_summary() {
+    let dir = TempDir::new("watch-once");
+    make_assets(&dir.0);
+    let o = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args(["watch", "--once", "--log", "json"])
+        .current_dir(&dir.0)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_output(&dir.path("out/grid.glb"), 0.0);
+    // A second, broken constraint file: exit code 1, the good one still written.
+    std::fs::write(
+        dir.path("assets/bad.uvpin.ron"),
+        "(asset: \"grid.glb\", constraints: [(vertex: 1)])",
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args(["watch", "--once", "--out", "out2"])
+        .current_dir(&dir.0)
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("2 constraint files: 1 reached, 0 partial, 1 errors"),
+        "{err}"
+    );
+    assert!(err.contains("bad.uvpin.ron:1:"), "{err}");
+    assert!(dir.path("out2/grid.glb").is_file());
+    assert!(!dir.path("out2/bad.glb").exists());
+}
+
+#[test]
+fn with_many_watched_assets_only_the_edited_one_is_resolved() {
+    let dir = TempDir::new("watch-many");
+    let assets = dir.path("assets");
+    std::fs::create_dir_all(&assets).unwrap();
+    let n_files = 200;
+    let small = 5;
+    let centre = (2 + 2 * small) as u32;
+    write_mesh_glb(&assets.join("g.glb"), &grid_mesh(small, small));
+    for k in 0..n_files {
+        let mesh_dir = assets.join(format!("m{k:03}"));
+        std::fs::create_dir_all(&mesh_dir).unwrap();
+        write_mesh_glb(&mesh_dir.join("g.glb"), &grid_mesh(small, small));
+        write_constraints(
+            &mesh_dir.join("g.uvpin.ron"),
+            Path::new("g.glb"),
+            &[(centre, 0.5, 0.5)],
+            "",
+        );
+    }
+    let d = Daemon::start(&dir.0, &[]);
+    d.wait_count("solved", "", n_files);
+    let edited = assets.join("m117/g.uvpin.ron");
+    write_constraints(&edited, Path::new("g.glb"), &[(centre, 0.52, 0.49)], "");
+    d.wait_count("solved", "m117/g.uvpin.ron", 2);
+    std::thread::sleep(SETTLE);
+    assert_eq!(d.count("solving", ""), n_files + 1, "{}", d.dump());
+    assert_eq!(d.count("solving", "m117/g.uvpin.ron"), 2);
+}
