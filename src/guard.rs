@@ -35,14 +35,33 @@ pub fn stored_uv(p: DVec2) -> [f32; 2] {
 /// precision and as stored (f32 glTF texture coordinates): the guard every
 /// accepted layout must pass, so anything accepted can be written.
 pub fn all_positive_as_stored(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool {
-    all_positive(layout, triangles)
-        && triangles.iter().all(|t| {
-            let [a, b, c] = t.map(|v| {
-                let [u, w] = stored_uv(layout[v as usize]);
-                DVec2::new(u as f64, w as f64)
-            });
-            orientation(a, b, c) < 0.0
-        })
+    in_parallel(triangles, |part| {
+        all_positive(layout, part)
+            && part.iter().all(|t| {
+                let [a, b, c] = t.map(|v| {
+                    let [u, w] = stored_uv(layout[v as usize]);
+                    DVec2::new(u as f64, w as f64)
+                });
+                orientation(a, b, c) < 0.0
+            })
+    })
+}
+
+/// Triangle count above which a check is split over two threads.
+const PARALLEL_TRIANGLES: usize = 50_000;
+
+/// `check` on all of `triangles`: split in two halves on two threads when
+/// there are many.
+fn in_parallel(triangles: &[[u32; 3]], check: impl Fn(&[[u32; 3]]) -> bool + Sync) -> bool {
+    if triangles.len() < PARALLEL_TRIANGLES {
+        return check(triangles);
+    }
+    let (a, b) = triangles.split_at(triangles.len() / 2);
+    std::thread::scope(|scope| {
+        let second = scope.spawn(|| check(b));
+        let first = check(a);
+        first && second.join().expect("guard thread")
+    })
 }
 
 /// The guard every step applies: a candidate layout is acceptable if it keeps
@@ -54,7 +73,7 @@ pub fn acceptable(candidate: &[DVec2], triangles: &[[u32; 3]], storable_now: boo
     if storable_now {
         all_positive_as_stored(candidate, triangles)
     } else {
-        all_positive(candidate, triangles)
+        in_parallel(triangles, |part| all_positive(candidate, part))
     }
 }
 

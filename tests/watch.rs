@@ -396,3 +396,29 @@ fn with_many_watched_assets_only_the_edited_one_is_resolved() {
     assert_eq!(d.count("solving", ""), n_files + 1, "{}", d.dump());
     assert_eq!(d.count("solving", "m117/g.uvpin.ron"), 2);
 }
+
+#[test]
+fn an_asset_outside_the_watched_folders_is_watched_too() {
+    let dir = TempDir::new("watch-outside");
+    let meshes = dir.path("meshes");
+    std::fs::create_dir_all(&meshes).unwrap();
+    write_mesh_glb(&meshes.join("grid.glb"), &grid_mesh(N, N));
+    std::fs::create_dir_all(dir.path("assets")).unwrap();
+    write_constraints(
+        &dir.path("assets/grid.uvpin.ron"),
+        Path::new("../meshes/grid.glb"),
+        &targets(0.0),
+        "",
+    );
+    let d = Daemon::start(&dir.0, &[]);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    // Give the daemon a moment to add the watch on meshes/ after the first solve.
+    std::thread::sleep(SETTLE);
+    let mut mesh = grid_mesh(N, N);
+    for p in &mut mesh.positions {
+        p.z = 0.2 * (p.y * 2.0).sin();
+    }
+    write_mesh_glb(&meshes.join("grid.glb"), &mesh);
+    d.wait_count("solved", "grid.uvpin.ron", 2);
+    assert_output(&dir.path("out/grid.glb"), 0.0);
+}

@@ -47,6 +47,12 @@ pub struct Layout(pub Vec<DVec2>);
 pub struct Stepping {
     pub problem: StepProblem,
     pub state: SteppingState,
+    /// The full-step spline field from the current layout (Eq. 6), kept
+    /// while its step is being halved; cleared when a step is accepted.
+    pub full_step: Option<Vec<DVec2>>,
+    /// Whether the current layout is fold-free as stored (f32); carried from
+    /// step to step instead of recounted.
+    pub storable: bool,
 }
 
 /// The completion phase and polish (step 3), once the spline path is over.

@@ -5,7 +5,7 @@ use crate::chart;
 use crate::guard;
 use crate::param::bar_net::BarNet;
 use crate::param::boundary::map_outer_boundary;
-use crate::rbf::stepping::{SteppingState, propose_step};
+use crate::rbf::stepping::{SteppingState, apply_step, full_step};
 use crate::report;
 use bevy_ecs::prelude::*;
 use glam::DVec2;
@@ -123,9 +123,15 @@ pub fn start_stepping(
         match chart::step_problem(c, &job.constraints, &boundary.0, options.max_boundary_centres) {
             Ok(problem) => {
                 let state = SteppingState::start(&problem, &step1.0, options);
+                let storable = guard::all_positive_as_stored(&step1.0, &c.filled.mesh.triangles);
                 commands
                     .entity(entity)
-                    .insert(Stepping { problem, state })
+                    .insert(Stepping {
+                        problem,
+                        state,
+                        full_step: None,
+                        storable,
+                    })
                     .remove::<Candidate>();
             }
             Err(e) => {
@@ -146,12 +152,19 @@ pub fn step_constraints(
             continue;
         }
         let t0 = Instant::now();
-        match propose_step(&layout.0, &stepping.problem, stepping.state.t) {
-            Ok(candidate) => {
-                commands.entity(entity).insert(Candidate(candidate));
+        if stepping.full_step.is_none() {
+            match full_step(&layout.0, &stepping.problem) {
+                Ok(field) => stepping.full_step = Some(field),
+                Err(e) => {
+                    stepping.state.record_failure(&e);
+                    times.0.stepping_ms += ms(t0);
+                    continue;
+                }
             }
-            Err(e) => stepping.state.record_failure(&e),
         }
+        let field = stepping.full_step.as_deref().expect("computed above");
+        let candidate = apply_step(&layout.0, &stepping.problem, field, stepping.state.t);
+        commands.entity(entity).insert(Candidate(candidate));
         times.0.stepping_ms += ms(t0);
     }
 }
@@ -177,12 +190,15 @@ pub fn guard_foldovers(
     for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
         let t0 = Instant::now();
         let triangles = &data.0.filled.mesh.triangles;
-        let storable_now = guard::all_positive_as_stored(&layout.0, triangles);
-        let accepted = guard::acceptable(&candidate.0, triangles, storable_now);
+        let accepted = guard::acceptable(&candidate.0, triangles, stepping.storable);
         let options = &job.constraints.solver;
         if accepted {
             let residual = stepping.problem.max_residual(&candidate.0);
             layout.0.clone_from(&candidate.0);
+            if !stepping.storable {
+                stepping.storable = guard::all_positive_as_stored(&layout.0, triangles);
+            }
+            stepping.full_step = None;
             stepping.state.record_guard(true, residual, options);
         } else {
             stepping.state.record_guard(false, f64::INFINITY, options);

@@ -637,6 +637,7 @@ pub fn report_results(
                 "zero_area": report.orientation.zero_area,
                 "stretch_l2": report.stretch_final.l2,
                 "time_ms": report.total_ms,
+                "times": report.times,
                 "output": output,
             }),
         );

@@ -59,35 +59,52 @@ pub fn pick_anchors(outer_loop: &[u32], max: usize, must: &[u32]) -> Vec<u32> {
     anchors
 }
 
-/// Candidate layout for a step of fraction `t` (Eq. 6): each constrained
-/// vertex `p_i` moves to `p_i + t (target_i − p_i)` (exactly onto its target
-/// when `t = 1`), anchors stay, and every movable vertex moves by the spline.
+/// The full step (`t = 1`) of Eq. 6 from `layout`: the spline displacement
+/// of every movable vertex (same order as `problem.movable`). The spline is
+/// linear in the displacements it interpolates, so the step of fraction `t`
+/// is exactly `t` times this field: halving a step needs no new evaluation
+/// ([`apply_step`]).
 ///
 /// # Errors
 /// A [`TpsError`] when the centres make the spline system singular.
-pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<Vec<DVec2>, TpsError> {
+pub fn full_step(layout: &[DVec2], problem: &StepProblem) -> Result<Vec<DVec2>, TpsError> {
     let mut centres = Vec::with_capacity(problem.constraint_vertices.len() + problem.anchors.len());
     let mut displacements = Vec::with_capacity(centres.capacity());
     for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
         let p = layout[v as usize];
         centres.push(p);
-        displacements.push((target - p) * t);
+        displacements.push(target - p);
     }
     for &v in &problem.anchors {
         centres.push(layout[v as usize]);
         displacements.push(DVec2::ZERO);
     }
     let spline = ThinPlateSpline::fit(&centres, &displacements)?;
+    Ok(displace_all(&spline, layout, &problem.movable))
+}
+
+/// Candidate layout for a step of fraction `t` (Eq. 6) given the
+/// [`full_step`] field: each constrained vertex `p_i` moves to
+/// `p_i + t (target_i − p_i)` (exactly onto its target when `t = 1`),
+/// anchors stay, and every movable vertex moves by `t` times the field.
+pub fn apply_step(layout: &[DVec2], problem: &StepProblem, full: &[DVec2], t: f64) -> Vec<DVec2> {
     let mut candidate = layout.to_vec();
-    let moved = displace_all(&spline, layout, &problem.movable);
-    for (&v, p) in problem.movable.iter().zip(moved) {
-        candidate[v as usize] = p;
+    for (&v, d) in problem.movable.iter().zip(full) {
+        candidate[v as usize] += *d * t;
     }
     for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
         let p = layout[v as usize];
         candidate[v as usize] = if t == 1.0 { target } else { p + (target - p) * t };
     }
-    Ok(candidate)
+    candidate
+}
+
+/// [`full_step`] then [`apply_step`]: the candidate for fraction `t`.
+///
+/// # Errors
+/// A [`TpsError`] when the centres make the spline system singular.
+pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<Vec<DVec2>, TpsError> {
+    Ok(apply_step(layout, problem, &full_step(layout, problem)?, t))
 }
 
 /// Spline evaluations (vertices × centres) above which the work is split
@@ -97,11 +114,7 @@ const PARALLEL_EVALUATIONS: usize = 40_000;
 /// `layout[v] + ΔX(layout[v])` for every `v` of `vertices` (Eq. 6), on two
 /// threads when there is enough work (the machines here have two cores).
 fn displace_all(spline: &ThinPlateSpline, layout: &[DVec2], vertices: &[u32]) -> Vec<DVec2> {
-    let eval = |vs: &[u32]| -> Vec<DVec2> {
-        vs.iter()
-            .map(|&v| layout[v as usize] + spline.displacement(layout[v as usize]))
-            .collect()
-    };
+    let eval = |vs: &[u32]| -> Vec<DVec2> { vs.iter().map(|&v| spline.displacement(layout[v as usize])).collect() };
     if vertices.len() * spline.centres.len() < PARALLEL_EVALUATIONS || vertices.len() < 2 {
         return eval(vertices);
     }
