@@ -33,6 +33,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod options;
 pub mod param;
+pub mod preview;
 pub mod rbf;
 pub mod report;
 pub mod ron_file;

@@ -52,18 +52,12 @@ pub fn sander_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 
         if a3 <= 0.0 {
             continue;
         }
-        let [p1, p2, p3] = t.map(|v| layout[v as usize]);
-        let (s1, t1, s2, t2, s3, t3) = (p1.x, p1.y, p2.x, p2.y, p3.x, p3.y);
-        let area = 0.5 * ((s2 - s1) * (t3 - t1) - (s3 - s1) * (t2 - t1));
-        if area <= 0.0 {
+        let Some((a, b, c)) = metric_terms([q1, q2, q3], t.map(|v| layout[v as usize]), k) else {
             return Stretch {
                 l2: f64::INFINITY,
                 linf: f64::INFINITY,
             };
-        }
-        let ss = (q1 * (t2 - t3) + q2 * (t3 - t1) + q3 * (t1 - t2)) / (2.0 * area * k);
-        let st = (q1 * (s3 - s2) + q2 * (s1 - s3) + q3 * (s2 - s1)) / (2.0 * area * k);
-        let (a, b, c) = (ss.dot(ss), ss.dot(st), st.dot(st));
+        };
         sum += (a + c) / 2.0 * a3;
         linf = linf.max((((a + c) + ((a - c).powi(2) + 4.0 * b * b).sqrt()) / 2.0).sqrt());
     }
@@ -71,6 +65,44 @@ pub fn sander_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 
         l2: (sum / area_3d).sqrt(),
         linf,
     }
+}
+
+/// The metric terms `(a, b, c)` of one triangle (3D corners `q`, layout
+/// corners `p`, layout scale `k`); `None` when its layout area is not positive.
+fn metric_terms(q: [DVec3; 3], p: [DVec2; 3], k: f64) -> Option<(f64, f64, f64)> {
+    let [q1, q2, q3] = q;
+    let (s1, t1, s2, t2, s3, t3) = (p[0].x, p[0].y, p[1].x, p[1].y, p[2].x, p[2].y);
+    let area = 0.5 * ((s2 - s1) * (t3 - t1) - (s3 - s1) * (t2 - t1));
+    if area <= 0.0 {
+        return None;
+    }
+    let ss = (q1 * (t2 - t3) + q2 * (t3 - t1) + q3 * (t1 - t2)) / (2.0 * area * k);
+    let st = (q1 * (s3 - s2) + q2 * (s1 - s3) + q3 * (s2 - s1)) / (2.0 * area * k);
+    Some((ss.dot(ss), ss.dot(st), st.dot(st)))
+}
+
+/// Sander L2 stretch of each triangle (the layout scaled to the 3D area as
+/// in [`sander_stretch`]): 1 = isometric; infinite for a flipped or
+/// zero-area layout triangle; NaN for a zero-area 3D triangle.
+pub fn triangle_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 3]]) -> Vec<f64> {
+    let (mut area_3d, mut area_2d) = (0.0, 0.0);
+    for t in triangles {
+        let [q1, q2, q3] = t.map(|v| positions[v as usize]);
+        let [p1, p2, p3] = t.map(|v| layout[v as usize]);
+        area_3d += 0.5 * (q2 - q1).cross(q3 - q1).length();
+        area_2d += 0.5 * (p2 - p1).perp_dot(p3 - p1);
+    }
+    let k = if area_2d > 0.0 { (area_3d / area_2d).sqrt() } else { 1.0 };
+    triangles
+        .iter()
+        .map(|t| {
+            let q = t.map(|v| positions[v as usize]);
+            if (q[1] - q[0]).cross(q[2] - q[0]).length() <= 0.0 {
+                return f64::NAN;
+            }
+            metric_terms(q, t.map(|v| layout[v as usize]), k).map_or(f64::INFINITY, |(a, _, c)| ((a + c) / 2.0).sqrt())
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -98,6 +130,8 @@ mod tests {
         let s = sander_stretch(&m.positions, &layout, &m.triangles);
         assert!((s.linf - 2.0).abs() < 1e-12, "{s:?}");
         assert!((s.l2 - ((4.0 + 0.25) / 2.0f64).sqrt()).abs() < 1e-12, "{s:?}");
+        let per = triangle_stretch(&m.positions, &layout, &m.triangles);
+        assert!(per.iter().all(|&x| (x - s.l2).abs() < 1e-12), "{per:?}");
         let mut flipped = layout.clone();
         flipped[5].x += 10.0;
         assert!(sander_stretch(&m.positions, &flipped, &m.triangles).l2.is_infinite());

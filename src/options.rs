@@ -15,10 +15,26 @@ pub enum Completion {
     Never,
 }
 
+/// Which foldover guard accepts a spline step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum Guard {
+    /// The exact orientation of every triangle, virtual ones included, in
+    /// double precision and as stored (default).
+    #[default]
+    Exact,
+    /// The paper's pointwise condition (Eq. 5/7): the spline's Jacobian
+    /// determinant positive at the constraint points only. For comparison:
+    /// it lets folds through, there is no completion or polish, and a folded
+    /// result is never written (the report says so).
+    Paper,
+}
+
 /// Limits and switches of every phase.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverOptions {
+    /// Foldover guard of the spline path (default `Exact`; `Paper` for comparison only).
+    pub guard: Guard,
     /// Spline path: accepted steps at most (default 100).
     pub max_iterations: u32,
     /// Spline path: halvings of one step before it counts as stalled (default 20).
@@ -55,6 +71,7 @@ pub struct SolverOptions {
 
 impl SolverOptions {
     pub const DEFAULT: SolverOptions = SolverOptions {
+        guard: Guard::Exact,
         max_iterations: 100,
         max_halvings: 20,
         stall_halvings: 6,

@@ -4,7 +4,7 @@
 use crate::chart;
 use crate::constraints::LoadedConstraints;
 use crate::constraints::{ConstraintFile, ConstraintSpec, CornerSpec};
-use crate::ecs::{self, ChartData, Exported, Failed, Layout, SolveJob, Timings};
+use crate::ecs::{self, ChartData, Exported, Failed, Layout, PreviewRequest, SolveJob, Timings};
 use crate::error::Error;
 use crate::io::{self, SourceAsset};
 use crate::mesh::TriMesh;
@@ -90,11 +90,48 @@ pub fn solve_file_with_defaults(
     output: Option<&Path>,
     defaults: &SolverOptions,
 ) -> Result<Report, Error> {
+    solve_file_with_previews(constraints_path, output, defaults, PreviewRequest::default())
+}
+
+/// As [`solve_file_with_defaults`], also drawing the pictures `previews`
+/// asks for (the UV layout, the 3D render) once the solve is over.
+///
+/// # Errors
+/// Any input error: constraint file, asset, topology.
+pub fn solve_file_with_previews(
+    constraints_path: &Path,
+    output: Option<&Path>,
+    defaults: &SolverOptions,
+    previews: PreviewRequest,
+) -> Result<Report, Error> {
     let t0 = Instant::now();
     let (loaded, asset) = load_with_defaults(constraints_path, defaults)?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut world = World::new();
     let entity = spawn_job(&mut world, loaded, asset, output.map(Path::to_path_buf), load_ms)?;
+    if previews.layout.is_some() || previews.render.is_some() {
+        world.entity_mut(entity).insert(previews);
+    }
+    run_job(world, entity).map(|(report, _)| report)
+}
+
+/// Solves an already loaded constraint file and asset (e.g. with edited
+/// targets, as a sweep does), writing `output` if given and the pictures
+/// `previews` asks for. Returns the report; input errors as `Err`.
+///
+/// # Errors
+/// Topology and constraint errors against the asset.
+pub fn solve_loaded(
+    loaded: LoadedConstraints,
+    asset: SourceAsset,
+    output: Option<&Path>,
+    previews: PreviewRequest,
+) -> Result<Report, Error> {
+    let mut world = World::new();
+    let entity = spawn_job(&mut world, loaded, asset, output.map(Path::to_path_buf), 0.0)?;
+    if previews.layout.is_some() || previews.render.is_some() {
+        world.entity_mut(entity).insert(previews);
+    }
     run_job(world, entity).map(|(report, _)| report)
 }
 

@@ -42,6 +42,17 @@ pub enum Command {
         /// Print what each phase did (step 1, spline path, completion, polish).
         #[arg(long)]
         explain: bool,
+        /// Draw the UV layout here (PNG): triangles coloured by stretch over
+        /// the base-colour texture, holes shaded, boundary, constraint arrows.
+        #[arg(long)]
+        preview: Option<PathBuf>,
+        /// Draw a render of the mesh with a checker (or its texture) mapped
+        /// through the new UVs here (PNG).
+        #[arg(long)]
+        render: Option<PathBuf>,
+        /// Size of the pictures in pixels.
+        #[arg(long, default_value_t = 1024)]
+        preview_size: u32,
     },
     /// Measure existing UVs: folds, zero-area triangles and stretch per chart,
     /// and constraint residuals. Works on UVs from any tool.
@@ -113,6 +124,9 @@ pub fn main() -> ExitCode {
             quiet,
             config,
             explain,
+            preview,
+            render,
+            preview_size,
         } => solve(
             &constraints,
             output.as_deref(),
@@ -120,6 +134,11 @@ pub fn main() -> ExitCode {
             quiet,
             config.as_deref(),
             explain,
+            crate::ecs::PreviewRequest {
+                layout: preview,
+                render,
+                size: preview_size,
+            },
         ),
         Command::Check {
             asset,
@@ -205,9 +224,10 @@ fn solve(
     quiet: bool,
     config: Option<&std::path::Path>,
     explain: bool,
+    previews: crate::ecs::PreviewRequest,
 ) -> ExitCode {
     let result = match config.map(crate::config::Config::load).transpose() {
-        Ok(c) => crate::solve::solve_file_with_defaults(constraints, output, &c.unwrap_or_default().solver),
+        Ok(c) => crate::solve::solve_file_with_previews(constraints, output, &c.unwrap_or_default().solver, previews),
         Err(e) => Err(e.into()),
     };
     match result {

@@ -49,7 +49,7 @@ pub struct Stepping {
     pub state: SteppingState,
     /// The full-step spline field from the current layout (Eq. 6), kept
     /// while its step is being halved; cleared when a step is accepted.
-    pub full_step: Option<Vec<DVec2>>,
+    pub full_step: Option<crate::rbf::stepping::FullStep>,
     /// Whether the current layout is fold-free as stored (f32); carried from
     /// step to step instead of recounted.
     pub storable: bool,
@@ -85,3 +85,14 @@ pub struct Exported(pub Report);
 /// An input error found while solving; nothing is written.
 #[derive(Component, Debug, Clone)]
 pub struct Failed(pub Arc<Error>);
+
+/// Pictures to draw once the solve is exported (see [`crate::preview`]).
+#[derive(Component, Debug, Clone, Default)]
+pub struct PreviewRequest {
+    /// The UV layout picture (PNG).
+    pub layout: Option<PathBuf>,
+    /// The 3D render with a checker or the texture (PNG).
+    pub render: Option<PathBuf>,
+    /// Width and height in pixels.
+    pub size: u32,
+}

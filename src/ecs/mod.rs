@@ -4,7 +4,7 @@
 //!
 //! `map_boundary → factor_bar_net → solve_force_density → start_stepping →
 //! step_constraints → guard_foldovers → complete_constraints → finish_solve →
-//! export_layout`
+//! export_layout → draw_previews`
 //!
 //! A tick advances every chart by at most one proposal, so the daemon can run
 //! the same schedule forever and a newer edit supersedes a running solve.
@@ -52,7 +52,7 @@ pub fn solve_schedule() -> Schedule {
         )
             .chain()
             .in_set(SolveSystems::Step),
-        (systems::finish_solve, systems::export_layout)
+        (systems::finish_solve, systems::export_layout, systems::draw_previews)
             .chain()
             .in_set(SolveSystems::Export),
     ));

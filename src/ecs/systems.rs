@@ -162,8 +162,8 @@ pub fn step_constraints(
                 }
             }
         }
-        let field = stepping.full_step.as_deref().expect("computed above");
-        let candidate = apply_step(&layout.0, &stepping.problem, field, stepping.state.t);
+        let step = stepping.full_step.as_ref().expect("computed above");
+        let candidate = apply_step(&layout.0, &stepping.problem, &step.field, stepping.state.t);
         commands.entity(entity).insert(Candidate(candidate));
         times.0.stepping_ms += ms(t0);
     }
@@ -190,8 +190,13 @@ pub fn guard_foldovers(
     for (entity, job, data, mut layout, mut stepping, candidate, mut times) in &mut charts {
         let t0 = Instant::now();
         let triangles = &data.0.filled.mesh.triangles;
-        let accepted = guard::acceptable(&candidate.0, triangles, stepping.storable);
         let options = &job.constraints.solver;
+        let accepted = match (options.guard, &stepping.full_step) {
+            (crate::options::Guard::Paper, Some(step)) => {
+                step.paper_guard_accepts(&layout.0, &stepping.problem, stepping.state.t)
+            }
+            _ => guard::acceptable(&candidate.0, triangles, stepping.storable),
+        };
         if accepted {
             let residual = stepping.problem.max_residual(&candidate.0);
             layout.0.clone_from(&candidate.0);
@@ -243,25 +248,28 @@ pub fn complete_constraints(
         match completing {
             None => {
                 let reached = stepping.state.phase == SteppingPhase::Reached;
-                let polish = options.polish && filled.n_real_vertices <= options.polish_max_vertices;
+                // The paper's guard is a comparison setting: its spline path alone.
+                let paper = options.guard == crate::options::Guard::Paper;
+                let polish = !paper && options.polish && filled.n_real_vertices <= options.polish_max_vertices;
                 // A layout f32 cannot store yet is always repaired by the polish.
                 let storable = crate::guard::all_positive_as_stored(&layout.0, &filled.mesh.triangles);
                 let has_free = !stepping.problem.movable.is_empty();
                 let mut spline_layout = None;
                 let state = if reached {
-                    if has_free && (polish || !storable) {
+                    if has_free && !paper && (polish || !storable) {
                         CompletionState::polish(filled, &stepping.problem, &layout.0, polish)
                     } else {
                         Ok(CompletionState::done())
                     }
-                } else if options.completion == crate::options::Completion::Never {
+                } else if paper || options.completion == crate::options::Completion::Never {
                     Ok(CompletionState::done())
                 } else {
                     // From the step-1 layout (algorithm.md); the spline's result is the fallback.
                     spline_layout = Some(std::mem::replace(&mut layout.0, step1.0.clone()));
                     CompletionState::soft(filled, &stepping.problem, &layout.0, options, polish)
                 };
-                let stretch_before_polish = (reached && has_free && (polish || !storable)).then(|| stretch(&layout.0));
+                let stretch_before_polish =
+                    (reached && has_free && !paper && (polish || !storable)).then(|| stretch(&layout.0));
                 match state {
                     Ok(state) => {
                         commands.entity(entity).insert(Completing {
@@ -356,7 +364,15 @@ pub fn export_layout(
         let t0 = Instant::now();
         let mut report = finished.0.clone();
         let written = report.orientation;
-        if !written.is_clean() {
+        let folded_in_f64 = !guard::all_positive(&layout.0, &data.0.filled.mesh.triangles);
+        if folded_in_f64 {
+            // Only the paper's pointwise guard (a comparison setting) lets this happen.
+            report.status = report::Status::Error;
+            report.message = Some(format!(
+                "folded: the {:?} guard let {} triangles flip and {} collapse; a folded layout is never written",
+                job.constraints.solver.guard, written.flipped, written.zero_area
+            ));
+        } else if !written.is_clean() {
             report.status = report::Status::Error;
             report.message = Some(format!(
                 "the layout is fold-free in double precision, but {} triangles would be flipped and {} zero-area once stored \
@@ -380,5 +396,37 @@ pub fn export_layout(
         report.times = times.0;
         report.total_ms = times.0.total_ms();
         commands.entity(entity).insert(Exported(report));
+    }
+}
+
+/// Draws the requested pictures of each newly exported chart (also of a
+/// folded or unwritten result, which the picture shows as such). A picture
+/// that cannot be written becomes a warning in the report.
+pub fn draw_previews(
+    mut charts: Query<
+        (
+            &SolveJob,
+            &ChartData,
+            &BoundaryLayout,
+            &Layout,
+            &mut Exported,
+            &PreviewRequest,
+        ),
+        Added<Exported>,
+    >,
+) {
+    for (job, data, boundary, layout, mut exported, request) in &mut charts {
+        if let Err(e) = crate::preview::draw_chart(
+            &job.asset,
+            &data.0,
+            &boundary.0.loop_vertices,
+            &layout.0,
+            &exported.0,
+            request.layout.as_deref(),
+            request.render.as_deref(),
+            request.size,
+        ) {
+            exported.0.warnings.push(format!("preview: {e}"));
+        }
     }
 }

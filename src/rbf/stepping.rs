@@ -67,7 +67,7 @@ pub fn pick_anchors(outer_loop: &[u32], max: usize, must: &[u32]) -> Vec<u32> {
 ///
 /// # Errors
 /// A [`TpsError`] when the centres make the spline system singular.
-pub fn full_step(layout: &[DVec2], problem: &StepProblem) -> Result<Vec<DVec2>, TpsError> {
+pub fn full_step(layout: &[DVec2], problem: &StepProblem) -> Result<FullStep, TpsError> {
     let mut centres = Vec::with_capacity(problem.constraint_vertices.len() + problem.anchors.len());
     let mut displacements = Vec::with_capacity(centres.capacity());
     for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
@@ -80,7 +80,28 @@ pub fn full_step(layout: &[DVec2], problem: &StepProblem) -> Result<Vec<DVec2>, 
         displacements.push(DVec2::ZERO);
     }
     let spline = ThinPlateSpline::fit(&centres, &displacements)?;
-    Ok(displace_all(&spline, layout, &problem.movable))
+    let field = displace_all(&spline, layout, &problem.movable);
+    Ok(FullStep { spline, field })
+}
+
+/// The spline of a full step and its displacement of every movable vertex.
+#[derive(Debug, Clone)]
+pub struct FullStep {
+    pub spline: ThinPlateSpline,
+    pub field: Vec<DVec2>,
+}
+
+impl FullStep {
+    /// The paper's foldover condition (Eq. 5/7) for the step of fraction `t`:
+    /// `det(I + t ∇ΔX) > 0` at every constrained vertex of `layout`, and
+    /// nowhere else (so folds between constraint points go unnoticed).
+    pub fn paper_guard_accepts(&self, layout: &[DVec2], problem: &StepProblem, t: f64) -> bool {
+        problem.constraint_vertices.iter().all(|&v| {
+            let [jx, jy] = self.spline.jacobian(layout[v as usize]);
+            let (a, b) = (DVec2::X + jx * t, DVec2::Y + jy * t);
+            a.perp_dot(b) > 0.0
+        })
+    }
 }
 
 /// Candidate layout for a step of fraction `t` (Eq. 6) given the
@@ -104,7 +125,7 @@ pub fn apply_step(layout: &[DVec2], problem: &StepProblem, full: &[DVec2], t: f6
 /// # Errors
 /// A [`TpsError`] when the centres make the spline system singular.
 pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<Vec<DVec2>, TpsError> {
-    Ok(apply_step(layout, problem, &full_step(layout, problem)?, t))
+    Ok(apply_step(layout, problem, &full_step(layout, problem)?.field, t))
 }
 
 /// Spline evaluations (vertices × centres) above which the work is split

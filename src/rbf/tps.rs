@@ -215,6 +215,26 @@ impl ThinPlateSpline {
         })
     }
 
+    /// The Jacobian `∇ΔX` at `x` as its two columns (∂ΔX/∂x, ∂ΔX/∂y). With
+    /// `φ(ρ) = ½ ρ² ln ρ²` on normalised distances, `∂φ/∂x = (ln ρ² + 1)(x − c) s²`.
+    /// The paper's foldover condition (Eq. 5/7) asks `det(I + t ∇ΔX) > 0`.
+    pub fn jacobian(&self, x: DVec2) -> [DVec2; 2] {
+        let s = self.inv_spread;
+        let s2 = s * s;
+        let mut dx = self.affine[1] * s;
+        let mut dy = self.affine[2] * s;
+        for (c, l) in self.centres.iter().zip(&self.lambda) {
+            let r = x - *c;
+            let rho2 = r.length_squared() * s2;
+            if rho2 > 0.0 {
+                let g = (rho2.ln() + 1.0) * s2;
+                dx += *l * (g * r.x);
+                dy += *l * (g * r.y);
+            }
+        }
+        [dx, dy]
+    }
+
     /// The displacement ΔX at `x` (Eq. 6).
     #[inline]
     pub fn displacement(&self, x: DVec2) -> DVec2 {
@@ -273,6 +293,35 @@ fn cholesky_solve(l: &[f64], n: usize, b: &[f64]) -> Vec<f64> {
 mod tests {
     use super::*;
     use crate::testing::Rng;
+
+    #[test]
+    fn the_jacobian_matches_finite_differences() {
+        let centres = [
+            DVec2::new(0.1, 0.2),
+            DVec2::new(0.8, 0.1),
+            DVec2::new(0.5, 0.9),
+            DVec2::new(0.4, 0.4),
+            DVec2::new(0.9, 0.7),
+        ];
+        let d = [
+            DVec2::new(0.02, -0.01),
+            DVec2::ZERO,
+            DVec2::new(-0.03, 0.02),
+            DVec2::new(0.05, 0.04),
+            DVec2::ZERO,
+        ];
+        let spline = ThinPlateSpline::fit(&centres, &d).unwrap();
+        let h = 1e-6;
+        for x in [DVec2::new(0.3, 0.6), DVec2::new(0.41, 0.39), DVec2::new(0.7, 0.2)] {
+            let [jx, jy] = spline.jacobian(x);
+            let fx = (spline.displacement(x + DVec2::X * h) - spline.displacement(x - DVec2::X * h)) / (2.0 * h);
+            let fy = (spline.displacement(x + DVec2::Y * h) - spline.displacement(x - DVec2::Y * h)) / (2.0 * h);
+            assert!(
+                (jx - fx).length() < 1e-7 && (jy - fy).length() < 1e-7,
+                "{jx} {fx} {jy} {fy}"
+            );
+        }
+    }
 
     #[test]
     fn phi_is_zero_at_the_centre() {

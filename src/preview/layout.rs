@@ -1,0 +1,188 @@
+//! The UV layout picture: the unit square (over the base-colour texture when
+//! there is one), every triangle coloured by its stretch, holes shaded, the
+//! outer boundary drawn, and each constraint as an arrow from its step-1
+//! position to its target with a dot where it ended (red if unreached).
+
+use super::{Marker, REACHED_COLOUR, UNREACHED_COLOUR, stretch_colour};
+use glam::DVec2;
+use tiny_skia::{Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Stroke, Transform};
+
+/// What the layout picture shows. Coordinates are glTF texture coordinates.
+#[derive(Debug, Clone, Copy)]
+pub struct LayoutScene<'a> {
+    /// One UV per vertex of `triangles`.
+    pub uvs: &'a [DVec2],
+    pub triangles: &'a [[u32; 3]],
+    /// Which triangles are virtual (hole fill): those from this index on.
+    pub n_real_triangles: usize,
+    /// Stretch per real triangle (colour ramp), if known.
+    pub stretch: Option<&'a [f64]>,
+    /// The outer boundary loop (vertex ids).
+    pub outer_loop: &'a [u32],
+    pub markers: &'a [Marker],
+    /// The base-colour texture, drawn under the triangles.
+    pub texture: Option<&'a image::RgbaImage>,
+}
+
+/// Margin around the square, pixels, for a picture of `size`.
+pub fn margin(size: u32) -> f32 {
+    (size as f32 / 32.0).max(4.0)
+}
+
+/// The pixel centre of texture coordinate `uv` in a layout picture of `size`.
+pub fn uv_to_pixel(uv: DVec2, size: u32) -> (f32, f32) {
+    let m = margin(size);
+    let span = size as f32 - 2.0 * m;
+    (m + uv.x as f32 * span, m + uv.y as f32 * span)
+}
+
+fn paint(rgb: [u8; 3], alpha: u8) -> Paint<'static> {
+    let mut p = Paint::default();
+    p.set_color(Color::from_rgba8(rgb[0], rgb[1], rgb[2], alpha));
+    p.anti_alias = true;
+    p
+}
+
+/// Draws the layout picture, `size` × `size` pixels.
+///
+/// # Panics
+/// If `size` is 0.
+pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
+    let mut pixmap = Pixmap::new(size, size).expect("non-zero size");
+    pixmap.fill(Color::WHITE);
+    let m = margin(size);
+    let span = size as f32 - 2.0 * m;
+    let px = |uv: DVec2| uv_to_pixel(uv, size);
+    let square = tiny_skia::Rect::from_xywh(m, m, span, span).expect("square");
+    match scene.texture.and_then(texture_pixmap) {
+        Some(tex) => {
+            let sx = span / tex.width() as f32;
+            let sy = span / tex.height() as f32;
+            pixmap.draw_pixmap(
+                0,
+                0,
+                tex.as_ref(),
+                &tiny_skia::PixmapPaint {
+                    quality: tiny_skia::FilterQuality::Bilinear,
+                    ..Default::default()
+                },
+                Transform::from_row(sx, 0.0, 0.0, sy, m, m),
+                None,
+            );
+        }
+        None => pixmap.fill_rect(square, &paint([242, 242, 242], 255), Transform::identity(), None),
+    }
+    let textured = scene.texture.is_some();
+    let many = scene.triangles.len() > 30_000;
+    let edge = Stroke {
+        width: 0.5,
+        ..Default::default()
+    };
+    for (i, t) in scene.triangles.iter().enumerate() {
+        let [a, b, c] = t.map(|v| px(scene.uvs[v as usize]));
+        let mut pb = PathBuilder::new();
+        pb.move_to(a.0, a.1);
+        pb.line_to(b.0, b.1);
+        pb.line_to(c.0, c.1);
+        pb.close();
+        let Some(path) = pb.finish() else { continue };
+        let virtual_triangle = i >= scene.n_real_triangles;
+        let fill = if virtual_triangle {
+            paint([110, 110, 120], 140)
+        } else {
+            let s = scene.stretch.and_then(|s| s.get(i).copied()).unwrap_or(1.0);
+            paint(stretch_colour(s), if textured { 110 } else { 255 })
+        };
+        pixmap.fill_path(&path, &fill, FillRule::Winding, Transform::identity(), None);
+        if !many && !virtual_triangle {
+            pixmap.stroke_path(&path, &paint([40, 40, 40], 90), &edge, Transform::identity(), None);
+        }
+    }
+    // The outer boundary.
+    if let Some((&first, rest)) = scene.outer_loop.split_first() {
+        let mut pb = PathBuilder::new();
+        let p0 = px(scene.uvs[first as usize]);
+        pb.move_to(p0.0, p0.1);
+        for &v in rest {
+            let p = px(scene.uvs[v as usize]);
+            pb.line_to(p.0, p.1);
+        }
+        pb.close();
+        if let Some(path) = pb.finish() {
+            let stroke = Stroke {
+                width: (size as f32 / 256.0).max(1.5),
+                line_join: LineJoin::Round,
+                ..Default::default()
+            };
+            pixmap.stroke_path(&path, &paint([20, 40, 120], 255), &stroke, Transform::identity(), None);
+        }
+    }
+    // Constraints: arrows first, then dots on top.
+    let radius = (size as f32 / 110.0).max(3.0);
+    let arrow = Stroke {
+        width: (size as f32 / 400.0).max(1.0),
+        line_cap: LineCap::Round,
+        ..Default::default()
+    };
+    for mk in scene.markers {
+        let (s, t) = (px(mk.step1), px(mk.target));
+        let (dx, dy) = (t.0 - s.0, t.1 - s.1);
+        let len = (dx * dx + dy * dy).sqrt();
+        if len > 1.0 {
+            let mut pb = PathBuilder::new();
+            pb.move_to(s.0, s.1);
+            pb.line_to(t.0, t.1);
+            let (ux, uy) = (dx / len, dy / len);
+            let head = (radius * 1.6).min(len * 0.5);
+            for side in [-1.0f32, 1.0] {
+                pb.move_to(t.0, t.1);
+                pb.line_to(
+                    t.0 - head * (ux * 0.87 - side * uy * 0.5),
+                    t.1 - head * (uy * 0.87 + side * ux * 0.5),
+                );
+            }
+            if let Some(path) = pb.finish() {
+                pixmap.stroke_path(&path, &paint([25, 25, 25], 230), &arrow, Transform::identity(), None);
+            }
+        }
+    }
+    for mk in scene.markers {
+        let colour = if mk.reached { REACHED_COLOUR } else { UNREACHED_COLOUR };
+        if !mk.reached {
+            let t = px(mk.target);
+            if let Some(ring) = PathBuilder::from_circle(t.0, t.1, radius * 1.4) {
+                let stroke = Stroke {
+                    width: 1.5,
+                    ..Default::default()
+                };
+                pixmap.stroke_path(&ring, &paint(colour, 255), &stroke, Transform::identity(), None);
+            }
+        }
+        let r = px(mk.result);
+        if let Some(dot) = PathBuilder::from_circle(r.0, r.1, radius) {
+            pixmap.fill_path(
+                &dot,
+                &paint(colour, 255),
+                FillRule::Winding,
+                Transform::identity(),
+                None,
+            );
+            let ring = Stroke {
+                width: 1.0,
+                ..Default::default()
+            };
+            pixmap.stroke_path(&dot, &paint([255, 255, 255], 255), &ring, Transform::identity(), None);
+        }
+    }
+    pixmap
+}
+
+/// An RGBA image as a premultiplied tiny-skia pixmap.
+fn texture_pixmap(image: &image::RgbaImage) -> Option<Pixmap> {
+    let mut p = Pixmap::new(image.width(), image.height())?;
+    for (dst, src) in p.pixels_mut().iter_mut().zip(image.pixels()) {
+        let [r, g, b, a] = src.0;
+        *dst = tiny_skia::ColorU8::from_rgba(r, g, b, a).premultiply();
+    }
+    Some(p)
+}

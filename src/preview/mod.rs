@@ -1,0 +1,130 @@
+//! Pictures a person can judge at a glance: the UV layout
+//! ([`layout::draw_layout`]) and a flat-shaded render of the mesh with a
+//! checker or its texture mapped through the new UVs ([`render::render_mesh`]).
+//! Plain data in, pixels out; [`write_png`] writes them atomically.
+
+pub mod layout;
+pub mod render;
+pub mod texture;
+
+use glam::DVec2;
+
+/// One constraint as drawn: glTF texture coordinates (u right, v down).
+#[derive(Debug, Clone, Copy)]
+pub struct Marker {
+    /// Where step 1 (the bar-net) put the vertex.
+    pub step1: DVec2,
+    pub target: DVec2,
+    /// Where the vertex ended.
+    pub result: DVec2,
+    pub reached: bool,
+}
+
+/// Draws the pictures of a solved chart: the layout (`layout_png`) and the
+/// 3D render (`render_png`), `size` pixels square, from the chart, its outer
+/// loop, its final layout (layout coordinates) and the report's constraints.
+///
+/// # Errors
+/// A picture that cannot be encoded or written (message).
+#[allow(clippy::too_many_arguments)]
+pub fn draw_chart(
+    asset: &crate::io::SourceAsset,
+    prepared: &crate::chart::PreparedChart,
+    outer_loop: &[u32],
+    layout: &[DVec2],
+    report: &crate::report::Report,
+    layout_png: Option<&std::path::Path>,
+    render_png: Option<&std::path::Path>,
+    size: u32,
+) -> Result<(), String> {
+    if layout_png.is_none() && render_png.is_none() {
+        return Ok(());
+    }
+    let size = size.max(16);
+    let filled = &prepared.filled;
+    let uvs: Vec<DVec2> = layout.iter().map(|&p| crate::param::xy_to_uv(p)).collect();
+    let texture = texture::base_colour_texture(asset);
+    let real_triangles = &filled.mesh.triangles[..filled.n_real_triangles];
+    let real_positions = &prepared.chart.mesh.positions;
+    if let Some(path) = layout_png {
+        let stretch =
+            crate::metrics::triangle_stretch(real_positions, &layout[..filled.n_real_vertices], real_triangles);
+        let markers: Vec<Marker> = report
+            .constraints
+            .iter()
+            .map(|c| Marker {
+                step1: c.step1,
+                target: c.target,
+                result: c.result,
+                reached: c.reached,
+            })
+            .collect();
+        let scene = layout::LayoutScene {
+            uvs: &uvs,
+            triangles: &filled.mesh.triangles,
+            n_real_triangles: filled.n_real_triangles,
+            stretch: Some(&stretch),
+            outer_loop,
+            markers: &markers,
+            texture: texture.as_ref(),
+        };
+        let png = layout::draw_layout(&scene, size)
+            .encode_png()
+            .map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
+        write_png(path, &png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    if let Some(path) = render_png {
+        let image = render::render_mesh(
+            real_positions,
+            real_triangles,
+            &uvs[..filled.n_real_vertices],
+            texture.as_ref(),
+            size,
+        );
+        let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
+        write_png(path, &png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Marker colour of a reached constraint (RGB).
+pub const REACHED_COLOUR: [u8; 3] = [0, 140, 255];
+/// Marker colour of an unreached constraint (RGB).
+pub const UNREACHED_COLOUR: [u8; 3] = [230, 0, 0];
+
+/// Writes PNG bytes atomically (temp file + rename), creating parent folders.
+///
+/// # Errors
+/// The file system's.
+pub fn write_png(path: &std::path::Path, png: &[u8]) -> std::io::Result<()> {
+    crate::io::atomic::write_atomically(path, png)
+}
+
+/// The colour of a triangle of Sander L2 stretch `s`: pale green at 1
+/// (isometric), yellow at 2, red from 4; magenta for a flipped triangle.
+pub fn stretch_colour(s: f64) -> [u8; 3] {
+    if !s.is_finite() {
+        return [255, 0, 255];
+    }
+    let x = (s.max(1.0).log2() / 2.0).clamp(0.0, 1.0);
+    let lerp = |a: [u8; 3], b: [u8; 3], t: f64| {
+        [0, 1, 2].map(|i| (a[i] as f64 + (b[i] as f64 - a[i] as f64) * t).round() as u8)
+    };
+    let (green, yellow, red) = ([225, 245, 225], [255, 215, 110], [215, 50, 35]);
+    if x < 0.5 {
+        lerp(green, yellow, x * 2.0)
+    } else {
+        lerp(yellow, red, x * 2.0 - 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_stretch_ramp_runs_green_yellow_red() {
+        assert_eq!(super::stretch_colour(1.0), [225, 245, 225]);
+        assert_eq!(super::stretch_colour(2.0), [255, 215, 110]);
+        assert_eq!(super::stretch_colour(10.0), [215, 50, 35]);
+        assert_eq!(super::stretch_colour(f64::INFINITY), [255, 0, 255]);
+    }
+}

@@ -1,0 +1,164 @@
+//! A flat-shaded render of the mesh with a checker (or the texture) mapped
+//! through its UVs, from a default view: orthographic, looking against the
+//! mesh's area-weighted mean normal (the "front" of an open patch), z-buffered.
+//! Stretch shows as uneven checker squares, folds as torn ones.
+
+use glam::{DVec2, DVec3};
+use image::{Rgba, RgbaImage};
+
+/// Checker squares per texture side.
+pub const CHECKER_SQUARES: f64 = 10.0;
+
+/// Renders `triangles` of `positions` with texture coordinates `uvs` (glTF,
+/// one per vertex), `size` × `size` pixels, over white.
+pub fn render_mesh(
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    uvs: &[DVec2],
+    texture: Option<&RgbaImage>,
+    size: u32,
+) -> RgbaImage {
+    let mut image = RgbaImage::from_pixel(size, size, Rgba([255, 255, 255, 255]));
+    if triangles.is_empty() || size == 0 {
+        return image;
+    }
+    let (right, up, forward) = view_basis(positions, triangles);
+    let project = |p: DVec3| DVec3::new(p.dot(right), p.dot(up), p.dot(forward));
+    let projected: Vec<DVec3> = positions.iter().map(|&p| project(p)).collect();
+    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    for t in triangles {
+        for &v in t {
+            let p = projected[v as usize].truncate();
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    let margin = size as f64 * 0.05;
+    let extent = (hi - lo).max_element().max(1e-12);
+    let scale = (size as f64 - 2.0 * margin) / extent;
+    let centre = (lo + hi) * 0.5;
+    let half = size as f64 * 0.5;
+    // Screen: x right, y down.
+    let screen = |p: DVec3| DVec3::new(half + (p.x - centre.x) * scale, half - (p.y - centre.y) * scale, p.z);
+    let mut depth = vec![f64::INFINITY; (size * size) as usize];
+    for t in triangles {
+        let [a, b, c] = t.map(|v| screen(projected[v as usize]));
+        let [pa, pb, pc] = t.map(|v| positions[v as usize]);
+        let normal = (pb - pa).cross(pc - pa);
+        if normal.length_squared() == 0.0 {
+            continue;
+        }
+        let light = 0.3 + 0.7 * normal.normalize().dot(forward).abs();
+        let [ua, ub, uc] = t.map(|v| uvs[v as usize]);
+        let area = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+        if area.abs() < 1e-12 {
+            continue;
+        }
+        let x0 = a.x.min(b.x).min(c.x).floor().max(0.0) as u32;
+        let x1 = (a.x.max(b.x).max(c.x).ceil() as i64).clamp(0, size as i64 - 1) as u32;
+        let y0 = a.y.min(b.y).min(c.y).floor().max(0.0) as u32;
+        let y1 = (a.y.max(b.y).max(c.y).ceil() as i64).clamp(0, size as i64 - 1) as u32;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let (sx, sy) = (x as f64 + 0.5, y as f64 + 0.5);
+                let w0 = ((b.x - sx) * (c.y - sy) - (c.x - sx) * (b.y - sy)) / area;
+                let w1 = ((c.x - sx) * (a.y - sy) - (a.x - sx) * (c.y - sy)) / area;
+                let w2 = 1.0 - w0 - w1;
+                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                    continue;
+                }
+                let z = w0 * a.z + w1 * b.z + w2 * c.z;
+                let k = (y * size + x) as usize;
+                if z >= depth[k] {
+                    continue;
+                }
+                depth[k] = z;
+                let uv = ua * w0 + ub * w1 + uc * w2;
+                let base = match texture {
+                    Some(tex) => sample(tex, uv),
+                    None => checker(uv),
+                };
+                let shaded = base.map(|ch| (ch as f64 * light).round().clamp(0.0, 255.0) as u8);
+                image.put_pixel(x, y, Rgba([shaded[0], shaded[1], shaded[2], 255]));
+            }
+        }
+    }
+    image
+}
+
+/// The view: right, up and forward (into the screen) unit vectors. Forward
+/// is against the area-weighted mean normal; up is the world's +Y projected
+/// (or +Z when forward is nearly vertical).
+fn view_basis(positions: &[DVec3], triangles: &[[u32; 3]]) -> (DVec3, DVec3, DVec3) {
+    let mut sum = DVec3::ZERO;
+    let mut total = 0.0;
+    for t in triangles {
+        let [a, b, c] = t.map(|v| positions[v as usize]);
+        let n = (b - a).cross(c - a);
+        sum += n;
+        total += n.length();
+    }
+    let front = if total > 0.0 && sum.length() > 0.1 * total {
+        sum.normalize()
+    } else {
+        DVec3::Z
+    };
+    let forward = -front;
+    let world_up = if forward.y.abs() > 0.9 { DVec3::Z } else { DVec3::Y };
+    let right = forward.cross(world_up).normalize();
+    let up = right.cross(forward).normalize();
+    (right, up, forward)
+}
+
+fn checker(uv: DVec2) -> [u8; 3] {
+    let (i, j) = (
+        (uv.x * CHECKER_SQUARES).floor() as i64,
+        (uv.y * CHECKER_SQUARES).floor() as i64,
+    );
+    if (i + j).rem_euclid(2) == 0 {
+        [235, 235, 235]
+    } else {
+        [70, 110, 190]
+    }
+}
+
+fn sample(tex: &RgbaImage, uv: DVec2) -> [u8; 3] {
+    let (w, h) = (tex.width(), tex.height());
+    let x = ((uv.x.rem_euclid(1.0)) * w as f64).floor().clamp(0.0, w as f64 - 1.0) as u32;
+    let y = ((uv.y.rem_euclid(1.0)) * h as f64).floor().clamp(0.0, h as f64 - 1.0) as u32;
+    let p = tex.get_pixel(x, y).0;
+    [p[0], p[1], p[2]]
+}
+
+/// Encodes an RGBA image as PNG bytes.
+///
+/// # Errors
+/// The encoder's.
+pub fn encode_png(image: &RgbaImage) -> Result<Vec<u8>, image::ImageError> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    image.write_to(&mut out, image::ImageFormat::Png)?;
+    Ok(out.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::grid_mesh;
+
+    #[test]
+    fn a_flat_grid_seen_from_the_front_fills_the_middle_with_the_checker() {
+        let m = grid_mesh(6, 6);
+        let uvs: Vec<DVec2> = m.positions.iter().map(|p| DVec2::new(p.x, 1.0 - p.y)).collect();
+        let img = render_mesh(&m.positions, &m.triangles, &uvs, None, 100);
+        // The grid faces +Z, so it fills 90 % of the picture; corners stay white.
+        assert_eq!(img.get_pixel(1, 1).0, [255, 255, 255, 255]);
+        let centre = img.get_pixel(50, 50).0;
+        assert!(centre != [255, 255, 255, 255], "{centre:?}");
+        // Lit head-on: full checker colours.
+        let colours: std::collections::HashSet<[u8; 4]> = (10..90).map(|x| img.get_pixel(x, 50).0).collect();
+        assert!(
+            colours.contains(&[235, 235, 235, 255]) && colours.contains(&[70, 110, 190, 255]),
+            "{colours:?}"
+        );
+    }
+}

@@ -1,0 +1,59 @@
+//! The base-colour texture of a glTF asset's material, decoded for pictures.
+
+use crate::io::{Container, SourceAsset};
+use base64::Engine;
+use serde_json::Value;
+
+/// The base-colour texture of the first material (of the asset's mesh) that
+/// has one, decoded; `None` when there is none or it cannot be decoded
+/// (pictures then show a plain square).
+pub fn base_colour_texture(asset: &SourceAsset) -> Option<image::RgbaImage> {
+    let Container::Gltf { json, bin } = &asset.container else {
+        return None;
+    };
+    let mesh = json.get("meshes")?.get(asset.mesh_index)?;
+    let material = mesh
+        .get("primitives")?
+        .as_array()?
+        .iter()
+        .filter_map(|p| p.get("material").and_then(Value::as_u64))
+        .find_map(|m| {
+            json.get("materials")?
+                .get(m as usize)?
+                .get("pbrMetallicRoughness")?
+                .get("baseColorTexture")?
+                .get("index")?
+                .as_u64()
+        })?;
+    let source = json.get("textures")?.get(material as usize)?.get("source")?.as_u64()?;
+    let image = json.get("images")?.get(source as usize)?;
+    let bytes = if let Some(view) = image.get("bufferView").and_then(Value::as_u64) {
+        let view = json.get("bufferViews")?.get(view as usize)?;
+        let buffer = view.get("buffer")?.as_u64()? as usize;
+        let offset = view.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+        let length = view.get("byteLength")?.as_u64()? as usize;
+        let data = buffer_bytes(json, bin.as_deref(), buffer, asset)?;
+        data.get(offset..offset + length)?.to_vec()
+    } else {
+        uri_bytes(image.get("uri")?.as_str()?, asset)?
+    };
+    image::load_from_memory(&bytes).ok().map(|i| i.to_rgba8())
+}
+
+fn buffer_bytes(json: &Value, bin: Option<&[u8]>, index: usize, asset: &SourceAsset) -> Option<Vec<u8>> {
+    let buffer = json.get("buffers")?.get(index)?;
+    match buffer.get("uri").and_then(Value::as_str) {
+        None => bin.map(<[u8]>::to_vec),
+        Some(uri) => uri_bytes(uri, asset),
+    }
+}
+
+fn uri_bytes(uri: &str, asset: &SourceAsset) -> Option<Vec<u8>> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (_, data) = rest.split_once(";base64,")?;
+        return base64::engine::general_purpose::STANDARD.decode(data).ok();
+    }
+    let base = asset.path.parent()?;
+    let files = crate::io::gltf_file::external_buffer_files(&serde_json::json!({ "buffers": [{ "uri": uri }] }), base);
+    std::fs::read(files.first()?).ok()
+}
