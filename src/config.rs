@@ -56,6 +56,11 @@ pub struct WatchConfig {
     pub log: LogFormat,
     /// Constraint files are the files whose names end with this (default ".uvpin.ron").
     pub constraint_suffix: String,
+    /// Pictures beside each output, refreshed with it: `<name>.uv.png` (the
+    /// layout) and `<name>.render.png` (the mesh with a checker) (default true).
+    pub previews: bool,
+    /// Their size in pixels (default 512).
+    pub preview_size: u32,
 }
 
 impl Default for WatchConfig {
@@ -67,6 +72,8 @@ impl Default for WatchConfig {
             debounce_ms: 100,
             log: LogFormat::Human,
             constraint_suffix: ".uvpin.ron".into(),
+            previews: true,
+            preview_size: 512,
         }
     }
 }

@@ -39,6 +39,7 @@ pub mod report;
 pub mod ron_file;
 pub mod solve;
 pub mod sparse;
+pub mod sweep;
 #[doc(hidden)]
 pub mod testing;
 pub mod watch;

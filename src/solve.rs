@@ -57,6 +57,20 @@ pub fn spawn_job(
     output: Option<PathBuf>,
     load_ms: f64,
 ) -> Result<Entity, Error> {
+    spawn_shared_job(world, loaded, Arc::new(asset), output, load_ms)
+}
+
+/// As [`spawn_job`], with the asset shared.
+///
+/// # Errors
+/// Errors of [`chart::prepare`].
+pub fn spawn_shared_job(
+    world: &mut World,
+    loaded: LoadedConstraints,
+    asset: Arc<SourceAsset>,
+    output: Option<PathBuf>,
+    load_ms: f64,
+) -> Result<Entity, Error> {
     let t0 = Instant::now();
     let prepared = chart::prepare(&loaded, &asset)?;
     let mut timings = Timings::default();
@@ -64,7 +78,7 @@ pub fn spawn_job(
     timings.0.topology_ms = t0.elapsed().as_secs_f64() * 1e3;
     let job = SolveJob {
         constraints: Arc::new(loaded),
-        asset: Arc::new(asset),
+        asset,
         output,
     };
     Ok(world.spawn((job, ChartData(Arc::new(prepared)), timings)).id())
@@ -127,8 +141,21 @@ pub fn solve_loaded(
     output: Option<&Path>,
     previews: PreviewRequest,
 ) -> Result<Report, Error> {
+    solve_loaded_shared(loaded, Arc::new(asset), output, previews)
+}
+
+/// As [`solve_loaded`], with the asset shared (many solves of one asset).
+///
+/// # Errors
+/// Topology and constraint errors against the asset.
+pub fn solve_loaded_shared(
+    loaded: LoadedConstraints,
+    asset: Arc<SourceAsset>,
+    output: Option<&Path>,
+    previews: PreviewRequest,
+) -> Result<Report, Error> {
     let mut world = World::new();
-    let entity = spawn_job(&mut world, loaded, asset, output.map(Path::to_path_buf), 0.0)?;
+    let entity = spawn_shared_job(&mut world, loaded, asset, output.map(Path::to_path_buf), 0.0)?;
     if previews.layout.is_some() || previews.render.is_some() {
         world.entity_mut(entity).insert(previews);
     }

@@ -48,6 +48,7 @@ impl Fixture {
                 },
                 defaults: uvpin::options::SolverOptions::DEFAULT,
                 cwd: root.parent().unwrap().to_path_buf(),
+                previews: None,
             },
             DaemonLog {
                 logger: Logger {

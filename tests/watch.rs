@@ -143,6 +143,11 @@ fn every_editor_save_pattern_gives_exactly_one_solve_of_the_final_content() {
     let d = Daemon::start(&dir.0, &[]);
     d.wait_count("solved", "grid.uvpin.ron", 1);
     assert_output(&out, 0.0);
+    // Pictures beside the output, refreshed with it.
+    for picture in ["out/grid.uv.png", "out/grid.render.png"] {
+        let img = image::open(dir.path(picture)).unwrap_or_else(|e| panic!("{picture}: {e}"));
+        assert_eq!((img.width(), img.height()), (512, 512), "{picture}");
+    }
     let mut solves = 1;
 
     type Save = fn(&Path, &str);

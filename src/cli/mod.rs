@@ -1,4 +1,4 @@
-//! The command line: `uvpin solve`, `uvpin check` and `uvpin watch`.
+//! The command line: `uvpin solve`, `uvpin check`, `uvpin sweep` and `uvpin watch`.
 
 mod check;
 
@@ -72,6 +72,22 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a grid of solves (constraint files × settings × target blends ×
+    /// jitter) in parallel; write runs.csv, runs.jsonl, summary.md,
+    /// thumbnails and a contact sheet. Runs already in runs.jsonl are skipped.
+    Sweep {
+        /// The sweep file (RON).
+        sweep: PathBuf,
+        /// Re-run every run, even those already done.
+        #[arg(long)]
+        force: bool,
+        /// Worker threads (default: one per core).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// No progress output.
+        #[arg(short, long)]
+        quiet: bool,
+    },
     /// Watch constraint files and assets; re-solve and write the output a
     /// moment after each save. Runs until SIGINT/SIGTERM (exit 0).
     ///
@@ -99,6 +115,9 @@ pub enum Command {
         /// Log format.
         #[arg(long, value_enum)]
         log: Option<LogArg>,
+        /// No pictures beside the outputs.
+        #[arg(long)]
+        no_previews: bool,
         /// Solve everything present once, print a summary and exit
         /// (0: all reached, 2: some partial, 1: some errors).
         #[arg(long)]
@@ -106,7 +125,7 @@ pub enum Command {
     },
 }
 
-/// `--log` values.
+/// `--log` values (of `uvpin watch`).
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub enum LogArg {
     Human,
@@ -153,6 +172,41 @@ pub fn main() -> ExitCode {
                 ExitCode::from(1)
             }
         },
+        Command::Sweep {
+            sweep,
+            force,
+            jobs,
+            quiet,
+        } => {
+            let options = crate::sweep::SweepOptions {
+                force,
+                jobs,
+                progress: if quiet {
+                    crate::sweep::Progress::Quiet
+                } else {
+                    crate::sweep::Progress::Auto
+                },
+            };
+            match crate::sweep::run_sweep(&sweep, &options) {
+                Ok(outcome) => {
+                    print!("{}", outcome.summary);
+                    if !quiet {
+                        eprintln!(
+                            "{} runs ({} solved now, {} already done) -> {}",
+                            outcome.rows.len(),
+                            outcome.ran,
+                            outcome.rows.len() - outcome.ran,
+                            outcome.output.display()
+                        );
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(1)
+                }
+            }
+        }
         Command::Watch {
             paths,
             config,
@@ -161,6 +215,7 @@ pub fn main() -> ExitCode {
             status,
             debounce_ms,
             log,
+            no_previews,
             once,
         } => {
             let config = match config.as_deref().map(crate::config::Config::load).transpose() {
@@ -182,6 +237,9 @@ pub fn main() -> ExitCode {
             }
             if status.is_some() {
                 watch.status_file = status;
+            }
+            if no_previews {
+                watch.previews = false;
             }
             if let Some(ms) = debounce_ms {
                 watch.debounce_ms = ms;

@@ -48,6 +48,21 @@ pub struct WatchSettings {
     pub defaults: SolverOptions,
     /// Working directory: relative output folders and displayed paths.
     pub cwd: PathBuf,
+    /// Picture size beside each output (`None`: no pictures).
+    pub previews: Option<u32>,
+}
+
+/// The pictures drawn beside `output`: `<stem>.uv.png` and `<stem>.render.png`.
+pub fn preview_paths(output: &Path, size: u32) -> PreviewRequest {
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    PreviewRequest {
+        layout: Some(output.with_file_name(format!("{stem}.uv.png"))),
+        render: Some(output.with_file_name(format!("{stem}.render.png"))),
+        size,
+    }
 }
 
 /// Counts of what the incremental rules decided (for tests and the log).
@@ -531,6 +546,14 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
     } else if let Some(step1) = e.get::<Step1Layout>() {
         let layout = Layout(step1.0.clone());
         e.insert(layout);
+    }
+    match settings.previews {
+        Some(size) => {
+            e.insert(preview_paths(&output, size));
+        }
+        None => {
+            e.remove::<PreviewRequest>();
+        }
     }
     e.insert((
         SolveJob {

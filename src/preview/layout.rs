@@ -73,7 +73,8 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
         None => pixmap.fill_rect(square, &paint([242, 242, 242], 255), Transform::identity(), None),
     }
     let textured = scene.texture.is_some();
-    let many = scene.triangles.len() > 30_000;
+    // Edges only where triangles are big enough to see (about 8 px² or more).
+    let many = scene.triangles.len() as u64 * 8 > u64::from(size) * u64::from(size);
     let edge = Stroke {
         width: 0.5,
         ..Default::default()

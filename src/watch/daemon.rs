@@ -103,6 +103,7 @@ pub fn run(options: WatchOptions) -> anyhow::Result<Outcome> {
             rules: rules.clone(),
             defaults: options.solver,
             cwd: cwd.clone(),
+            previews: config.previews.then_some(config.preview_size),
         },
         DaemonLog {
             logger: logger.clone(),

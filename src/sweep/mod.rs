@@ -1,0 +1,692 @@
+//! `uvpin sweep`: a grid of solves over constraint files × solver settings ×
+//! target blends × seeded jitter, run in parallel, one row per run (CSV and
+//! JSON Lines), a summary per setting, layout thumbnails and a contact sheet.
+//! Deterministic for a given sweep file (every column but `time_ms`);
+//! re-running skips the runs already in `runs.jsonl`.
+
+pub mod file;
+
+use crate::constraints::LoadedConstraints;
+use crate::ecs::PreviewRequest;
+use crate::io::SourceAsset;
+use crate::options::{Completion, SolverOptions};
+use crate::report::{Report, Status};
+use file::{CornerChoice, Setting, SweepFile};
+use glam::DVec2;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum SweepError {
+    #[error("{path}: cannot read the sweep file: {source}")]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error(transparent)]
+    Syntax(#[from] crate::ron_file::RonSyntaxError),
+    #[error("{sweep}: constraints pattern {pattern:?} matches no file")]
+    NoFiles { sweep: PathBuf, pattern: String },
+    #[error("{path}: cannot write: {source}")]
+    Write { path: PathBuf, source: std::io::Error },
+    #[error("cannot start {jobs} worker threads: {message}")]
+    Threads { jobs: usize, message: String },
+}
+
+/// How a sweep shows progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Progress {
+    /// A progress bar on a terminal, plain lines otherwise.
+    Auto,
+    /// Nothing.
+    Quiet,
+}
+
+/// Options of one `uvpin sweep` invocation.
+#[derive(Debug, Clone)]
+pub struct SweepOptions {
+    /// Re-run every run, even those already in `runs.jsonl`.
+    pub force: bool,
+    /// Worker threads (default: one per core).
+    pub jobs: Option<usize>,
+    pub progress: Progress,
+}
+
+/// One cell of the grid.
+#[derive(Debug, Clone)]
+pub struct Run {
+    /// Position in the grid (row order of the outputs).
+    pub index: usize,
+    /// Stable identity: file, setting, blend, jitter sample.
+    pub id: String,
+    pub file_index: usize,
+    pub setting: Setting,
+    pub blend: f64,
+    pub blend_index: usize,
+    pub sample: Option<u32>,
+}
+
+/// One result row (CSV and JSON Lines). Non-finite figures are empty.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    pub run: usize,
+    pub id: String,
+    pub constraint_file: String,
+    pub setting: String,
+    pub blend: f64,
+    pub jitter_sample: Option<u32>,
+    pub guard: String,
+    pub completion: String,
+    pub max_halvings: u32,
+    pub corners: String,
+    /// `reached`, `partial`, `folded` (paper guard only; never exported) or `error`.
+    pub status: String,
+    pub reached: usize,
+    pub constraints: usize,
+    pub max_residual: Option<f64>,
+    pub mean_residual: Option<f64>,
+    pub flipped: usize,
+    pub zero_area: usize,
+    pub stretch_l2_step1: Option<f64>,
+    pub stretch_l2: Option<f64>,
+    pub stretch_linf: Option<f64>,
+    pub iterations: u32,
+    pub halvings: u32,
+    pub completion_ran: bool,
+    pub newton_steps: u32,
+    pub time_ms: f64,
+    pub thumbnail: Option<String>,
+    pub message: String,
+}
+
+/// CSV columns, in order (the fields of [`Row`]).
+pub const COLUMNS: [&str; 27] = [
+    "run",
+    "id",
+    "constraint_file",
+    "setting",
+    "blend",
+    "jitter_sample",
+    "guard",
+    "completion",
+    "max_halvings",
+    "corners",
+    "status",
+    "reached",
+    "constraints",
+    "max_residual",
+    "mean_residual",
+    "flipped",
+    "zero_area",
+    "stretch_l2_step1",
+    "stretch_l2",
+    "stretch_linf",
+    "iterations",
+    "halvings",
+    "completion_ran",
+    "newton_steps",
+    "time_ms",
+    "thumbnail",
+    "message",
+];
+
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+/// What a finished sweep did.
+#[derive(Debug, Clone)]
+pub struct SweepOutcome {
+    pub rows: Vec<Row>,
+    /// Runs solved now (the others were already in runs.jsonl).
+    pub ran: usize,
+    pub output: PathBuf,
+    /// The summary table (Markdown).
+    pub summary: String,
+}
+
+/// The grid of runs of `sweep` over `files`.
+pub fn grid(sweep: &SweepFile, files: &[String]) -> Vec<Run> {
+    let mut runs = Vec::new();
+    let blends = sweep.blend_values();
+    let samples: Vec<Option<u32>> = match sweep.jitter {
+        Some(j) if j.samples > 0 => (0..j.samples).map(Some).collect(),
+        _ => vec![None],
+    };
+    for (file_index, file) in files.iter().enumerate() {
+        for setting in sweep.settings() {
+            for &sample in &samples {
+                for (blend_index, &blend) in blends.iter().enumerate() {
+                    let id = format!(
+                        "{file}|{}|b={blend:.4}|j={}",
+                        setting.name,
+                        sample.map_or("-".into(), |s| s.to_string())
+                    );
+                    runs.push(Run {
+                        index: runs.len(),
+                        id,
+                        file_index,
+                        setting: setting.clone(),
+                        blend,
+                        blend_index,
+                        sample,
+                    });
+                }
+            }
+        }
+    }
+    runs
+}
+
+/// A deterministic generator (SplitMix64) for the jitter.
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A stable 64-bit hash of `s` (FNV-1a), for seeding per run.
+fn stable_hash(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// A constraint file and its asset, loaded once per sweep.
+struct Input {
+    name: String,
+    loaded: Result<(LoadedConstraints, Arc<SourceAsset>), String>,
+}
+
+/// Step-1 position and whether on the outer boundary, per constraint (file order).
+type Step1 = Result<Vec<(DVec2, bool)>, String>;
+
+fn options_for(loaded: &LoadedConstraints, setting: &Setting) -> SolverOptions {
+    setting.solver.unwrap_or(loaded.solver)
+}
+
+fn with_setting(loaded: &LoadedConstraints, setting: &Setting) -> LoadedConstraints {
+    let mut l = loaded.clone();
+    l.solver = options_for(loaded, setting);
+    if setting.corners == CornerChoice::Auto {
+        l.file.corners = None;
+    }
+    l
+}
+
+/// Step 1 only (the probe): where the bar-net puts each constraint.
+fn probe_step1(loaded: &LoadedConstraints, asset: &Arc<SourceAsset>, corners: CornerChoice) -> Step1 {
+    let setting = Setting {
+        name: String::new(),
+        solver: None,
+        corners,
+    };
+    let mut l = with_setting(loaded, &setting);
+    l.solver = SolverOptions {
+        completion: Completion::Never,
+        polish: false,
+        max_iterations: 1,
+        max_halvings: 0,
+        ..l.solver
+    };
+    let report = crate::solve::solve_loaded_shared(l, asset.clone(), None, PreviewRequest::default())
+        .map_err(|e| e.to_string())?;
+    let mut out = vec![(DVec2::ZERO, false); loaded.file.constraints.len()];
+    for c in &report.constraints {
+        out[c.index] = (c.step1, c.on_boundary);
+    }
+    Ok(out)
+}
+
+fn thumbnail_name(run: &Run) -> String {
+    let safe: String = run
+        .id
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '.' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    format!("{:04}-{}.png", run.index, safe.chars().take(80).collect::<String>())
+}
+
+fn solve_run(run: &Run, input: &Input, step1: &Step1, sweep: &SweepFile, thumbs: Option<&Path>) -> Row {
+    let started = std::time::Instant::now();
+    let mut row = Row {
+        run: run.index,
+        id: run.id.clone(),
+        constraint_file: input.name.clone(),
+        setting: run.setting.name.clone(),
+        blend: run.blend,
+        jitter_sample: run.sample,
+        guard: String::new(),
+        completion: String::new(),
+        max_halvings: 0,
+        corners: format!("{:?}", run.setting.corners),
+        status: "error".into(),
+        reached: 0,
+        constraints: 0,
+        max_residual: None,
+        mean_residual: None,
+        flipped: 0,
+        zero_area: 0,
+        stretch_l2_step1: None,
+        stretch_l2: None,
+        stretch_linf: None,
+        iterations: 0,
+        halvings: 0,
+        completion_ran: false,
+        newton_steps: 0,
+        time_ms: 0.0,
+        thumbnail: None,
+        message: String::new(),
+    };
+    let (loaded, asset) = match &input.loaded {
+        Ok(x) => x,
+        Err(e) => {
+            row.message = e.clone();
+            return row;
+        }
+    };
+    let options = options_for(loaded, &run.setting);
+    row.guard = format!("{:?}", options.guard);
+    row.completion = format!("{:?}", options.completion);
+    row.max_halvings = options.max_halvings;
+    let step1 = match step1 {
+        Ok(s) => s,
+        Err(e) => {
+            row.message = e.clone();
+            return row;
+        }
+    };
+    let mut l = with_setting(loaded, &run.setting);
+    let mut rng = run.sample.map(|s| {
+        let seed = sweep.jitter.map_or(0, |j| j.seed);
+        SplitMix(seed ^ stable_hash(&format!("{}|{s}|{}", input.name, run.blend_index)))
+    });
+    let amplitude = sweep.jitter.map_or(0.0, |j| j.amplitude);
+    for (i, spec) in l.file.constraints.iter_mut().enumerate() {
+        let (start, on_boundary) = step1[i];
+        let Some(requested) = spec.uv.or_else(|| {
+            let (w, h) = l.file.image_size?;
+            spec.px.map(|p| DVec2::new(p.x / w as f64, p.y / h as f64))
+        }) else {
+            continue;
+        };
+        let mut target = start + (requested - start) * run.blend;
+        if let Some(rng) = rng.as_mut()
+            && !on_boundary
+        {
+            let d = DVec2::new(rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0) * amplitude;
+            target = (target + d).clamp(DVec2::ZERO, DVec2::ONE);
+        }
+        spec.uv = Some(target);
+        spec.px = None;
+    }
+    let thumbnail = thumbs.map(|dir| dir.join(thumbnail_name(run)));
+    let previews = PreviewRequest {
+        layout: thumbnail.clone(),
+        render: None,
+        size: sweep.thumbnail_size,
+    };
+    match crate::solve::solve_loaded_shared(l, asset.clone(), None, previews) {
+        Ok(report) => fill_row(&mut row, &report),
+        Err(e) => row.message = e.to_string(),
+    }
+    if row.status != "error" {
+        row.thumbnail = thumbnail.map(|t| t.file_name().unwrap_or_default().to_string_lossy().into_owned());
+    }
+    row.time_ms = started.elapsed().as_secs_f64() * 1e3;
+    row
+}
+
+fn fill_row(row: &mut Row, report: &Report) {
+    let folded = report.orientation.flipped + report.orientation.zero_area > 0;
+    row.status = match (report.status, folded) {
+        (_, true) => "folded",
+        (Status::Reached, false) => "reached",
+        (Status::Partial, false) => "partial",
+        (Status::Error, false) => "error",
+    }
+    .into();
+    row.reached = report.constraints.iter().filter(|c| c.reached).count();
+    row.constraints = report.constraints.len();
+    row.max_residual = finite(report.max_residual);
+    row.mean_residual = finite(report.mean_residual);
+    row.flipped = report.orientation.flipped;
+    row.zero_area = report.orientation.zero_area;
+    row.stretch_l2_step1 = finite(report.stretch_step1.l2);
+    row.stretch_l2 = finite(report.stretch_final.l2);
+    row.stretch_linf = finite(report.stretch_final.linf);
+    row.iterations = report.iterations;
+    row.halvings = report.halvings;
+    if let Some(c) = &report.completion {
+        row.completion_ran = c.soft;
+        row.newton_steps = c.newton_steps + c.polish_steps;
+    }
+    row.message = report.message.clone().unwrap_or_default();
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The rows as CSV (header first).
+pub fn to_csv(rows: &[Row]) -> String {
+    let mut out = COLUMNS.join(",") + "\n";
+    for r in rows {
+        let v = serde_json::to_value(r).expect("row serialises");
+        let fields: Vec<String> = COLUMNS
+            .iter()
+            .map(|c| match &v[*c] {
+                serde_json::Value::Null => String::new(),
+                serde_json::Value::String(s) => csv_field(s),
+                other => other.to_string(),
+            })
+            .collect();
+        out += &fields.join(",");
+        out.push('\n');
+    }
+    out
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// Per setting: runs, reached / partial / folded / error counts, median
+/// stretch (fold-free results) and median time (Markdown table).
+pub fn summary(rows: &[Row]) -> String {
+    let mut order: Vec<String> = Vec::new();
+    for r in rows {
+        if !order.contains(&r.setting) {
+            order.push(r.setting.clone());
+        }
+    }
+    let mut out = String::from(
+        "| setting | runs | reached | partial | folded | error | stretch L2 (median) | time ms (median) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for name in order {
+        let rs: Vec<&Row> = rows.iter().filter(|r| r.setting == name).collect();
+        let count = |s: &str| rs.iter().filter(|r| r.status == s).count();
+        let stretch = median(
+            rs.iter()
+                .filter(|r| r.status == "reached" || r.status == "partial")
+                .filter_map(|r| r.stretch_l2)
+                .collect(),
+        );
+        let time = median(rs.iter().map(|r| r.time_ms).collect());
+        out += &format!(
+            "| {name} | {} | {} | {} | {} | {} | {} | {} |\n",
+            rs.len(),
+            count("reached"),
+            count("partial"),
+            count("folded"),
+            count("error"),
+            stretch.map_or("–".into(), |s| format!("{s:.3}")),
+            time.map_or("–".into(), |t| format!("{t:.1}")),
+        );
+    }
+    out
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), SweepError> {
+    crate::io::atomic::write_atomically(path, bytes).map_err(|source| SweepError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Runs the sweep in `sweep_path`.
+///
+/// # Errors
+/// The sweep file (unreadable, RON errors, a pattern matching nothing),
+/// the output folder. Failures of single runs are rows with status `error`.
+pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepOutcome, SweepError> {
+    let sweep = SweepFile::load(sweep_path)?;
+    let base = sweep_path.parent().unwrap_or(Path::new("."));
+    let mut files: Vec<PathBuf> = Vec::new();
+    for pattern in &sweep.constraints {
+        let found = file::expand(pattern, base);
+        if found.is_empty() {
+            return Err(SweepError::NoFiles {
+                sweep: sweep_path.to_path_buf(),
+                pattern: pattern.clone(),
+            });
+        }
+        for f in found {
+            if !files.contains(&f) {
+                files.push(f);
+            }
+        }
+    }
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| f.strip_prefix(base).unwrap_or(f).display().to_string())
+        .collect();
+    let cwd = std::env::current_dir().unwrap_or_default();
+    let output = crate::watch::registry::normalize(&base.join(&sweep.output), &cwd);
+    let output = output.strip_prefix(&cwd).map(Path::to_path_buf).unwrap_or(output);
+    let jsonl_path = output.join("runs.jsonl");
+    let runs = grid(&sweep, &names);
+    let mut done: HashMap<String, Row> = HashMap::new();
+    if !options.force
+        && let Ok(text) = std::fs::read_to_string(&jsonl_path)
+    {
+        for line in text.lines() {
+            if let Ok(row) = serde_json::from_str::<Row>(line) {
+                done.insert(row.id.clone(), row);
+            }
+        }
+    }
+    let pending: Vec<&Run> = runs.iter().filter(|r| !done.contains_key(&r.id)).collect();
+    let thumbs = sweep.thumbnails.then(|| output.join("thumbs"));
+    std::fs::create_dir_all(thumbs.as_deref().unwrap_or(&output)).map_err(|source| SweepError::Write {
+        path: output.clone(),
+        source,
+    })?;
+    let jobs = options
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs.max(1))
+        .build()
+        .map_err(|e| SweepError::Threads {
+            jobs,
+            message: e.to_string(),
+        })?;
+    // Inputs and step-1 probes, only for files with pending runs.
+    let needed: Vec<usize> = (0..files.len())
+        .filter(|&i| pending.iter().any(|r| r.file_index == i))
+        .collect();
+    let inputs: HashMap<usize, Input> = pool.install(|| {
+        needed
+            .par_iter()
+            .map(|&i| {
+                let loaded = crate::solve::load(&files[i])
+                    .map(|(l, a)| (l, Arc::new(a)))
+                    .map_err(|e| e.to_string());
+                (
+                    i,
+                    Input {
+                        name: names[i].clone(),
+                        loaded,
+                    },
+                )
+            })
+            .collect()
+    });
+    let mut probe_keys: Vec<(usize, CornerChoice)> =
+        pending.iter().map(|r| (r.file_index, r.setting.corners)).collect();
+    probe_keys.sort_by_key(|(i, c)| (*i, *c == CornerChoice::Auto));
+    probe_keys.dedup();
+    let probes: HashMap<(usize, CornerChoice), Step1> = pool.install(|| {
+        probe_keys
+            .par_iter()
+            .map(|&(i, corners)| {
+                let step1 = match &inputs[&i].loaded {
+                    Ok((l, a)) => probe_step1(l, a, corners),
+                    Err(e) => Err(e.clone()),
+                };
+                ((i, corners), step1)
+            })
+            .collect()
+    });
+    let bar = match options.progress {
+        Progress::Auto if std::io::stderr().is_terminal() => {
+            let bar = indicatif::ProgressBar::new(pending.len() as u64);
+            if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} {msg}") {
+                bar.set_style(style);
+            }
+            Some(bar)
+        }
+        _ => None,
+    };
+    let lines = options.progress == Progress::Auto && bar.is_none();
+    let journal = Mutex::new(
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&jsonl_path)
+            .map_err(|source| SweepError::Write {
+                path: jsonl_path.clone(),
+                source,
+            })?,
+    );
+    if options.force {
+        journal.lock().expect("journal").set_len(0).ok();
+    }
+    let counter = std::sync::atomic::AtomicUsize::new(0);
+    let total = pending.len();
+    let new_rows: Vec<Row> = pool.install(|| {
+        pending
+            .par_iter()
+            .map(|run| {
+                let row = solve_run(
+                    run,
+                    &inputs[&run.file_index],
+                    &probes[&(run.file_index, run.setting.corners)],
+                    &sweep,
+                    thumbs.as_deref(),
+                );
+                if let Ok(line) = serde_json::to_string(&row)
+                    && let Ok(mut f) = journal.lock()
+                {
+                    let _ = writeln!(f, "{line}");
+                }
+                let k = counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                if let Some(bar) = &bar {
+                    bar.inc(1);
+                    bar.set_message(format!("{}: {}", row.id, row.status));
+                } else if lines {
+                    eprintln!("[{k}/{total}] {}: {} ({:.1} ms)", row.id, row.status, row.time_ms);
+                }
+                row
+            })
+            .collect()
+    });
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    let ran = new_rows.len();
+    for row in new_rows {
+        done.insert(row.id.clone(), row);
+    }
+    // Rows in grid order; rows of runs no longer in the grid are dropped.
+    let rows: Vec<Row> = runs.iter().filter_map(|r| done.remove(&r.id)).collect();
+    let mut jsonl = String::new();
+    for r in &rows {
+        jsonl += &serde_json::to_string(r).expect("row serialises");
+        jsonl.push('\n');
+    }
+    drop(journal);
+    write(&jsonl_path, jsonl.as_bytes())?;
+    write(&output.join("runs.csv"), to_csv(&rows).as_bytes())?;
+    let summary = summary(&rows);
+    write(&output.join("summary.md"), summary.as_bytes())?;
+    if let Some(dir) = &thumbs {
+        let sheet = contact_sheet(&runs, &rows, dir, sweep.thumbnail_size);
+        let png = crate::preview::render::encode_png(&sheet).map_err(|e| SweepError::Write {
+            path: output.join("contact_sheet.png"),
+            source: std::io::Error::other(e),
+        })?;
+        write(&output.join("contact_sheet.png"), &png)?;
+    }
+    Ok(SweepOutcome {
+        rows,
+        ran,
+        output,
+        summary,
+    })
+}
+
+/// Status colour under each thumbnail of the contact sheet.
+pub fn status_colour(status: &str) -> [u8; 3] {
+    match status {
+        "reached" => [40, 170, 70],
+        "partial" => [240, 160, 30],
+        "folded" => [200, 0, 200],
+        _ => [200, 30, 30],
+    }
+}
+
+/// One thumbnail per run: a row per (file, setting, jitter sample), a
+/// column per blend value, each with a status bar (green reached, orange
+/// partial, magenta folded, red error).
+fn contact_sheet(runs: &[Run], rows: &[Row], thumbs: &Path, size: u32) -> image::RgbaImage {
+    use image::{Rgba, RgbaImage};
+    let columns = runs.iter().map(|r| r.blend_index).max().map_or(1, |m| m + 1) as u32;
+    let n_rows = (runs.len() as u32).div_ceil(columns.max(1));
+    let (gap, bar) = (4u32, 6u32);
+    let cell_w = size + gap;
+    let cell_h = size + bar + gap;
+    let mut sheet = RgbaImage::from_pixel(
+        columns * cell_w + gap,
+        n_rows * cell_h + gap,
+        Rgba([255, 255, 255, 255]),
+    );
+    let by_id: HashMap<&str, &Row> = rows.iter().map(|r| (r.id.as_str(), r)).collect();
+    for (k, run) in runs.iter().enumerate() {
+        let (cx, cy) = ((k as u32 % columns) * cell_w + gap, (k as u32 / columns) * cell_h + gap);
+        let row = by_id.get(run.id.as_str());
+        let thumb = row
+            .and_then(|r| r.thumbnail.as_ref())
+            .and_then(|t| image::open(thumbs.join(t)).ok())
+            .map(|i| i.to_rgba8());
+        for y in 0..size {
+            for x in 0..size {
+                let p = thumb
+                    .as_ref()
+                    .and_then(|t| t.get_pixel_checked(x, y).copied())
+                    .unwrap_or(Rgba([225, 225, 225, 255]));
+                sheet.put_pixel(cx + x, cy + y, p);
+            }
+        }
+        let colour = status_colour(row.map_or("error", |r| r.status.as_str()));
+        for y in 0..bar {
+            for x in 0..size {
+                sheet.put_pixel(cx + x, cy + size + y, Rgba([colour[0], colour[1], colour[2], 255]));
+            }
+        }
+    }
+    sheet
+}
