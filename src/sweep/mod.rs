@@ -324,7 +324,7 @@ fn solve_run(run: &Run, input: &Input, step1: &Step1, sweep: &SweepFile, thumbs:
         }) else {
             continue;
         };
-        let mut target = start + (requested - start) * run.blend;
+        let mut target = (start + (requested - start) * run.blend).clamp(DVec2::ZERO, DVec2::ONE);
         if let Some(rng) = rng.as_mut()
             && !on_boundary
         {
