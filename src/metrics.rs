@@ -22,14 +22,7 @@ pub struct Stretch {
 /// Infinite when a triangle has zero or negative area. Triangles with zero 3D
 /// area are skipped.
 pub fn sander_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 3]]) -> Stretch {
-    let mut area_3d = 0.0;
-    let mut area_2d = 0.0;
-    for t in triangles {
-        let [q1, q2, q3] = t.map(|v| positions[v as usize]);
-        let [p1, p2, p3] = t.map(|v| layout[v as usize]);
-        area_3d += 0.5 * (q2 - q1).cross(q3 - q1).length();
-        area_2d += 0.5 * (p2 - p1).perp_dot(p3 - p1);
-    }
+    let (area_3d, area_2d) = total_areas(positions, layout, triangles);
     if area_3d <= 0.0 {
         return Stretch {
             l2: f64::NAN,
@@ -67,6 +60,18 @@ pub fn sander_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 
     }
 }
 
+/// Total 3D area and signed layout area of `triangles`.
+fn total_areas(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 3]]) -> (f64, f64) {
+    let (mut area_3d, mut area_2d) = (0.0, 0.0);
+    for t in triangles {
+        let [q1, q2, q3] = t.map(|v| positions[v as usize]);
+        let [p1, p2, p3] = t.map(|v| layout[v as usize]);
+        area_3d += 0.5 * (q2 - q1).cross(q3 - q1).length();
+        area_2d += 0.5 * (p2 - p1).perp_dot(p3 - p1);
+    }
+    (area_3d, area_2d)
+}
+
 /// The metric terms `(a, b, c)` of one triangle (3D corners `q`, layout
 /// corners `p`, layout scale `k`); `None` when its layout area is not positive.
 fn metric_terms(q: [DVec3; 3], p: [DVec2; 3], k: f64) -> Option<(f64, f64, f64)> {
@@ -85,13 +90,7 @@ fn metric_terms(q: [DVec3; 3], p: [DVec2; 3], k: f64) -> Option<(f64, f64, f64)>
 /// in [`sander_stretch`]): 1 = isometric; infinite for a flipped or
 /// zero-area layout triangle; NaN for a zero-area 3D triangle.
 pub fn triangle_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 3]]) -> Vec<f64> {
-    let (mut area_3d, mut area_2d) = (0.0, 0.0);
-    for t in triangles {
-        let [q1, q2, q3] = t.map(|v| positions[v as usize]);
-        let [p1, p2, p3] = t.map(|v| layout[v as usize]);
-        area_3d += 0.5 * (q2 - q1).cross(q3 - q1).length();
-        area_2d += 0.5 * (p2 - p1).perp_dot(p3 - p1);
-    }
+    let (area_3d, area_2d) = total_areas(positions, layout, triangles);
     let k = if area_2d > 0.0 { (area_3d / area_2d).sqrt() } else { 1.0 };
     triangles
         .iter()

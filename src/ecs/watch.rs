@@ -184,7 +184,7 @@ pub fn ingest_file_events(world: &mut World) {
             FileEvent::ConstraintsChanged(p) => {
                 to_load.entry(p).or_insert(false);
             }
-            FileEvent::AssetChanged(p) => asset_changed(world, &settings, &p, &mut to_load),
+            FileEvent::AssetChanged(p) => asset_changed(world, &p, &mut to_load),
             FileEvent::Removed(p) => {
                 let known: Vec<PathBuf> = world
                     .resource::<WatchRegistry>()
@@ -204,15 +204,15 @@ pub fn ingest_file_events(world: &mut World) {
                     .filter(|a| a.starts_with(&p))
                     .cloned()
                     .collect();
-                asset_changed(world, &settings, &p, &mut to_load);
+                asset_changed(world, &p, &mut to_load);
                 for a in assets.into_iter().filter(|a| *a != p) {
-                    asset_changed(world, &settings, &a, &mut to_load);
+                    asset_changed(world, &a, &mut to_load);
                 }
             }
             FileEvent::FolderAppeared(dir) => {
                 let (constraints, assets) = scan_folder(&dir, &settings.rules);
                 for a in assets {
-                    asset_changed(world, &settings, &a, &mut to_load);
+                    asset_changed(world, &a, &mut to_load);
                 }
                 for c in constraints {
                     to_load.entry(c).or_insert(false);
@@ -227,7 +227,7 @@ pub fn ingest_file_events(world: &mut World) {
                     .cloned()
                     .collect();
                 for a in cached {
-                    asset_changed(world, &settings, &a, &mut to_load);
+                    asset_changed(world, &a, &mut to_load);
                 }
                 let known: Vec<PathBuf> = world.resource::<WatchRegistry>().files.keys().cloned().collect();
                 for f in known {
@@ -256,8 +256,15 @@ fn dependants(world: &mut World, asset: &Path) -> Vec<Entity> {
         .collect()
 }
 
+/// Marks the cached `asset` as removed from (or back on) disk.
+fn set_missing(world: &mut World, asset: &Path, missing: bool) {
+    if let Some(entry) = world.resource_mut::<WatchRegistry>().assets.assets.get_mut(asset) {
+        entry.missing = missing;
+    }
+}
+
 /// An asset file (or a buffer of one) was written, created or removed.
-fn asset_changed(world: &mut World, settings: &WatchSettings, file: &Path, to_load: &mut BTreeMap<PathBuf, bool>) {
+fn asset_changed(world: &mut World, file: &Path, to_load: &mut BTreeMap<PathBuf, bool>) {
     let cached = world.resource::<WatchRegistry>().assets.assets_using(file);
     for asset in &cached {
         let registry = world.resource::<WatchRegistry>();
@@ -270,13 +277,7 @@ fn asset_changed(world: &mut World, settings: &WatchSettings, file: &Path, to_lo
                 if was_missing {
                     continue;
                 }
-                world
-                    .resource_mut::<WatchRegistry>()
-                    .assets
-                    .assets
-                    .get_mut(asset)
-                    .expect("cached")
-                    .missing = true;
+                set_missing(world, asset, true);
                 for e in dependants(world, asset) {
                     let err = Error::Asset(crate::io::AssetError::Read {
                         path: asset.clone(),
@@ -291,13 +292,7 @@ fn asset_changed(world: &mut World, settings: &WatchSettings, file: &Path, to_lo
             Ok(h) if h == old_hash || Some(h) == written => {
                 world.resource_mut::<WatchRegistry>().counters.unchanged += 1;
                 if was_missing {
-                    world
-                        .resource_mut::<WatchRegistry>()
-                        .assets
-                        .assets
-                        .get_mut(asset)
-                        .expect("cached")
-                        .missing = false;
+                    set_missing(world, asset, false);
                     for e in dependants(world, asset) {
                         if world.get::<Failed>(e).is_some() {
                             let path = world.get::<WatchedFile>(e).expect("watched").path.clone();
@@ -334,7 +329,6 @@ fn asset_changed(world: &mut World, settings: &WatchSettings, file: &Path, to_lo
     for p in waiting {
         to_load.insert(p, true);
     }
-    let _ = settings;
 }
 
 /// Marks `entity` failed: a running solve stops and nothing is written.
@@ -622,10 +616,10 @@ pub fn report_results(
                 .assets
                 .get(&out)
                 .map_or_else(|| vec![out.clone()], |a| a.files.clone());
-            if registry.assets.assets.contains_key(&out) || settings.output == OutputMode::InPlace {
-                if let Ok(h) = AssetCache::current_hash(&files) {
-                    registry.written.insert(out, h);
-                }
+            if (registry.assets.assets.contains_key(&out) || settings.output == OutputMode::InPlace)
+                && let Ok(h) = AssetCache::current_hash(&files)
+            {
+                registry.written.insert(out, h);
             }
         }
         let reached = report.constraints.iter().filter(|c| c.reached).count();

@@ -213,18 +213,11 @@ impl Watches {
     /// Arms `root` if its folder exists (returns the scan event), else
     /// watches its nearest existing ancestor and keeps it pending.
     fn arm(&mut self, root: WatchRoot, logger: &Logger, cwd: &Path) -> Option<FileEvent> {
-        let ready = if root.single_file {
-            root.folder().is_dir()
-        } else {
-            root.path.is_dir()
-        };
-        if ready && self.watch(&root.path_to_watch(), !root.single_file, logger, cwd) {
+        if root.folder().is_dir() && self.watch(root.folder(), !root.single_file, logger, cwd) {
             let event = scan_event(&root);
             self.armed.push(root);
             return Some(event);
         }
-        let mut ancestor = root.folder().to_path_buf();
-        while !ancestor.is_dir() && ancestor.pop() {}
         if !self.pending.contains(&root) {
             logger.warn(
                 "waiting",
@@ -232,12 +225,20 @@ impl Watches {
                 "does not exist yet; it is picked up when it appears",
                 json!({}),
             );
-            self.pending.push(root);
+            self.pending.push(root.clone());
         }
+        self.watch_nearest_ancestor(&root, logger, cwd);
+        None
+    }
+
+    /// Watches (not recursively) the nearest existing folder above a
+    /// pending root, so its creation is seen.
+    fn watch_nearest_ancestor(&mut self, root: &WatchRoot, logger: &Logger, cwd: &Path) {
+        let mut ancestor = root.folder().to_path_buf();
+        while !ancestor.is_dir() && ancestor.pop() {}
         if ancestor.is_dir() {
             self.watch(&ancestor, false, logger, cwd);
         }
-        None
     }
 
     /// Re-checks pending roots and armed roots whose folder vanished.
@@ -245,7 +246,7 @@ impl Watches {
         let gone: Vec<WatchRoot> = self.armed.iter().filter(|r| !r.folder().is_dir()).cloned().collect();
         for root in gone {
             self.armed.retain(|r| *r != root);
-            let dir = root.path_to_watch();
+            let dir = root.folder().to_path_buf();
             let recursive = !root.single_file;
             self.watched.remove(&(dir.clone(), recursive));
             let _ = self.debouncer.unwatch(&dir);
@@ -255,12 +256,7 @@ impl Watches {
         let mut events = Vec::new();
         for root in pending {
             let was_pending_name = root.path.clone();
-            let ready = if root.single_file {
-                root.folder().is_dir()
-            } else {
-                root.path.is_dir()
-            };
-            if ready {
+            if root.folder().is_dir() {
                 if let Some(e) = self.arm(root, logger, cwd) {
                     logger.info(
                         "appeared",
@@ -271,22 +267,11 @@ impl Watches {
                     events.push(e);
                 }
             } else {
-                self.pending.push(root.clone());
-                let mut ancestor = root.folder().to_path_buf();
-                while !ancestor.is_dir() && ancestor.pop() {}
-                if ancestor.is_dir() {
-                    self.watch(&ancestor, false, logger, cwd);
-                }
+                self.watch_nearest_ancestor(&root, logger, cwd);
+                self.pending.push(root);
             }
         }
         events
-    }
-}
-
-impl WatchRoot {
-    /// The folder the OS watch is put on.
-    fn path_to_watch(&self) -> PathBuf {
-        self.folder().to_path_buf()
     }
 }
 

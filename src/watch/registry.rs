@@ -201,12 +201,7 @@ impl AssetCache {
                 })?;
         let asset = Arc::new(crate::io::load_asset(path, selection.mesh.as_ref(), selection.uv_set)?);
         let files = asset.files();
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        h.write_u64(main_hash);
-        for f in &files[1..] {
-            h.write_u64(std::fs::read(f).map(|b| content_hash(&b)).unwrap_or(0));
-        }
-        let hash = h.finish();
+        let hash = combined_hash(main_hash, &files[1..]);
         let entry = self.assets.entry(path.to_path_buf()).or_insert_with(|| CachedAsset {
             hash,
             files: files.clone(),
@@ -229,18 +224,21 @@ impl AssetCache {
     /// The combined hash of an asset's files as they are now, in the same
     /// form as [`CachedAsset::hash`].
     pub fn current_hash(files: &[PathBuf]) -> std::io::Result<u64> {
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        for (i, f) in files.iter().enumerate() {
-            let b = std::fs::read(f);
-            let v = match b {
-                Ok(b) => content_hash(&b),
-                Err(e) if i == 0 => return Err(e),
-                Err(_) => 0,
-            };
-            h.write_u64(v);
-        }
-        Ok(h.finish())
+        let (main, buffers) = files.split_first().ok_or_else(|| std::io::Error::other("no files"))?;
+        let main_hash = content_hash(&std::fs::read(main)?);
+        Ok(combined_hash(main_hash, buffers))
     }
+}
+
+/// The hash of an asset: its main file's hash, then each buffer file's
+/// content hash (0 for a buffer that cannot be read).
+fn combined_hash(main_hash: u64, buffers: &[PathBuf]) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    h.write_u64(main_hash);
+    for f in buffers {
+        h.write_u64(std::fs::read(f).map(|b| content_hash(&b)).unwrap_or(0));
+    }
+    h.finish()
 }
 
 #[cfg(test)]

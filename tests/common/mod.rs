@@ -93,18 +93,12 @@ pub fn write_mesh_glb(path: &Path, mesh: &uvpin::mesh::TriMesh) {
     uvpin::io::gltf_file::write_new_document(&json, &blob, path).expect("write glb");
 }
 
-/// Reads a glTF file back with the independent Python reader
-/// (tests/helpers/read_gltf.py, standard library only): per primitive of
-/// mesh 0, its vertex count, triangle count and how many triangles of each
-/// orientation TEXCOORD_<set> gives. `None` (with a message) without python3.
-pub fn python_uv_orientation(path: &Path, uv_set: u32) -> Option<serde_json::Value> {
+/// Runs the independent Python reader (tests/helpers/read_gltf.py, standard
+/// library only) on `path` with `args`; its JSON, or `None` (with a message)
+/// without python3.
+fn python_reader(path: &Path, args: &[&str]) -> Option<serde_json::Value> {
     let script = repo().join("tests/helpers/read_gltf.py");
-    let out = Command::new("python3")
-        .arg(script)
-        .arg(path)
-        .arg(uv_set.to_string())
-        .output();
-    match out {
+    match Command::new("python3").arg(script).arg(path).args(args).output() {
         Ok(o) if o.status.success() => Some(serde_json::from_slice(&o.stdout).expect("reader JSON")),
         Ok(o) => panic!(
             "independent reader failed on {}: {}",
@@ -118,38 +112,25 @@ pub fn python_uv_orientation(path: &Path, uv_set: u32) -> Option<serde_json::Val
     }
 }
 
+/// Reads a glTF file back with the independent Python reader: per primitive
+/// of mesh 0, its vertex count, triangle count and how many triangles of each
+/// orientation TEXCOORD_<set> gives. `None` (with a message) without python3.
+pub fn python_uv_orientation(path: &Path, uv_set: u32) -> Option<serde_json::Value> {
+    python_reader(path, &[&uv_set.to_string()])
+}
+
 /// The texture coordinates (TEXCOORD_<set>) of primitive 0 of mesh 0, read
 /// back with the independent Python reader, and its flipped + zero-area
 /// triangle count. `None` (with a message) without python3.
 pub fn python_uvs(path: &Path, uv_set: u32) -> Option<(Vec<[f64; 2]>, u64)> {
-    let script = repo().join("tests/helpers/read_gltf.py");
-    let out = Command::new("python3")
-        .arg(script)
-        .arg(path)
-        .arg(uv_set.to_string())
-        .arg("uvs")
-        .output();
-    match out {
-        Ok(o) if o.status.success() => {
-            let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("reader JSON");
-            let p = &v[0];
-            let uvs = p["uv"]
-                .as_array()
-                .expect("uv list")
-                .iter()
-                .map(|c| [c[0].as_f64().unwrap(), c[1].as_f64().unwrap()])
-                .collect();
-            let bad = p["positive"].as_u64().unwrap() + p["zero"].as_u64().unwrap();
-            Some((uvs, bad))
-        }
-        Ok(o) => panic!(
-            "independent reader failed on {}: {}",
-            path.display(),
-            String::from_utf8_lossy(&o.stderr)
-        ),
-        Err(e) => {
-            eprintln!("SKIP independent reader: python3 not available ({e})");
-            None
-        }
-    }
+    let v = python_reader(path, &[&uv_set.to_string(), "uvs"])?;
+    let p = &v[0];
+    let uvs = p["uv"]
+        .as_array()
+        .expect("uv list")
+        .iter()
+        .map(|c| [c[0].as_f64().unwrap(), c[1].as_f64().unwrap()])
+        .collect();
+    let bad = p["positive"].as_u64().unwrap() + p["zero"].as_u64().unwrap();
+    Some((uvs, bad))
 }
