@@ -79,25 +79,41 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
         width: 0.5,
         ..Default::default()
     };
+    // One path per fill colour (and one for all edges): triangles of a
+    // fold-free layout do not overlap, so filling them together is the same
+    // picture without seams, and much faster on big meshes.
+    let mut fills: std::collections::BTreeMap<[u8; 4], PathBuilder> = std::collections::BTreeMap::new();
+    let mut edges = PathBuilder::new();
     for (i, t) in scene.triangles.iter().enumerate() {
         let [a, b, c] = t.map(|v| px(scene.uvs[v as usize]));
-        let mut pb = PathBuilder::new();
+        let virtual_triangle = i >= scene.n_real_triangles;
+        let key = if virtual_triangle {
+            [110, 110, 120, 140]
+        } else {
+            let s = scene.stretch.and_then(|s| s.get(i).copied()).unwrap_or(1.0);
+            let [r, g, b] = stretch_colour(s);
+            [r, g, b, if textured { 110 } else { 255 }]
+        };
+        let pb = fills.entry(key).or_default();
         pb.move_to(a.0, a.1);
         pb.line_to(b.0, b.1);
         pb.line_to(c.0, c.1);
         pb.close();
-        let Some(path) = pb.finish() else { continue };
-        let virtual_triangle = i >= scene.n_real_triangles;
-        let fill = if virtual_triangle {
-            paint([110, 110, 120], 140)
-        } else {
-            let s = scene.stretch.and_then(|s| s.get(i).copied()).unwrap_or(1.0);
-            paint(stretch_colour(s), if textured { 110 } else { 255 })
-        };
-        pixmap.fill_path(&path, &fill, FillRule::Winding, Transform::identity(), None);
         if !many && !virtual_triangle {
-            pixmap.stroke_path(&path, &paint([40, 40, 40], 90), &edge, Transform::identity(), None);
+            edges.move_to(a.0, a.1);
+            edges.line_to(b.0, b.1);
+            edges.line_to(c.0, c.1);
+            edges.close();
         }
+    }
+    for (key, pb) in fills {
+        if let Some(path) = pb.finish() {
+            let fill = paint([key[0], key[1], key[2]], key[3]);
+            pixmap.fill_path(&path, &fill, FillRule::Winding, Transform::identity(), None);
+        }
+    }
+    if let Some(path) = edges.finish() {
+        pixmap.stroke_path(&path, &paint([40, 40, 40], 90), &edge, Transform::identity(), None);
     }
     // The outer boundary.
     if let Some((&first, rest)) = scene.outer_loop.split_first() {
