@@ -203,3 +203,13 @@ fn texture_pixmap(image: &image::RgbaImage) -> Option<Pixmap> {
     }
     Some(p)
 }
+
+/// The pixmap as a straight-alpha RGBA image (for the PNG encoder).
+pub fn to_image(pixmap: &Pixmap) -> image::RgbaImage {
+    let mut out = image::RgbaImage::new(pixmap.width(), pixmap.height());
+    for (dst, src) in out.pixels_mut().zip(pixmap.pixels()) {
+        let c = src.demultiply();
+        *dst = image::Rgba([c.red(), c.green(), c.blue(), c.alpha()]);
+    }
+    out
+}

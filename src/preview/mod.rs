@@ -68,8 +68,8 @@ pub fn draw_chart(
             markers: &markers,
             texture: texture.as_ref(),
         };
-        let png = layout::draw_layout(&scene, size)
-            .encode_png()
+        let pixmap = layout::draw_layout(&scene, size);
+        let png = render::encode_png(&layout::to_image(&pixmap))
             .map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
         write_png(path, &png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }

@@ -130,14 +130,22 @@ fn sample(tex: &RgbaImage, uv: DVec2) -> [u8; 3] {
     [p[0], p[1], p[2]]
 }
 
-/// Encodes an RGBA image as PNG bytes.
+/// Encodes an RGBA image as PNG bytes, with fast compression: pictures
+/// are redrawn on every daemon write and every sweep run.
 ///
 /// # Errors
 /// The encoder's.
 pub fn encode_png(image: &RgbaImage) -> Result<Vec<u8>, image::ImageError> {
-    let mut out = std::io::Cursor::new(Vec::new());
-    image.write_to(&mut out, image::ImageFormat::Png)?;
-    Ok(out.into_inner())
+    use image::ImageEncoder;
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let mut out = Vec::new();
+    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Adaptive).write_image(
+        image.as_raw(),
+        image.width(),
+        image.height(),
+        image::ExtendedColorType::Rgba8,
+    )?;
+    Ok(out)
 }
 
 #[cfg(test)]
