@@ -111,6 +111,10 @@ pub struct SourceAsset {
     pub container: Container,
     /// Number of meshes in the file.
     pub n_meshes: usize,
+    /// The base-colour texture, decoded on first use by
+    /// [`crate::preview::texture::base_colour_texture`] and then shared by
+    /// every picture of this asset (a sweep draws one per run).
+    pub decoded_texture: std::sync::OnceLock<Option<std::sync::Arc<image::RgbaImage>>>,
 }
 
 /// Reads mesh `mesh` of the asset at `path` with the existing UVs of TEXCOORD_`uv_set`.
@@ -148,6 +152,7 @@ pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Resu
                 uv_set,
                 container: Container::Obj { text },
                 n_meshes: 1,
+                decoded_texture: std::sync::OnceLock::new(),
             })
         }
         AssetFormat::Glb | AssetFormat::Gltf => gltf_file::load(path, format, &bytes, mesh, uv_set),
@@ -186,6 +191,7 @@ impl SourceAsset {
                 bin: None,
             },
             n_meshes: 1,
+            decoded_texture: std::sync::OnceLock::new(),
         }
     }
 }

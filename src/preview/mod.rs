@@ -66,7 +66,7 @@ pub fn draw_chart(
             stretch: Some(&stretch),
             outer_loop,
             markers: &markers,
-            texture: texture.as_ref(),
+            texture: texture.as_deref(),
         };
         let pixmap = layout::draw_layout(&scene, size);
         let png = render::encode_png(&layout::to_image(&pixmap))
@@ -78,7 +78,7 @@ pub fn draw_chart(
             real_positions,
             real_triangles,
             &uvs[..filled.n_real_vertices],
-            texture.as_ref(),
+            texture.as_deref(),
             size,
         );
         let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;

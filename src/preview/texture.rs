@@ -5,9 +5,16 @@ use base64::Engine;
 use serde_json::Value;
 
 /// The base-colour texture of the first material (of the asset's mesh) that
-/// has one, decoded; `None` when there is none or it cannot be decoded
-/// (pictures then show a plain square).
-pub fn base_colour_texture(asset: &SourceAsset) -> Option<image::RgbaImage> {
+/// has one, decoded once per loaded asset; `None` when there is none or it
+/// cannot be decoded (pictures then show a plain square).
+pub fn base_colour_texture(asset: &SourceAsset) -> Option<std::sync::Arc<image::RgbaImage>> {
+    asset
+        .decoded_texture
+        .get_or_init(|| decode(asset).map(std::sync::Arc::new))
+        .clone()
+}
+
+fn decode(asset: &SourceAsset) -> Option<image::RgbaImage> {
     let Container::Gltf { json, bin } = &asset.container else {
         return None;
     };
