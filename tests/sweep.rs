@@ -31,12 +31,13 @@ fn setup(dir: &TempDir) {
         &[(A, a.0 + 0.03, a.1 - 0.02), (B, b.0 - 0.02, b.1 + 0.03)],
         "",
     );
-    write_constraints(
-        &dir.path("swap.uvpin.ron"),
-        Path::new("grid.glb"),
-        &[(A, b.0, b.1), (B, a.0, a.1)],
-        "",
-    );
+    write_swap(&dir.path("swap.uvpin.ron"), "");
+}
+
+/// A constraint file asking A and B to trade places, with `extra` fields.
+fn write_swap(path: &Path, extra: &str) {
+    let (a, b) = (grid_uv(A), grid_uv(B));
+    write_constraints(path, Path::new("grid.glb"), &[(A, b.0, b.1), (B, a.0, a.1)], extra);
 }
 
 fn sweep_file(dir: &TempDir, text: &str) -> std::path::PathBuf {
@@ -164,13 +165,7 @@ fn the_paper_guard_on_the_crossing_pair_is_counted_as_folded_and_never_written()
 
     // The same setting through `uvpin solve`: an error, nothing written.
     let ron = dir.path("swap-paper.uvpin.ron");
-    let (a, b) = (grid_uv(A), grid_uv(B));
-    write_constraints(
-        &ron,
-        Path::new("grid.glb"),
-        &[(A, b.0, b.1), (B, a.0, a.1)],
-        "    solver: (guard: Paper),\n",
-    );
+    write_swap(&ron, "    solver: (guard: Paper),\n");
     let out = dir.path("never.glb");
     let (o, report) = solve_json(&ron, &out);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
@@ -212,13 +207,7 @@ fn preview_pictures_decode_at_their_size_and_mark_the_constraints() {
 
     // An unreached constraint (the crossing without completion) is marked red where it stopped.
     let ron = dir.path("stuck.uvpin.ron");
-    let (a, b) = (grid_uv(A), grid_uv(B));
-    write_constraints(
-        &ron,
-        Path::new("grid.glb"),
-        &[(A, b.0, b.1), (B, a.0, a.1)],
-        "    solver: (completion: Never),\n",
-    );
+    write_swap(&ron, "    solver: (completion: Never),\n");
     let o = uvpin(&[
         "solve",
         ron.to_str().unwrap(),
