@@ -6,10 +6,11 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
-use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
+use faer::sparse::{Pair, SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 use faer::{Mat, Par, Side};
 use std::sync::Arc;
 use thiserror::Error;
@@ -31,7 +32,7 @@ pub enum SparseError {
 #[derive(Debug, Clone)]
 pub struct SpdPattern {
     n: usize,
-    symbolic: SymbolicSparseColMat<usize>,
+    symbolic: Arc<SymbolicSparseColMat<usize>>,
     argsort: Arc<faer::sparse::Argsort<usize>>,
     cholesky: Arc<SymbolicCholesky<usize>>,
 }
@@ -95,10 +96,80 @@ impl SpdPattern {
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         Ok(SpdPattern {
             n,
-            symbolic,
+            symbolic: Arc::new(symbolic),
             argsort: Arc::new(argsort),
             cholesky: Arc::new(cholesky),
         })
+    }
+
+    /// The pattern of a symmetric matrix made of `block × block` blocks over
+    /// `n_nodes` nodes (unknown `block · node + k`), coupled where
+    /// `node_pairs` `(a, b)` says so (either order; diagonal blocks always).
+    /// The elimination order is minimum degree on the node graph, each
+    /// node's unknowns kept together: less fill, and far cheaper to analyse,
+    /// than minimum degree on the unknowns. Assemble values in place with
+    /// [`SpdPattern::slot`] and factor with [`SpdPattern::factor_assembled`].
+    pub fn new_blocked(n_nodes: usize, block: usize, node_pairs: &[(u32, u32)]) -> Result<Self, SparseError> {
+        let pattern_error = |e: &dyn std::fmt::Debug| SparseError::Pattern(format!("{e:?}"));
+        let mut nodes: Vec<Pair<usize, usize>> = (0..n_nodes).map(|v| Pair::new(v, v)).collect();
+        nodes.extend(node_pairs.iter().map(|&(a, b)| {
+            let (a, b) = (a.max(b) as usize, a.min(b) as usize);
+            Pair::new(a, b)
+        }));
+        let (node_graph, _) = SymbolicSparseColMat::<usize>::try_new_from_indices(n_nodes, n_nodes, &nodes)
+            .map_err(|e| pattern_error(&e))?;
+        let mut node_order = vec![0usize; n_nodes];
+        let mut node_rank = vec![0usize; n_nodes];
+        let mut mem = MemBuffer::new(amd::order_scratch::<usize>(n_nodes, node_graph.compute_nnz()));
+        amd::order(
+            &mut node_order,
+            &mut node_rank,
+            node_graph.as_ref(),
+            amd::Control::default(),
+            MemStack::new(&mut mem),
+        )
+        .map_err(|e| pattern_error(&e))?;
+        let n = n_nodes * block;
+        let mut entries = Vec::with_capacity(node_graph.compute_nnz() * block * block);
+        for col in 0..n_nodes {
+            for &row in node_graph.row_idx_of_col_raw(col) {
+                for a in 0..block {
+                    for b in 0..block {
+                        let (r, c) = (block * row + a, block * col + b);
+                        if r >= c {
+                            entries.push((r, c));
+                        }
+                    }
+                }
+            }
+        }
+        let order: Vec<usize> = node_order
+            .iter()
+            .flat_map(|&v| (0..block).map(move |k| block * v + k))
+            .collect();
+        Self::analyse(n, &entries, Some(&order), SupernodalThreshold::FORCE_SUPERNODAL)
+    }
+
+    /// Where entry `(row, col)` (`row >= col`) sits in the values of
+    /// [`SpdPattern::factor_assembled`]; `None` outside the pattern.
+    pub fn slot(&self, row: usize, col: usize) -> Option<usize> {
+        let start = self.symbolic.col_ptr()[col];
+        self.symbolic
+            .row_idx_of_col_raw(col)
+            .binary_search(&row)
+            .ok()
+            .map(|k| start + k)
+    }
+
+    /// How many values [`SpdPattern::factor_assembled`] takes.
+    pub fn n_values(&self) -> usize {
+        self.symbolic.row_idx().len()
+    }
+
+    /// Numeric factorisation of values already in the pattern's own order
+    /// (see [`SpdPattern::slot`]): no sorting, no summing of duplicates.
+    pub fn factor_assembled(&self, values: &[f64]) -> Result<SpdFactor, SparseError> {
+        self.factor_matrix(SparseColMatRef::new((*self.symbolic).as_ref(), values))
     }
 
     pub fn n(&self) -> usize {
@@ -107,8 +178,12 @@ impl SpdPattern {
 
     /// Numeric factorisation with `values` in the order of the `entries` given to [`SpdPattern::new`].
     pub fn factor(&self, values: &[f64]) -> Result<SpdFactor, SparseError> {
-        let a = SparseColMat::<usize, f64>::new_from_argsort(self.symbolic.clone(), &self.argsort, values)
+        let a = SparseColMat::<usize, f64>::new_from_argsort((*self.symbolic).clone(), &self.argsort, values)
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
+        self.factor_matrix(a.as_ref())
+    }
+
+    fn factor_matrix(&self, a: SparseColMatRef<'_, usize, f64>) -> Result<SpdFactor, SparseError> {
         let mut l_values = vec![0.0f64; self.cholesky.len_val()];
         let mut mem = MemBuffer::new(
             self.cholesky
@@ -117,7 +192,7 @@ impl SpdPattern {
         self.cholesky
             .factorize_numeric_llt::<f64>(
                 &mut l_values,
-                a.as_ref(),
+                a,
                 Side::Lower,
                 Default::default(),
                 Par::Seq,
@@ -140,6 +215,19 @@ impl SpdFactor {
         LltRef::<usize, f64>::new(chol, &self.l_values).solve_in_place_with_conj(
             faer::Conj::No,
             rhs.as_mut(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
+    }
+
+    /// Solves `A x = b` in place for one column `b`.
+    pub fn solve_column(&self, b: &mut [f64]) {
+        let n = b.len();
+        let chol = &self.pattern.cholesky;
+        let mut mem = MemBuffer::new(chol.solve_in_place_scratch::<f64>(1, Par::Seq));
+        LltRef::<usize, f64>::new(chol, &self.l_values).solve_in_place_with_conj(
+            faer::Conj::No,
+            faer::MatMut::from_column_major_slice_mut(b, n, 1),
             Par::Seq,
             MemStack::new(&mut mem),
         );

@@ -133,11 +133,12 @@ pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 
     h[12] -= hj;
     h[6] += hj;
     h[9] += hj;
-    // Twist mode projection.
+    // Twist mode projection. Q, the rotation of F's polar decomposition, is
+    // [[a + d, b − c], [c − b, a + d]] / r with r² = I₂ + 2J > 0; T = R₉₀ Q / √2.
     let lambda_twist = 2.0 - 2.0 * (i2 - j) / j3;
     if lambda_twist < 0.0 {
-        let theta = (c - b).atan2(a + d);
-        let (s, co) = theta.sin_cos();
+        let r = ((a + d) * (a + d) + (c - b) * (c - b)).sqrt();
+        let (co, s) = ((a + d) / r, (c - b) / r);
         let t = [-s, -co, co, -s].map(|x| x / std::f64::consts::SQRT_2);
         for r in 0..4 {
             for q in 0..4 {
@@ -145,34 +146,34 @@ pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 
             }
         }
     }
-    // vec(F) = B x: ∂F_ij/∂x_k,i = coefficient c_kj (k = corner).
+    // vec(F) = B x: F_ij = Σ_k coef[k][j] · x_k,i (corner k, coordinate i),
+    // so B's row (i, j) touches only the three x_·,i.
     let dm = rest.inv_rest;
     let coef = [[-(dm[0] + dm[2]), -(dm[1] + dm[3])], [dm[0], dm[1]], [dm[2], dm[3]]];
-    // B (4 × 6): row (i, j) → vec index 2i + j; column (k, i) → 2k + i.
-    let mut bm = [[0.0f64; 6]; 4];
-    for i in 0..2 {
-        for jj in 0..2 {
-            for k in 0..3 {
-                bm[2 * i + jj][2 * k + i] = coef[k][jj];
+    let w = rest.weight;
+    let mut grad = [0.0f64; 6];
+    for k in 0..3 {
+        for i in 0..2 {
+            grad[2 * k + i] = w * (coef[k][0] * grad_f[2 * i] + coef[k][1] * grad_f[2 * i + 1]);
+        }
+    }
+    // (H B)[(i, j)][(l, m)] = Σ_n H[(i, j)][(m, n)] coef[l][n].
+    let mut hb = [[0.0f64; 6]; 4];
+    for (row, hb_row) in hb.iter_mut().enumerate() {
+        for l in 0..3 {
+            for m in 0..2 {
+                hb_row[2 * l + m] = h[row * 4 + 2 * m] * coef[l][0] + h[row * 4 + 2 * m + 1] * coef[l][1];
             }
         }
     }
-    let w = rest.weight;
-    let mut grad = [0.0f64; 6];
-    for col in 0..6 {
-        grad[col] = w * (0..4).map(|r| bm[r][col] * grad_f[r]).sum::<f64>();
-    }
-    // Bᵀ H B.
-    let mut hb = [[0.0f64; 6]; 4];
-    for r in 0..4 {
-        for col in 0..6 {
-            hb[r][col] = (0..4).map(|s| h[r * 4 + s] * bm[s][col]).sum();
-        }
-    }
+    // (Bᵀ H B)[(k, i)][col] = Σ_j coef[k][j] (H B)[(i, j)][col].
     let mut hess = [0.0f64; 36];
-    for p in 0..6 {
-        for q in 0..6 {
-            hess[p * 6 + q] = w * (0..4).map(|r| bm[r][p] * hb[r][q]).sum::<f64>();
+    for k in 0..3 {
+        for i in 0..2 {
+            let p = 2 * k + i;
+            for col in 0..6 {
+                hess[p * 6 + col] = w * (coef[k][0] * hb[2 * i][col] + coef[k][1] * hb[2 * i + 1][col]);
+            }
         }
     }
     Some((w * value, grad, hess))

@@ -24,6 +24,7 @@ use energy::{RestTriangle, rest_shapes};
 use glam::DVec2;
 use newton::{NewtonSystem, SoftTargets};
 use serde::Serialize;
+use std::f64::consts::FRAC_1_SQRT_2;
 
 /// Weight of virtual hole triangles in the energy, relative to their area:
 /// enough for the barrier (holes never fold), too little to resist reshaping.
@@ -31,10 +32,14 @@ pub const VIRTUAL_WEIGHT: f64 = 0.01;
 
 /// A soft round ends when a Newton step gains less than this (relative):
 /// rounds are continuation steps toward the hard constraints, not solves.
-const ROUND_TOLERANCE: f64 = 1e-4;
+const ROUND_TOLERANCE: f64 = 1e-2;
 
 /// The polish stops when a Newton step gains less than this (relative).
 const POLISH_TOLERANCE: f64 = 1e-3;
+
+/// The repair goes on while a Newton step still lowers the energy by this
+/// much (relative).
+const REPAIR_GAIN: f64 = 0.05;
 
 /// Newton steps at most while repairing a layout that f32 cannot store yet.
 pub const REPAIR_STEPS: u32 = 2000;
@@ -85,8 +90,10 @@ pub struct CompletionStats {
     pub energy_end: f64,
     /// The time budget cut the phase short.
     pub out_of_time: bool,
-    /// The soft rounds were retried with targets moving along arcs.
+    /// The targets were reached moving along arcs.
     pub arc_retry: bool,
+    /// Some constraints' straight paths cross, so arcs were tried first.
+    pub paths_cross: bool,
 }
 
 /// The completion and polish of one chart.
@@ -95,16 +102,31 @@ pub struct CompletionState {
     pub phase: CompletionPhase,
     pub stats: CompletionStats,
     rest: Vec<RestTriangle>,
-    soft_system: Option<NewtonSystem>,
-    polish_system: Option<NewtonSystem>,
+    /// Newton system over the movable vertices (constraints included).
+    system: Option<NewtonSystem>,
+    /// The constrained vertices: held where they are while polishing.
+    constrained: Vec<bool>,
     /// Polish for distortion (else only to repair an unstorable layout).
     polish_enabled: bool,
-    /// The layout the soft rounds started from (for the arc-path retry).
+    /// The layout the soft rounds started from (each attempt starts there).
     soft_start: Option<Vec<DVec2>>,
-    /// Retries: targets move along arcs (start, final target) per constraint,
-    /// bulging right (+1) then left (−1) of the direction of travel.
-    arcs: Option<(Vec<(DVec2, DVec2)>, f64)>,
+    /// Per constraint, where it starts and its target.
+    paths: Vec<(DVec2, DVec2)>,
+    /// The attempts in order: targets straight on (0), or moving along arcs
+    /// bulging right (+1) or left (−1) of the direction of travel.
+    attempts: Vec<f64>,
+    attempt: usize,
+    /// Largest residual at the end of the last round, and how many rounds
+    /// in a row have not lowered it.
+    last_round_residual: f64,
+    stalled_rounds: u32,
+    /// The attempt that came closest: its largest residual and layout.
+    best: Option<(f64, Vec<DVec2>)>,
 }
+
+/// Rounds in a row whose end leaves the largest residual where it was (to
+/// within 1 %) before an attempt counts as stuck.
+const STALLED_ROUNDS: u32 = 3;
 
 /// Rounds over which the retry's targets travel along their arcs.
 const ARC_ROUNDS: u32 = 6;
@@ -129,11 +151,16 @@ impl CompletionState {
             phase: CompletionPhase::Done,
             stats: CompletionStats::default(),
             rest: Vec::new(),
-            soft_system: None,
-            polish_system: None,
+            system: None,
+            constrained: Vec::new(),
             polish_enabled: false,
             soft_start: None,
-            arcs: None,
+            paths: Vec::new(),
+            attempts: Vec::new(),
+            attempt: 0,
+            last_round_residual: f64::INFINITY,
+            stalled_rounds: 0,
+            best: None,
         }
     }
 
@@ -149,7 +176,7 @@ impl CompletionState {
         options: &SolverOptions,
         polish: bool,
     ) -> Result<Self, SparseError> {
-        let mut s = Self::with_systems(filled, problem, true)?;
+        let mut s = Self::with_system(filled, problem)?;
         s.polish_enabled = polish;
         s.phase = if guard::all_positive_as_stored(layout, &filled.mesh.triangles) {
             CompletionPhase::Soft {
@@ -177,7 +204,7 @@ impl CompletionState {
         layout: &[DVec2],
         polish: bool,
     ) -> Result<Self, SparseError> {
-        let mut s = Self::with_systems(filled, problem, false)?;
+        let mut s = Self::with_system(filled, problem)?;
         s.polish_enabled = polish;
         s.phase = CompletionPhase::Polish { steps: 0 };
         s.stats.polish = polish;
@@ -187,7 +214,7 @@ impl CompletionState {
         Ok(s)
     }
 
-    fn with_systems(filled: &FilledChart, problem: &StepProblem, soft: bool) -> Result<Self, SparseError> {
+    fn with_system(filled: &FilledChart, problem: &StepProblem) -> Result<Self, SparseError> {
         let n = filled.mesh.n_vertices();
         let rest = rest_shapes(
             &filled.mesh.positions,
@@ -197,26 +224,26 @@ impl CompletionState {
         );
         let mut free = vec![false; n];
         problem.movable.iter().for_each(|&v| free[v as usize] = true);
-        let soft_system = if soft {
-            Some(NewtonSystem::new(&filled.mesh.triangles, &free)?)
-        } else {
-            None
-        };
-        // Always built: a snapped layout f32 cannot store yet needs the repair.
+        let system = Some(NewtonSystem::new(&filled.mesh.triangles, &free)?);
+        let mut constrained = vec![false; n];
         problem
             .constraint_vertices
             .iter()
-            .for_each(|&v| free[v as usize] = false);
-        let polish_system = Some(NewtonSystem::new(&filled.mesh.triangles, &free)?);
+            .for_each(|&v| constrained[v as usize] = true);
         Ok(CompletionState {
             phase: CompletionPhase::Done,
             stats: CompletionStats::default(),
             rest,
-            soft_system,
-            polish_system,
+            system,
+            constrained,
             polish_enabled: false,
             soft_start: None,
-            arcs: None,
+            paths: Vec::new(),
+            attempts: Vec::new(),
+            attempt: 0,
+            last_round_residual: f64::INFINITY,
+            stalled_rounds: 0,
+            best: None,
         })
     }
 
@@ -244,11 +271,14 @@ impl CompletionState {
         match self.phase.clone() {
             CompletionPhase::Done => {}
             CompletionPhase::Repair { steps } => {
-                let system = self.soft_system.as_ref().expect("soft system");
-                let step = system.step(layout, &self.rest, triangles, None, POLISH_TOLERANCE);
+                let system = self.system.as_ref().expect("Newton system");
+                let step = system.step(layout, &self.rest, triangles, None, None, POLISH_TOLERANCE);
                 self.stats.repair_steps += 1;
                 let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
-                self.phase = if guard::all_positive_as_stored(layout, triangles) || stuck {
+                // Spread on until the distortion has settled too: soft rounds
+                // from a layout that is merely storable crawl (tiny safe steps).
+                let settled = step.converged || step.energy_after > (1.0 - REPAIR_GAIN) * step.energy_before;
+                self.phase = if (settled && guard::all_positive_as_stored(layout, triangles)) || stuck {
                     CompletionPhase::Soft {
                         round: 0,
                         weight: options.initial_weight,
@@ -264,28 +294,41 @@ impl CompletionState {
                 steps_in_round,
             } => {
                 if self.soft_start.is_none() {
+                    self.paths = problem
+                        .constraint_vertices
+                        .iter()
+                        .zip(&problem.targets)
+                        .map(|(&v, &t)| (layout[v as usize], t))
+                        .collect();
+                    // Constraints whose straight paths cross meet head-on
+                    // against the barrier: arcs first, then straight.
+                    self.stats.paths_cross = paths_cross(&self.paths);
+                    self.attempts = if self.stats.paths_cross {
+                        vec![1.0, -1.0, 0.0]
+                    } else {
+                        vec![0.0, 1.0, -1.0]
+                    };
                     self.soft_start = Some(layout.to_vec());
                 }
-                let system = self.soft_system.as_ref().expect("soft system");
+                let system = self.system.as_ref().expect("Newton system");
                 // Scale the pull with the distortion energy (4 = isometry): a
                 // badly squeezed start has energy ~1e20 and must not drown it.
                 let scale = (newton::energy(layout, &self.rest, triangles, None) / 4.0).max(1.0);
-                let arc_targets: Option<Vec<DVec2>> = self.arcs.as_ref().map(|(arcs, side)| {
-                    let s = ((round + 1) as f64 / ARC_ROUNDS as f64).min(1.0);
-                    arcs.iter()
-                        .map(|&(a, t)| if s >= 1.0 { t } else { arc_point(a, t, s, *side) })
-                        .collect()
-                });
+                let side = self.attempts[self.attempt];
+                let s = ((round + 1) as f64 / ARC_ROUNDS as f64).min(1.0);
+                let arc_targets: Option<Vec<DVec2>> = (side != 0.0 && s < 1.0)
+                    .then(|| self.paths.iter().map(|&(a, t)| arc_point(a, t, s, side)).collect());
                 let soft = SoftTargets {
                     vertices: &problem.constraint_vertices,
                     targets: arc_targets.as_deref().unwrap_or(&problem.targets),
                     weight: weight * scale,
                 };
-                let step = system.step(layout, &self.rest, triangles, Some(soft), ROUND_TOLERANCE);
+                let step = system.step(layout, &self.rest, triangles, Some(soft), None, ROUND_TOLERANCE);
                 self.stats.newton_steps += 1;
                 self.stats.rounds = round + 1;
                 if try_snap(layout, problem, triangles) {
                     self.stats.snapped = true;
+                    self.stats.arc_retry = side != 0.0;
                     self.stats.snapped_at_round = Some(round);
                     let storable = guard::all_positive_as_stored(layout, triangles);
                     self.stats.repair |= !storable;
@@ -296,32 +339,41 @@ impl CompletionState {
                         CompletionPhase::Done
                     };
                 } else if step.converged || steps_in_round + 1 >= options.newton_iterations {
-                    self.phase = if round + 1 >= options.completion_rounds {
-                        // Retries from the same start, targets moving along arcs
-                        // bulging right, then left.
-                        let side = match &self.arcs {
-                            None => Some(1.0),
-                            Some((_, side)) if *side > 0.0 => Some(-1.0),
-                            Some(_) => None,
-                        };
-                        match (side, &self.soft_start) {
-                            (Some(side), Some(start)) => {
+                    // A round ends. Once the targets have arrived (arcs
+                    // travelled), rounds that no longer bring the constraints
+                    // closer mean this attempt is stuck against the barrier.
+                    let residual = max_residual(layout, problem);
+                    let arrived = side == 0.0 || round + 1 >= ARC_ROUNDS;
+                    self.stalled_rounds = if arrived && residual > 0.99 * self.last_round_residual {
+                        self.stalled_rounds + 1
+                    } else {
+                        0
+                    };
+                    self.last_round_residual = residual;
+                    self.phase = if round + 1 >= options.completion_rounds || self.stalled_rounds >= STALLED_ROUNDS {
+                        if self.best.as_ref().is_none_or(|(r, _)| residual < *r) {
+                            self.best = Some((residual, layout.to_vec()));
+                        }
+                        self.last_round_residual = f64::INFINITY;
+                        self.stalled_rounds = 0;
+                        // The next attempt, from the same start; after the
+                        // last, the closest layout any attempt reached.
+                        match &self.soft_start {
+                            Some(start) if self.attempt + 1 < self.attempts.len() => {
                                 layout.copy_from_slice(start);
-                                let paths = problem
-                                    .constraint_vertices
-                                    .iter()
-                                    .zip(&problem.targets)
-                                    .map(|(&v, &t)| (start[v as usize], t))
-                                    .collect();
-                                self.arcs = Some((paths, side));
-                                self.stats.arc_retry = true;
+                                self.attempt += 1;
                                 CompletionPhase::Soft {
                                     round: 0,
                                     weight: options.initial_weight,
                                     steps_in_round: 0,
                                 }
                             }
-                            _ => CompletionPhase::Done,
+                            _ => {
+                                if let Some((_, best)) = self.best.take() {
+                                    layout.copy_from_slice(&best);
+                                }
+                                CompletionPhase::Done
+                            }
                         }
                     } else {
                         CompletionPhase::Soft {
@@ -339,9 +391,16 @@ impl CompletionState {
                 }
             }
             CompletionPhase::Polish { steps } => {
-                let system = self.polish_system.as_ref().expect("polish system");
+                let system = self.system.as_ref().expect("Newton system");
                 let repairing = !guard::all_positive_as_stored(layout, triangles);
-                let step = system.step(layout, &self.rest, triangles, None, POLISH_TOLERANCE);
+                let step = system.step(
+                    layout,
+                    &self.rest,
+                    triangles,
+                    None,
+                    Some(&self.constrained),
+                    POLISH_TOLERANCE,
+                );
                 self.stats.polish_steps = steps + 1;
                 if repairing {
                     self.stats.polish_repair_steps += 1;
@@ -364,6 +423,50 @@ impl CompletionState {
             self.stats.energy_end = newton::energy(layout, &self.rest, triangles, None);
         }
     }
+}
+
+/// The largest distance from a constrained vertex to its target.
+fn max_residual(layout: &[DVec2], problem: &StepProblem) -> f64 {
+    problem
+        .constraint_vertices
+        .iter()
+        .zip(&problem.targets)
+        .map(|(&v, &t)| layout[v as usize].distance(t))
+        .fold(0.0, f64::max)
+}
+
+/// Whether any two constraints' straight paths (start → target) meet
+/// head-on: they cross, or run into each other along one line (a swap),
+/// travelling in directions more than 135° apart. (Paths that cross at an
+/// angle, as in a swirl, pass each other at different times.)
+fn paths_cross(paths: &[(DVec2, DVec2)]) -> bool {
+    let side = |a: DVec2, b: DVec2, p: DVec2| {
+        let v = (b - a).perp_dot(p - a);
+        if v.abs() <= 1e-12 * (b - a).length_squared().max((p - a).length_squared()) {
+            0.0
+        } else {
+            v.signum()
+        }
+    };
+    let meet = |(a, b): (DVec2, DVec2), (c, d): (DVec2, DVec2)| {
+        let (s1, s2, s3, s4) = (side(a, b, c), side(a, b, d), side(c, d, a), side(c, d, b));
+        // Only paths that meet head-on (directions more than 135° apart).
+        if (b - a).dot(d - c) > -FRAC_1_SQRT_2 * (b - a).length() * (d - c).length() {
+            return false;
+        }
+        if s1 == 0.0 && s2 == 0.0 {
+            // Collinear: do they overlap along the line?
+            let axis = (b - a).normalize_or_zero();
+            let (lo1, hi1) = (0.0f64, (b - a).dot(axis));
+            let (t1, t2) = ((c - a).dot(axis), (d - a).dot(axis));
+            return axis != DVec2::ZERO && t1.max(t2) > lo1.min(hi1) && t1.min(t2) < lo1.max(hi1);
+        }
+        s1 * s2 < 0.0 && s3 * s4 < 0.0
+    };
+    paths
+        .iter()
+        .enumerate()
+        .any(|(i, &p)| paths[i + 1..].iter().any(|&q| meet(p, q)))
 }
 
 /// Puts every constrained vertex exactly on its target if that keeps every
@@ -436,4 +539,22 @@ pub fn partial_hint(
             .map(|(i, _)| format!(", next to constraints[{i}]"))
             .unwrap_or_default()
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crossing_and_head_on_paths_are_found() {
+        let p = |a: (f64, f64), b: (f64, f64)| (DVec2::new(a.0, a.1), DVec2::new(b.0, b.1));
+        // Head-on swap.
+        assert!(paths_cross(&[p((0.2, 0.5), (0.8, 0.5)), p((0.8, 0.5), (0.2, 0.5))]));
+        // Crossing head-on, and crossing at a right angle (not head-on).
+        assert!(paths_cross(&[p((0.2, 0.2), (0.8, 0.8)), p((0.8, 0.7), (0.2, 0.3))]));
+        assert!(!paths_cross(&[p((0.2, 0.2), (0.8, 0.8)), p((0.2, 0.8), (0.8, 0.2))]));
+        // Side by side, and one after the other on a line.
+        assert!(!paths_cross(&[p((0.2, 0.2), (0.8, 0.2)), p((0.2, 0.3), (0.8, 0.3))]));
+        assert!(!paths_cross(&[p((0.1, 0.5), (0.3, 0.5)), p((0.4, 0.5), (0.6, 0.5))]));
+    }
 }

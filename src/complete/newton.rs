@@ -2,7 +2,12 @@
 //! constraint term) over a fixed set of free vertices.
 //!
 //! The sparsity pattern depends only on the mesh and the free set, so the
-//! symbolic Cholesky is done once and every Newton step refactors numerically.
+//! symbolic Cholesky (minimum degree on vertices, 2 × 2 blocks) is done once.
+//! Each Newton step assembles the projected Hessian straight into the
+//! factor's value order (no sorting) and refactors numerically. (Reusing an
+//! older factorisation as a conjugate-gradient preconditioner was tried: the
+//! Hessian changes so much between steps that it needed 25–50 iterations,
+//! more than a fresh factorisation costs.)
 //! The line search never lets a triangle's area reach zero: it starts at 0.9 ×
 //! the largest step that keeps every triangle (virtual ones included)
 //! positive, backtracks until Armijo holds, and accepts only layouts that
@@ -11,7 +16,6 @@
 use super::energy::{RestTriangle, triangle_terms};
 use crate::guard;
 use crate::sparse::{SparseError, SpdPattern};
-use faer::Mat;
 use glam::DVec2;
 
 /// A soft pull of some vertices toward targets: `w/2 · Σ |x_c − t_c|²`.
@@ -28,6 +32,11 @@ pub struct NewtonSystem {
     free_row: Vec<Option<u32>>,
     n_free: usize,
     pattern: SpdPattern,
+    /// Per triangle, per entry of its 6 × 6 Hessian: where it adds into the
+    /// pattern's values (`u32::MAX`: a fixed vertex, or the upper triangle).
+    slots: Vec<[u32; 36]>,
+    /// Per free vertex, the slots of its two diagonal entries.
+    diagonal: Vec<[u32; 2]>,
 }
 
 /// What one Newton step did.
@@ -39,6 +48,13 @@ pub struct NewtonStep {
     pub alpha: f64,
     /// Newton decrement small, or no further progress: stop iterating.
     pub converged: bool,
+}
+
+/// Energy, gradient and lower-triangle Hessian values at one layout.
+struct Assembled {
+    total: f64,
+    grad: Vec<f64>,
+    values: Vec<f64>,
 }
 
 impl NewtonSystem {
@@ -55,28 +71,62 @@ impl NewtonSystem {
                 n_free += 1;
             }
         }
-        let mut entries: Vec<(usize, usize)> = (0..2 * n_free).map(|r| (r, r)).collect();
+        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(3 * triangles.len());
         for t in triangles {
-            for p in 0..6 {
-                let Some(rp) = free_row[t[p / 2] as usize] else {
-                    continue;
-                };
-                for q in 0..6 {
-                    let Some(rq) = free_row[t[q / 2] as usize] else {
-                        continue;
-                    };
-                    let (gp, gq) = (2 * rp as usize + p % 2, 2 * rq as usize + q % 2);
-                    if gp >= gq {
-                        entries.push((gp, gq));
-                    }
+            for k in 0..3 {
+                if let (Some(a), Some(b)) = (free_row[t[k] as usize], free_row[t[(k + 1) % 3] as usize]) {
+                    pairs.push((a, b));
                 }
             }
         }
-        let pattern = SpdPattern::new_supernodal(2 * n_free.max(1), &entries)?;
+        let pattern = SpdPattern::new_blocked(n_free.max(1), 2, &pairs)?;
+        let slot = |r: usize, c: usize| pattern.slot(r, c).expect("entry in the pattern") as u32;
+        let slots = triangles
+            .iter()
+            .map(|t| {
+                let mut s = [u32::MAX; 36];
+                let rows = t.map(|v| free_row[v as usize]);
+                for a in 0..3 {
+                    let Some(ra) = rows[a] else { continue };
+                    for b in 0..3 {
+                        let Some(rb) = rows[b] else { continue };
+                        if ra < rb {
+                            continue;
+                        }
+                        // One lookup per vertex pair: the 2 × 2 block is contiguous in its columns.
+                        let (ra, rb) = (2 * ra as usize, 2 * rb as usize);
+                        let col0 = slot(ra, rb);
+                        let col1 = if ra == rb {
+                            slot(ra + 1, rb + 1)
+                        } else {
+                            slot(ra, rb + 1)
+                        };
+                        for i in 0..2 {
+                            for j in 0..2 {
+                                if ra + i < rb + j {
+                                    continue;
+                                }
+                                let base = if j == 0 { col0 } else { col1 };
+                                // Rows within a column are sorted and the block's two rows adjacent;
+                                // on the diagonal block, column rb + 1 starts at row ra + 1.
+                                let offset = if ra == rb && j == 1 { i - 1 } else { i };
+                                s[(2 * a + i) * 6 + 2 * b + j] = base + offset as u32;
+                            }
+                        }
+                    }
+                }
+                s
+            })
+            .collect();
+        let diagonal = (0..n_free)
+            .map(|r| [slot(2 * r, 2 * r), slot(2 * r + 1, 2 * r + 1)])
+            .collect();
         Ok(NewtonSystem {
             free_row,
             n_free,
             pattern,
+            slots,
+            diagonal,
         })
     }
 
@@ -84,18 +134,111 @@ impl NewtonSystem {
         self.n_free
     }
 
-    /// One projected Newton step from `layout` (updated in place). The step
-    /// counts as converged when the Newton decrement or the energy decrease
-    /// is below `tolerance` relative to the energy.
+    /// Energy, gradient and Hessian at `layout`; vertices with `held[v]`
+    /// are treated as fixed (identity rows). `None` if a triangle is folded.
+    fn assemble(
+        &self,
+        layout: &[DVec2],
+        rest: &[RestTriangle],
+        triangles: &[[u32; 3]],
+        soft: Option<SoftTargets>,
+        held: Option<&[bool]>,
+    ) -> Option<Assembled> {
+        let n2 = 2 * self.n_free;
+        let mut grad = vec![0.0f64; n2];
+        let mut values = vec![0.0f64; self.pattern.n_values()];
+        let mut total = 0.0;
+        let is_held = |v: u32| held.is_some_and(|h| h[v as usize]);
+        for ((t, r), slots) in triangles.iter().zip(rest).zip(&self.slots) {
+            let (e, g, h) = triangle_terms(r, t.map(|v| layout[v as usize]))?;
+            total += e;
+            let live = t.map(|v| self.free_row[v as usize].filter(|_| !is_held(v)));
+            for (k, row) in live.iter().enumerate() {
+                if let Some(row) = row {
+                    grad[2 * *row as usize] += g[2 * k];
+                    grad[2 * *row as usize + 1] += g[2 * k + 1];
+                }
+            }
+            if live.iter().all(Option::is_some) {
+                for (&slot, &h) in slots.iter().zip(&h) {
+                    if slot != u32::MAX {
+                        values[slot as usize] += h;
+                    }
+                }
+            } else {
+                for (i, (&slot, &h)) in slots.iter().zip(&h).enumerate() {
+                    if slot != u32::MAX && live[i / 12].is_some() && live[(i % 6) / 2].is_some() {
+                        values[slot as usize] += h;
+                    }
+                }
+            }
+        }
+        if let Some(s) = soft {
+            for (&v, &target) in s.vertices.iter().zip(s.targets) {
+                let d = layout[v as usize] - target;
+                total += 0.5 * s.weight * d.length_squared();
+                if let Some(r) = self.free_row[v as usize].filter(|_| !is_held(v)) {
+                    let r = r as usize;
+                    grad[2 * r] += s.weight * d.x;
+                    grad[2 * r + 1] += s.weight * d.y;
+                    for slot in self.diagonal[r] {
+                        values[slot as usize] += s.weight;
+                    }
+                }
+            }
+        }
+        if let Some(held) = held {
+            for (v, row) in self.free_row.iter().enumerate() {
+                if let (Some(row), true) = (row, held[v]) {
+                    for slot in self.diagonal[*row as usize] {
+                        values[slot as usize] = 1.0;
+                    }
+                }
+            }
+        }
+        Some(Assembled { total, grad, values })
+    }
+
+    /// The Newton direction `H p = −g`, with a growing diagonal shift if
+    /// `H` is singular.
+    fn direction(&self, a: &Assembled) -> Option<Vec<f64>> {
+        let max_diag = self
+            .diagonal
+            .iter()
+            .flatten()
+            .map(|&slot| a.values[slot as usize])
+            .fold(0.0f64, f64::max)
+            .max(1e-300);
+        let mut shift = 1e-12 * max_diag;
+        for _ in 0..6 {
+            let mut v = a.values.clone();
+            self.diagonal
+                .iter()
+                .flatten()
+                .for_each(|&slot| v[slot as usize] += shift);
+            if let Ok(factor) = self.pattern.factor_assembled(&v) {
+                let mut p: Vec<f64> = a.grad.iter().map(|g| -g).collect();
+                factor.solve_column(&mut p);
+                return Some(p);
+            }
+            shift *= 1e3;
+        }
+        None
+    }
+
+    /// One projected Newton step from `layout` (updated in place), with the
+    /// vertices marked in `held` kept where they are. The step counts as
+    /// converged when the Newton decrement or the energy decrease is below
+    /// `tolerance` relative to the energy.
     pub fn step(
         &self,
         layout: &mut [DVec2],
         rest: &[RestTriangle],
         triangles: &[[u32; 3]],
         soft: Option<SoftTargets>,
+        held: Option<&[bool]>,
         tolerance: f64,
     ) -> NewtonStep {
-        let n2 = 2 * self.n_free;
         let stuck = |e: f64| NewtonStep {
             energy_before: e,
             energy_after: e,
@@ -105,62 +248,14 @@ impl NewtonSystem {
         if self.n_free == 0 {
             return stuck(energy(layout, rest, triangles, soft));
         }
-        let mut grad = vec![0.0f64; n2];
-        let mut values: Vec<f64> = vec![0.0; n2];
-        let mut total = 0.0;
-        for (t, r) in triangles.iter().zip(rest) {
-            let x = t.map(|v| layout[v as usize]);
-            let Some((e, g, h)) = triangle_terms(r, x) else {
-                return stuck(f64::INFINITY);
-            };
-            total += e;
-            for p in 0..6 {
-                let Some(rp) = self.free_row[t[p / 2] as usize] else {
-                    continue;
-                };
-                let gp = 2 * rp as usize + p % 2;
-                grad[gp] += g[p];
-                for q in 0..6 {
-                    let Some(rq) = self.free_row[t[q / 2] as usize] else {
-                        continue;
-                    };
-                    let gq = 2 * rq as usize + q % 2;
-                    if gp >= gq {
-                        values.push(h[p * 6 + q]);
-                    }
-                }
-            }
-        }
-        if let Some(s) = soft {
-            for (&v, &target) in s.vertices.iter().zip(s.targets) {
-                let d = layout[v as usize] - target;
-                total += 0.5 * s.weight * d.length_squared();
-                if let Some(r) = self.free_row[v as usize] {
-                    let r = 2 * r as usize;
-                    grad[r] += s.weight * d.x;
-                    grad[r + 1] += s.weight * d.y;
-                    values[r] += s.weight;
-                    values[r + 1] += s.weight;
-                }
-            }
-        }
-        // Newton direction: H p = −g, with a growing shift if H is singular.
-        let max_diag = (0..n2).map(|r| values[r]).fold(0.0f64, f64::max).max(1e-300);
-        let mut shift = 1e-12 * max_diag;
-        let mut direction = None;
-        for _ in 0..6 {
-            let mut v = values.clone();
-            (0..n2).for_each(|r| v[r] += shift);
-            if let Ok(f) = self.pattern.factor(&v) {
-                let mut rhs = Mat::<f64>::zeros(n2, 1);
-                (0..n2).for_each(|r| rhs[(r, 0)] = -grad[r]);
-                f.solve_in_place(&mut rhs);
-                direction = Some((0..n2).map(|r| rhs[(r, 0)]).collect::<Vec<f64>>());
-                break;
-            }
-            shift *= 1e3;
-        }
-        let Some(p) = direction else { return stuck(total) };
+        let Some(assembled) = self.assemble(layout, rest, triangles, soft, held) else {
+            return stuck(f64::INFINITY);
+        };
+        let total = assembled.total;
+        let Some(p) = self.direction(&assembled) else {
+            return stuck(total);
+        };
+        let grad = &assembled.grad;
         let slope: f64 = grad.iter().zip(&p).map(|(g, d)| g * d).sum();
         if !(slope < 0.0) || -slope < 1e-14 * total.abs().max(1e-300) {
             return stuck(total);
@@ -170,6 +265,12 @@ impl NewtonSystem {
             if let Some(r) = r {
                 dir[v] = DVec2::new(p[2 * *r as usize], p[2 * *r as usize + 1]);
             }
+        }
+        if let Some(held) = held {
+            dir.iter_mut()
+                .zip(held)
+                .filter(|(_, h)| **h)
+                .for_each(|(d, _)| *d = DVec2::ZERO);
         }
         let mut alpha = (0.9 * max_safe_step(layout, &dir, triangles)).min(1.0);
         let start: Vec<DVec2> = layout.to_vec();
