@@ -13,7 +13,7 @@ use uvpin::mesh::TriMesh;
 use uvpin::options::SolverOptions;
 use uvpin::param::{uv_to_xy, xy_to_uv};
 use uvpin::report::{Report, StageTimes};
-use uvpin::testing::{Rng, grid_mesh, smooth_warp};
+use uvpin::testing::{Rng, grid_mesh, smooth_warp, swirl};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -221,6 +221,23 @@ fn main() {
         let at = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
         let crossing = [(a, at(b)), (b, at(a))];
         show(bench_mesh("paper size, crossing pair", &mesh, &crossing, 11), &mut rows);
+        // 50 constraints turned by a strong swirl: the spline path stalls and
+        // the completion reaches them (its result is the witness).
+        let mut rng = Rng::new(2);
+        let mut swirled: Vec<(u32, DVec2)> = Vec::new();
+        while swirled.len() < 50 {
+            let v = rng.below(mesh.n_vertices()) as u32;
+            let uv = at(v);
+            let inside = uv.cmpgt(DVec2::splat(1e-6)).all() && uv.cmplt(DVec2::splat(1.0 - 1e-6)).all();
+            if inside && swirled.iter().all(|(w, _)| *w != v) {
+                swirled.push((v, xy_to_uv(swirl(uv_to_xy(uv), 4.0))));
+            }
+        }
+        show(bench_mesh("paper size, swirl (stalls)", &mesh, &swirled, 11), &mut rows);
+        show(
+            bench_mesh_with("paper size, swirl, polish off", &mesh, &swirled, 11, no_polish),
+            &mut rows,
+        );
     }
     let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
     if shared.is_dir() {

@@ -125,3 +125,16 @@ pub fn smooth_warp(p: glam::DVec2, amp: f64) -> glam::DVec2 {
     let s = (PI * p.x).sin() * (PI * p.y).sin();
     p + glam::DVec2::new(1.0, 0.6) * (amp * s)
 }
+
+/// A swirl of the unit square: points within 0.45 of the centre turn about
+/// it by `angle · (1 − r/0.45)²`, the rest stay. It is a bijection (each
+/// circle turns rigidly) fixing the boundary; whether a given layout stays
+/// fold-free through it depends on the mesh resolving the twist, so a test
+/// using it as a witness must check the warped layout. Strong swirls stall
+/// the spline path: the constraints' displacements turn around the centre.
+pub fn swirl(p: glam::DVec2, angle: f64) -> glam::DVec2 {
+    let centre = glam::DVec2::splat(0.5);
+    let d = p - centre;
+    let t = (1.0 - d.length() / 0.45).max(0.0);
+    centre + glam::DVec2::from_angle(angle * t * t).rotate(d)
+}

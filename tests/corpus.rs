@@ -17,7 +17,7 @@ use uvpin::mesh::TriMesh;
 use uvpin::options::SolverOptions;
 use uvpin::param::xy_to_uv;
 use uvpin::report::{Report, Status};
-use uvpin::testing::{Rng, random_disk, smooth_warp};
+use uvpin::testing::{Rng, random_disk, smooth_warp, swirl};
 
 /// A fold-free, storable layout of the mesh without constraints (uvpin's
 /// step 1, polished), in layout coordinates, and the interior vertices. The
@@ -112,6 +112,30 @@ fn warp_case(name: &str, mesh: &TriMesh, k: usize, amp: f64, seed: u64) -> Repor
     r
 }
 
+/// Solvable when the witness holds: `k` constraints whose targets are the
+/// step-1 layout turned by [`swirl`]; the whole swirled layout is checked to
+/// be fold-free first (else the case proves nothing and is skipped).
+fn swirl_case(name: &str, mesh: &TriMesh, k: usize, angle: f64, seed: u64) -> Option<Report> {
+    let (layout, interior) = step1(mesh);
+    let warped: Vec<DVec2> = layout.iter().map(|&p| swirl(p, angle)).collect();
+    let witness = mesh.triangles.iter().all(|t| {
+        let [a, b, c] = t.map(|v| warped[v as usize]);
+        (b - a).perp_dot(c - a) > 0.0
+    });
+    if !witness {
+        eprintln!("{name}: the swirled layout folds; not a witness, skipped");
+        return None;
+    }
+    let mut rng = Rng::new(seed);
+    let constraints: Vec<(u32, DVec2)> = pick(&mut rng, &interior, k)
+        .into_iter()
+        .map(|v| (v, xy_to_uv(warped[v as usize])))
+        .collect();
+    let r = solve(name, mesh, &constraints);
+    assert_reached(name, &r);
+    Some(r)
+}
+
 /// Crossing: two interior vertices a fair distance apart swap places.
 /// Returns the report; the caller decides whether Reached is required.
 fn crossing_case(name: &str, mesh: &TriMesh, seed: u64) -> Report {
@@ -179,6 +203,28 @@ fn solvable_procedural_cases_are_reached_exactly() {
         }
     }
     eprintln!("{cases} solvable procedural cases reached");
+}
+
+#[test]
+fn witnessed_swirls_are_reached_exactly() {
+    // Swirls stronger than these fold the swirled layout on meshes this
+    // coarse, so they prove nothing (the benchmark's 4 rad swirl stalls the
+    // spline path; its reached result is its own witness).
+    let (mut cases, mut stalled) = (0, 0);
+    for seed in 0..6u64 {
+        let mut rng = Rng::new(700 + seed);
+        let n = 30 + rng.below(12);
+        let mesh = random_disk(&mut rng, n, 0);
+        for angle in [1.5, 2.0, 2.5] {
+            let name = format!("swirl disk {seed}, 50 constraints, {angle} rad");
+            if let Some(r) = swirl_case(&name, &mesh, 50, angle, seed) {
+                cases += 1;
+                stalled += usize::from(r.completion.as_ref().is_some_and(|c| c.soft));
+            }
+        }
+    }
+    eprintln!("{cases} swirl cases reached, {stalled} of them after the spline path stalled");
+    assert!(cases >= 12, "too few swirls are witnessed: {cases}");
 }
 
 #[test]
