@@ -129,7 +129,7 @@ pub struct CompletionState {
 const STALLED_ROUNDS: u32 = 3;
 
 /// Rounds over which the retry's targets travel along their arcs.
-const ARC_ROUNDS: u32 = 6;
+const ARC_ROUNDS: u32 = 4;
 
 /// How far an arc bulges sideways at its middle, relative to its length.
 const ARC_BULGE: f64 = 0.5;
