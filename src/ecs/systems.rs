@@ -114,7 +114,13 @@ pub fn start_stepping(
     for (entity, job, data, boundary, step1, mut times) in &mut charts {
         let t0 = Instant::now();
         let c = &data.0;
-        if let Some(t) = guard::first_non_positive(&step1.0, &c.filled.mesh.triangles) {
+        // One pass when storable (which implies positive in f64); the f64
+        // check only for a squeezed start.
+        let storable = guard::all_positive_as_stored(&step1.0, &c.filled.mesh.triangles);
+        if let Some(t) = (!storable)
+            .then(|| guard::first_non_positive(&step1.0, &c.filled.mesh.triangles))
+            .flatten()
+        {
             let err = crate::Error::Internal(format!("the step-1 layout has a flipped or zero-area triangle ({t})"));
             commands.entity(entity).insert(Failed(Arc::new(err)));
             continue;
@@ -123,7 +129,6 @@ pub fn start_stepping(
         match chart::step_problem(c, &job.constraints, &boundary.0, options.max_boundary_centres) {
             Ok(problem) => {
                 let state = SteppingState::start(&problem, &step1.0, options);
-                let storable = guard::all_positive_as_stored(&step1.0, &c.filled.mesh.triangles);
                 commands
                     .entity(entity)
                     .insert(Stepping {
@@ -252,7 +257,12 @@ pub fn complete_constraints(
                 let paper = options.guard == crate::options::Guard::Paper;
                 let polish = !paper && options.polish && filled.n_real_vertices <= options.polish_max_vertices;
                 // A layout f32 cannot store yet is always repaired by the polish.
-                let storable = crate::guard::all_positive_as_stored(&layout.0, &filled.mesh.triangles);
+                // The exact guard carries storability; the paper's does not.
+                let storable = if paper {
+                    crate::guard::all_positive_as_stored(&layout.0, &filled.mesh.triangles)
+                } else {
+                    stepping.storable
+                };
                 let has_free = !stepping.problem.movable.is_empty();
                 let mut spline_layout = None;
                 let state = if reached {
