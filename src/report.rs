@@ -411,7 +411,15 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
             c.newton_steps,
             match (c.snapped_at_round, c.arc_retry) {
                 (Some(r), false) => format!("snapped onto the targets in round {}", r + 1),
-                (Some(r), true) => format!("snapped onto the targets in round {} of a retry along arc paths", r + 1),
+                (Some(r), true) => format!(
+                    "snapped onto the targets in round {} moving along arc paths{}",
+                    r + 1,
+                    if c.paths_cross {
+                        " (tried first: two constraints' straight paths meet head-on)"
+                    } else {
+                        ""
+                    }
+                ),
                 (None, _) => "could not snap onto the targets (straight and arc paths tried)".into(),
             },
             c.energy_start,
