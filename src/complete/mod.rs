@@ -231,19 +231,10 @@ impl CompletionState {
             .iter()
             .for_each(|&v| constrained[v as usize] = true);
         Ok(CompletionState {
-            phase: CompletionPhase::Done,
-            stats: CompletionStats::default(),
             rest,
             system,
             constrained,
-            polish_enabled: false,
-            soft_start: None,
-            paths: Vec::new(),
-            attempts: Vec::new(),
-            attempt: 0,
-            last_round_residual: f64::INFINITY,
-            stalled_rounds: 0,
-            best: None,
+            ..Self::done()
         })
     }
 
