@@ -51,12 +51,6 @@ impl SpdPattern {
         Self::with_ordering(n, entries, None)
     }
 
-    /// As [`SpdPattern::new`], always with the supernodal factorisation: twice
-    /// as fast as simplicial on the 2 × 2-block Newton systems, even small ones.
-    pub fn new_supernodal(n: usize, entries: &[(usize, usize)]) -> Result<Self, SparseError> {
-        Self::analyse(n, entries, None, SupernodalThreshold::FORCE_SUPERNODAL)
-    }
-
     /// As [`SpdPattern::new`] with a fill-reducing elimination order
     /// (`order[k]` = the unknown eliminated k-th), e.g. from [`nested_dissection`].
     pub fn with_ordering(n: usize, entries: &[(usize, usize)], order: Option<&[usize]>) -> Result<Self, SparseError> {
@@ -210,24 +204,21 @@ impl SpdPattern {
 impl SpdFactor {
     /// Solves `A X = B` in place for the columns of `rhs` (n × k).
     pub fn solve_in_place(&self, rhs: &mut Mat<f64>) {
-        let chol = &self.pattern.cholesky;
-        let mut mem = MemBuffer::new(chol.solve_in_place_scratch::<f64>(rhs.ncols(), Par::Seq));
-        LltRef::<usize, f64>::new(chol, &self.l_values).solve_in_place_with_conj(
-            faer::Conj::No,
-            rhs.as_mut(),
-            Par::Seq,
-            MemStack::new(&mut mem),
-        );
+        self.solve_columns(rhs.as_mut());
     }
 
     /// Solves `A x = b` in place for one column `b`.
     pub fn solve_column(&self, b: &mut [f64]) {
         let n = b.len();
+        self.solve_columns(faer::MatMut::from_column_major_slice_mut(b, n, 1));
+    }
+
+    fn solve_columns(&self, rhs: faer::MatMut<'_, f64>) {
         let chol = &self.pattern.cholesky;
-        let mut mem = MemBuffer::new(chol.solve_in_place_scratch::<f64>(1, Par::Seq));
+        let mut mem = MemBuffer::new(chol.solve_in_place_scratch::<f64>(rhs.ncols(), Par::Seq));
         LltRef::<usize, f64>::new(chol, &self.l_values).solve_in_place_with_conj(
             faer::Conj::No,
-            faer::MatMut::from_column_major_slice_mut(b, n, 1),
+            rhs,
             Par::Seq,
             MemStack::new(&mut mem),
         );
