@@ -33,8 +33,29 @@ pub enum SparseError {
 pub struct SpdPattern {
     n: usize,
     symbolic: Arc<SymbolicSparseColMat<usize>>,
-    argsort: Arc<faer::sparse::Argsort<usize>>,
+    /// Where each value given to [`SpdPattern::factor`] goes (`None` for a
+    /// pattern built column by column, which takes values in place only).
+    argsort: Option<Arc<faer::sparse::Argsort<usize>>>,
     cholesky: Arc<SymbolicCholesky<usize>>,
+}
+
+/// Memory kept between numeric factorisations of one pattern (a Newton loop
+/// refactors the same pattern every step): the factor's values and faer's
+/// scratch, allocated once instead of page-faulted in on every step.
+#[derive(Default)]
+pub struct FactorWorkspace {
+    l_values: Vec<f64>,
+    scratch: Option<MemBuffer>,
+    factored: bool,
+}
+
+impl std::fmt::Debug for FactorWorkspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FactorWorkspace")
+            .field("l_values", &self.l_values.len())
+            .field("factored", &self.factored)
+            .finish()
+    }
 }
 
 /// A numeric Cholesky factor `A = L Lᵀ` of a symmetric positive definite matrix.
@@ -91,20 +112,32 @@ impl SpdPattern {
         Ok(SpdPattern {
             n,
             symbolic: Arc::new(symbolic),
-            argsort: Arc::new(argsort),
+            argsort: Some(Arc::new(argsort)),
             cholesky: Arc::new(cholesky),
         })
     }
 
     /// The pattern of a symmetric matrix made of `block × block` blocks over
-    /// `n_nodes` nodes (unknown `block · node + k`), coupled where
-    /// `node_pairs` `(a, b)` says so (either order; diagonal blocks always).
-    /// The elimination order is minimum degree on the node graph, each
-    /// node's unknowns kept together: less fill, and far cheaper to analyse,
-    /// than minimum degree on the unknowns. Assemble values in place with
-    /// [`SpdPattern::slot`] and factor with [`SpdPattern::factor_assembled`].
-    pub fn new_blocked(n_nodes: usize, block: usize, node_pairs: &[(u32, u32)]) -> Result<Self, SparseError> {
+    /// `n_nodes` nodes, coupled where `node_pairs` `(a, b)` says so (either
+    /// order; diagonal blocks always). The elimination order is minimum
+    /// degree on the node graph, each node's unknowns kept together: less
+    /// fill, and far cheaper to analyse, than minimum degree on the unknowns.
+    ///
+    /// The pattern is numbered in that elimination order, so factorising
+    /// permutes nothing: node `v` is node `position[v]` of the pattern (its
+    /// unknowns `block · position[v] + k`), with `position` the second value
+    /// returned. The columns are written straight from the node graph (no
+    /// sorting of entries). Assemble values in place with
+    /// [`SpdPattern::slot`] and factor with [`SpdPattern::factor_into`].
+    pub fn new_blocked(
+        n_nodes: usize,
+        block: usize,
+        node_pairs: &[(u32, u32)],
+    ) -> Result<(Self, Vec<u32>), SparseError> {
         let pattern_error = |e: &dyn std::fmt::Debug| SparseError::Pattern(format!("{e:?}"));
+        if node_pairs.iter().any(|&(a, b)| a.max(b) as usize >= n_nodes) {
+            return Err(SparseError::Pattern(format!("a node pair names a node ≥ {n_nodes}")));
+        }
         let mut nodes: Vec<Pair<usize, usize>> = (0..n_nodes).map(|v| Pair::new(v, v)).collect();
         nodes.extend(node_pairs.iter().map(|&(a, b)| {
             let (a, b) = (a.max(b) as usize, a.min(b) as usize);
@@ -123,25 +156,63 @@ impl SpdPattern {
             MemStack::new(&mut mem),
         )
         .map_err(|e| pattern_error(&e))?;
-        let n = n_nodes * block;
-        let mut entries = Vec::with_capacity(node_graph.compute_nnz() * block * block);
+        let position: Vec<u32> = node_rank.iter().map(|&r| r as u32).collect();
+        // Node columns in elimination order: the later node of each pair is a
+        // row of the earlier one's column (lower triangle), diagonal first.
+        let mut node_rows: Vec<Vec<u32>> = (0..n_nodes as u32).map(|c| vec![c]).collect();
         for col in 0..n_nodes {
             for &row in node_graph.row_idx_of_col_raw(col) {
-                for a in 0..block {
-                    for b in 0..block {
-                        let (r, c) = (block * row + a, block * col + b);
-                        if r >= c {
-                            entries.push((r, c));
-                        }
-                    }
+                let (a, b) = (position[row], position[col]);
+                if a != b {
+                    node_rows[a.min(b) as usize].push(a.max(b));
                 }
             }
         }
-        let order: Vec<usize> = node_order
-            .iter()
-            .flat_map(|&v| (0..block).map(move |k| block * v + k))
-            .collect();
-        Self::analyse(n, &entries, Some(&order), SupernodalThreshold::FORCE_SUPERNODAL)
+        let n = n_nodes * block;
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        let mut row_idx = Vec::new();
+        col_ptr.push(0usize);
+        for (c, rows) in node_rows.iter_mut().enumerate() {
+            rows.sort_unstable();
+            rows.dedup();
+            for b in 0..block {
+                let col = block * c + b;
+                for &r in rows.iter() {
+                    row_idx.extend((0..block).map(|a| block * r as usize + a).filter(|&row| row >= col));
+                }
+                col_ptr.push(row_idx.len());
+            }
+        }
+        // faer's analysis without a permutation reads the upper triangle;
+        // the numeric factorisation reads the lower one as assembled.
+        let mut upper_ptr = vec![0usize; n + 1];
+        row_idx.iter().for_each(|&r| upper_ptr[r + 1] += 1);
+        for c in 0..n {
+            upper_ptr[c + 1] += upper_ptr[c];
+        }
+        let mut upper_rows = vec![0usize; row_idx.len()];
+        let mut next = upper_ptr.clone();
+        for c in 0..n {
+            for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
+                upper_rows[next[r]] = c;
+                next[r] += 1;
+            }
+        }
+        let upper = SymbolicSparseColMat::<usize>::new_checked(n, n, upper_ptr, None, upper_rows);
+        let symbolic = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let cholesky = factorize_symbolic_cholesky(upper.as_ref(), Side::Upper, SymmetricOrdering::Identity, params)
+            .map_err(|e| pattern_error(&e))?;
+        let pattern = SpdPattern {
+            n,
+            symbolic: Arc::new(symbolic),
+            argsort: None,
+            cholesky: Arc::new(cholesky),
+        };
+        Ok((pattern, position))
     }
 
     /// Where entry `(row, col)` (`row >= col`) sits in the values of
@@ -161,9 +232,53 @@ impl SpdPattern {
     }
 
     /// Numeric factorisation of values already in the pattern's own order
-    /// (see [`SpdPattern::slot`]): no sorting, no summing of duplicates.
-    pub fn factor_assembled(&self, values: &[f64]) -> Result<SpdFactor, SparseError> {
-        self.factor_matrix(SparseColMatRef::new((*self.symbolic).as_ref(), values))
+    /// (see [`SpdPattern::slot`]), into `workspace`'s memory: no sorting, no
+    /// summing of duplicates, no allocation once the workspace has been
+    /// used. Solve with [`SpdPattern::solve_with`].
+    pub fn factor_into(&self, values: &[f64], workspace: &mut FactorWorkspace) -> Result<(), SparseError> {
+        let a = SparseColMatRef::new((*self.symbolic).as_ref(), values);
+        workspace.factored = false;
+        workspace.l_values.resize(self.cholesky.len_val(), 0.0);
+        let scratch = workspace.scratch.get_or_insert_with(|| {
+            MemBuffer::new(
+                self.cholesky
+                    .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
+                    .or(self.cholesky.solve_in_place_scratch::<f64>(1, Par::Seq)),
+            )
+        });
+        self.cholesky
+            .factorize_numeric_llt::<f64>(
+                &mut workspace.l_values,
+                a,
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(scratch),
+                Default::default(),
+            )
+            .map_err(|_| SparseError::NotPositiveDefinite)?;
+        workspace.factored = true;
+        Ok(())
+    }
+
+    /// Solves `A x = b` in place with the factor last computed by
+    /// [`SpdPattern::factor_into`] in `workspace` (of this pattern).
+    ///
+    /// # Panics
+    /// If the workspace holds no factor of this pattern.
+    pub fn solve_with(&self, workspace: &mut FactorWorkspace, b: &mut [f64]) {
+        assert!(
+            workspace.factored && workspace.l_values.len() == self.cholesky.len_val(),
+            "solve_with needs a factor from factor_into"
+        );
+        let n = b.len();
+        let scratch = workspace.scratch.as_mut().expect("scratch made by factor_into");
+        LltRef::<usize, f64>::new(&self.cholesky, &workspace.l_values).solve_in_place_with_conj(
+            faer::Conj::No,
+            faer::MatMut::from_column_major_slice_mut(b, n, 1),
+            Par::Seq,
+            MemStack::new(scratch),
+        );
     }
 
     pub fn n(&self) -> usize {
@@ -172,7 +287,11 @@ impl SpdPattern {
 
     /// Numeric factorisation with `values` in the order of the `entries` given to [`SpdPattern::new`].
     pub fn factor(&self, values: &[f64]) -> Result<SpdFactor, SparseError> {
-        let a = SparseColMat::<usize, f64>::new_from_argsort((*self.symbolic).clone(), &self.argsort, values)
+        let argsort = self
+            .argsort
+            .as_ref()
+            .ok_or_else(|| SparseError::Pattern("a blocked pattern takes values in place (factor_into)".into()))?;
+        let a = SparseColMat::<usize, f64>::new_from_argsort((*self.symbolic).clone(), argsort, values)
             .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         self.factor_matrix(a.as_ref())
     }
@@ -204,16 +323,7 @@ impl SpdPattern {
 impl SpdFactor {
     /// Solves `A X = B` in place for the columns of `rhs` (n × k).
     pub fn solve_in_place(&self, rhs: &mut Mat<f64>) {
-        self.solve_columns(rhs.as_mut());
-    }
-
-    /// Solves `A x = b` in place for one column `b`.
-    pub fn solve_column(&self, b: &mut [f64]) {
-        let n = b.len();
-        self.solve_columns(faer::MatMut::from_column_major_slice_mut(b, n, 1));
-    }
-
-    fn solve_columns(&self, rhs: faer::MatMut<'_, f64>) {
+        let rhs = rhs.as_mut();
         let chol = &self.pattern.cholesky;
         let mut mem = MemBuffer::new(chol.solve_in_place_scratch::<f64>(rhs.ncols(), Par::Seq));
         LltRef::<usize, f64>::new(chol, &self.l_values).solve_in_place_with_conj(
@@ -337,6 +447,78 @@ mod tests {
             pattern.factor(&vec![-1.0; values.len()]).unwrap_err(),
             SparseError::NotPositiveDefinite
         );
+    }
+
+    #[test]
+    fn blocked_pattern_in_elimination_order_solves_a_block_system() {
+        // 2 × 2 blocks on a 12 × 9 grid graph: diagonal blocks [[4.5, 0.3], [0.3, 4.5]],
+        // coupling blocks −I. Build A x for a known x in node numbering, then
+        // assemble and solve in the pattern's numbering.
+        let (nx, ny) = (12usize, 9usize);
+        let n_nodes = nx * ny;
+        let mut pairs = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let v = (i + j * nx) as u32;
+                if i + 1 < nx {
+                    pairs.push((v, v + 1));
+                }
+                if j + 1 < ny {
+                    pairs.push((v + nx as u32, v));
+                }
+            }
+        }
+        let (pattern, position) = SpdPattern::new_blocked(n_nodes, 2, &pairs).unwrap();
+        let mut seen: Vec<u32> = position.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..n_nodes as u32).collect::<Vec<_>>());
+        let mut values = vec![0.0; pattern.n_values()];
+        let x_true: Vec<f64> = (0..2 * n_nodes).map(|k| (k as f64 * 0.37).sin()).collect();
+        let mut b = x_true.iter().map(|x| 4.5 * x).collect::<Vec<_>>();
+        for v in 0..n_nodes {
+            b[2 * v] += 0.3 * x_true[2 * v + 1];
+            b[2 * v + 1] += 0.3 * x_true[2 * v];
+            let p = 2 * position[v] as usize;
+            values[pattern.slot(p, p).unwrap()] = 4.5;
+            values[pattern.slot(p + 1, p + 1).unwrap()] = 4.5;
+            values[pattern.slot(p + 1, p).unwrap()] = 0.3;
+        }
+        for &(a, c) in &pairs {
+            let (a, c) = (a as usize, c as usize);
+            for k in 0..2 {
+                b[2 * a + k] -= x_true[2 * c + k];
+                b[2 * c + k] -= x_true[2 * a + k];
+                let (pa, pc) = (2 * position[a] as usize + k, 2 * position[c] as usize + k);
+                values[pattern.slot(pa.max(pc), pa.min(pc)).unwrap()] = -1.0;
+            }
+            // The other entries of a coupling block are in the pattern, as zeros.
+            let (pa, pc) = (2 * position[a] as usize, 2 * position[c] as usize);
+            assert!(pattern.slot(pa.max(pc) + 1, pa.min(pc)).is_some());
+        }
+        let mut rhs = vec![0.0; 2 * n_nodes];
+        for v in 0..n_nodes {
+            for k in 0..2 {
+                rhs[2 * position[v] as usize + k] = b[2 * v + k];
+            }
+        }
+        let mut workspace = FactorWorkspace::default();
+        // Twice through one workspace: the second factorisation reuses its memory.
+        for _ in 0..2 {
+            pattern.factor_into(&values, &mut workspace).unwrap();
+            let mut x = rhs.clone();
+            pattern.solve_with(&mut workspace, &mut x);
+            for v in 0..n_nodes {
+                for k in 0..2 {
+                    assert!((x[2 * position[v] as usize + k] - x_true[2 * v + k]).abs() < 1e-12);
+                }
+            }
+        }
+        let negative: Vec<f64> = values.iter().map(|v| -v).collect();
+        assert_eq!(
+            pattern.factor_into(&negative, &mut workspace),
+            Err(SparseError::NotPositiveDefinite)
+        );
+        assert!(SpdPattern::new_blocked(3, 2, &[(0, 3)]).is_err());
     }
 
     #[test]

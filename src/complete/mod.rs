@@ -3,7 +3,8 @@
 //!
 //! Soft-to-hard symmetric Dirichlet (algorithm.md): from the step-1 layout,
 //! minimise `SD(x) + w/2 · Σ |x_c − t_c|²` by projected Newton
-//! ([`newton`]), the weight growing ×10 per round; after every step, if
+//! ([`newton`]), the weight growing ×10 per round (a round ends at its first
+//! full Newton step, or when a step converges); after every step, if
 //! putting the constrained vertices exactly on their targets keeps every
 //! triangle positive (as stored), snap them there. Then polish: minimise SD
 //! with the constraints and the boundary held. Every layout this phase
@@ -329,8 +330,11 @@ impl CompletionState {
                     } else {
                         CompletionPhase::Done
                     };
-                } else if step.converged || steps_in_round + 1 >= options.newton_iterations {
-                    // A round ends. Once the targets have arrived (arcs
+                } else if step.converged || step.alpha >= 1.0 || steps_in_round + 1 >= options.newton_iterations {
+                    // A round ends: its step converged, or was a full Newton
+                    // step (the barrier did not cut it short, so the layout is
+                    // near this weight's minimum: more steps here gain less
+                    // than moving on). Once the targets have arrived (arcs
                     // travelled), rounds that no longer bring the constraints
                     // closer mean this attempt is stuck against the barrier.
                     let residual = max_residual(layout, problem);

@@ -15,8 +15,9 @@
 
 use super::energy::{RestTriangle, triangle_terms};
 use crate::guard;
-use crate::sparse::{SparseError, SpdPattern};
+use crate::sparse::{FactorWorkspace, SparseError, SpdPattern};
 use glam::DVec2;
+use std::sync::Mutex;
 
 /// A soft pull of some vertices toward targets: `w/2 · Σ |x_c − t_c|²`.
 #[derive(Debug, Clone, Copy)]
@@ -37,6 +38,28 @@ pub struct NewtonSystem {
     slots: Vec<[u32; 36]>,
     /// Per free vertex, the slots of its two diagonal entries.
     diagonal: Vec<[u32; 2]>,
+    /// Buffers reused from step to step.
+    workspace: Workspace,
+}
+
+/// The Hessian values, gradient and factor memory of the last step, kept so
+/// a step allocates nothing (a fresh ~1 MB factor per step is page-faulted
+/// in each time). Behind a mutex so steps can take `&self`; a clone starts
+/// empty.
+#[derive(Debug, Default)]
+struct Workspace(Mutex<Buffers>);
+
+#[derive(Debug, Default)]
+struct Buffers {
+    values: Vec<f64>,
+    grad: Vec<f64>,
+    factor: FactorWorkspace,
+}
+
+impl Clone for Workspace {
+    fn clone(&self) -> Self {
+        Workspace::default()
+    }
 }
 
 /// What one Newton step did.
@@ -50,36 +73,31 @@ pub struct NewtonStep {
     pub converged: bool,
 }
 
-/// Energy, gradient and lower-triangle Hessian values at one layout.
-struct Assembled {
-    total: f64,
-    grad: Vec<f64>,
-    values: Vec<f64>,
-}
-
 impl NewtonSystem {
     /// Pattern for the vertices with `is_free[v]` over `triangles`.
     ///
     /// # Errors
     /// A pattern faer rejects (never for a valid mesh).
     pub fn new(triangles: &[[u32; 3]], is_free: &[bool]) -> Result<Self, SparseError> {
-        let mut free_row = vec![None; is_free.len()];
+        let mut free_index = vec![None; is_free.len()];
         let mut n_free = 0usize;
         for (v, &f) in is_free.iter().enumerate() {
             if f {
-                free_row[v] = Some(n_free as u32);
+                free_index[v] = Some(n_free as u32);
                 n_free += 1;
             }
         }
         let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(3 * triangles.len());
         for t in triangles {
             for k in 0..3 {
-                if let (Some(a), Some(b)) = (free_row[t[k] as usize], free_row[t[(k + 1) % 3] as usize]) {
+                if let (Some(a), Some(b)) = (free_index[t[k] as usize], free_index[t[(k + 1) % 3] as usize]) {
                     pairs.push((a, b));
                 }
             }
         }
-        let pattern = SpdPattern::new_blocked(n_free.max(1), 2, &pairs)?;
+        let (pattern, position) = SpdPattern::new_blocked(n_free.max(1), 2, &pairs)?;
+        // A free vertex's row block is its place in the elimination order.
+        let free_row: Vec<Option<u32>> = free_index.iter().map(|i| i.map(|i| position[i as usize])).collect();
         let slot = |r: usize, c: usize| pattern.slot(r, c).expect("entry in the pattern") as u32;
         let slots = triangles
             .iter()
@@ -127,6 +145,7 @@ impl NewtonSystem {
             pattern,
             slots,
             diagonal,
+            workspace: Workspace::default(),
         })
     }
 
@@ -134,19 +153,23 @@ impl NewtonSystem {
         self.n_free
     }
 
-    /// Energy, gradient and Hessian at `layout`; vertices with `held[v]`
-    /// are treated as fixed (identity rows). `None` if a triangle is folded.
+    /// Energy at `layout`, with its gradient and Hessian written into
+    /// `buffers`; vertices with `held[v]` are treated as fixed (identity
+    /// rows). `None` if a triangle is folded.
     fn assemble(
         &self,
+        buffers: &mut Buffers,
         layout: &[DVec2],
         rest: &[RestTriangle],
         triangles: &[[u32; 3]],
         soft: Option<SoftTargets>,
         held: Option<&[bool]>,
-    ) -> Option<Assembled> {
-        let n2 = 2 * self.n_free;
-        let mut grad = vec![0.0f64; n2];
-        let mut values = vec![0.0f64; self.pattern.n_values()];
+    ) -> Option<f64> {
+        let Buffers { values, grad, .. } = buffers;
+        grad.clear();
+        grad.resize(2 * self.n_free, 0.0);
+        values.clear();
+        values.resize(self.pattern.n_values(), 0.0);
         let mut total = 0.0;
         let is_held = |v: u32| held.is_some_and(|h| h[v as usize]);
         for ((t, r), slots) in triangles.iter().zip(rest).zip(&self.slots) {
@@ -196,29 +219,32 @@ impl NewtonSystem {
                 }
             }
         }
-        Some(Assembled { total, grad, values })
+        Some(total)
     }
 
-    /// The Newton direction `H p = −g`, with a growing diagonal shift if
-    /// `H` is singular.
-    fn direction(&self, a: &Assembled) -> Option<Vec<f64>> {
+    /// The Newton direction `H p = −g` for the Hessian and gradient in
+    /// `buffers`, with a growing diagonal shift if `H` is singular (the
+    /// Hessian values are shifted in place).
+    fn direction(&self, buffers: &mut Buffers) -> Option<Vec<f64>> {
+        let Buffers { values, grad, factor } = buffers;
         let max_diag = self
             .diagonal
             .iter()
             .flatten()
-            .map(|&slot| a.values[slot as usize])
+            .map(|&slot| values[slot as usize])
             .fold(0.0f64, f64::max)
             .max(1e-300);
         let mut shift = 1e-12 * max_diag;
+        let mut added = 0.0;
         for _ in 0..6 {
-            let mut v = a.values.clone();
             self.diagonal
                 .iter()
                 .flatten()
-                .for_each(|&slot| v[slot as usize] += shift);
-            if let Ok(factor) = self.pattern.factor_assembled(&v) {
-                let mut p: Vec<f64> = a.grad.iter().map(|g| -g).collect();
-                factor.solve_column(&mut p);
+                .for_each(|&slot| values[slot as usize] += shift - added);
+            added = shift;
+            if self.pattern.factor_into(values, factor).is_ok() {
+                let mut p: Vec<f64> = grad.iter().map(|g| -g).collect();
+                self.pattern.solve_with(factor, &mut p);
                 return Some(p);
             }
             shift *= 1e3;
@@ -248,15 +274,14 @@ impl NewtonSystem {
         if self.n_free == 0 {
             return stuck(energy(layout, rest, triangles, soft));
         }
-        let Some(assembled) = self.assemble(layout, rest, triangles, soft, held) else {
+        let mut buffers = self.workspace.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        let Some(total) = self.assemble(&mut buffers, layout, rest, triangles, soft, held) else {
             return stuck(f64::INFINITY);
         };
-        let total = assembled.total;
-        let Some(p) = self.direction(&assembled) else {
+        let Some(p) = self.direction(&mut buffers) else {
             return stuck(total);
         };
-        let grad = &assembled.grad;
-        let slope: f64 = grad.iter().zip(&p).map(|(g, d)| g * d).sum();
+        let slope: f64 = buffers.grad.iter().zip(&p).map(|(g, d)| g * d).sum();
         if !(slope < 0.0) || -slope < 1e-14 * total.abs().max(1e-300) {
             return stuck(total);
         }
