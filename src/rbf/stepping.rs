@@ -135,7 +135,7 @@ const PARALLEL_EVALUATIONS: usize = 40_000;
 /// `layout[v] + ΔX(layout[v])` for every `v` of `vertices` (Eq. 6), on two
 /// threads when there is enough work (the machines here have two cores).
 fn displace_all(spline: &ThinPlateSpline, layout: &[DVec2], vertices: &[u32]) -> Vec<DVec2> {
-    let eval = |vs: &[u32]| -> Vec<DVec2> { vs.iter().map(|&v| spline.displacement(layout[v as usize])).collect() };
+    let eval = |vs: &[u32]| -> Vec<DVec2> { spline.displacements(layout, vs) };
     if vertices.len() * spline.centres.len() < PARALLEL_EVALUATIONS || vertices.len() < 2 {
         return eval(vertices);
     }
