@@ -39,7 +39,8 @@ pub struct SolverOptions {
     pub max_iterations: u32,
     /// Spline path: halvings of one step before it counts as stalled (default 20).
     pub max_halvings: u32,
-    /// Spline path: an iteration needing at least this many halvings is "heavy" (default 6).
+    /// Spline path: an iteration needing at least this many halvings is "heavy" (default 3:
+    /// it moved the constraints at most 1/8 of their remaining way).
     pub stall_halvings: u32,
     /// Spline path: this many heavy iterations in a row is a stall (default 2).
     pub stall_iterations: u32,
@@ -74,7 +75,7 @@ impl SolverOptions {
         guard: Guard::Exact,
         max_iterations: 100,
         max_halvings: 20,
-        stall_halvings: 6,
+        stall_halvings: 3,
         stall_iterations: 2,
         max_boundary_centres: 48,
         tolerance: 1e-9,

@@ -274,13 +274,13 @@ mod tests {
         };
         let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
         for _ in 0..2 {
-            for _ in 0..6 {
+            for _ in 0..o.stall_halvings {
                 s.record_guard(false, 0.0, &o);
             }
             s.record_guard(true, 0.3, &o);
         }
         assert!(matches!(s.phase, SteppingPhase::Stalled(_)), "{:?}", s.phase);
-        assert_eq!(s.total_halvings, 12);
+        assert_eq!(s.total_halvings, 2 * o.stall_halvings);
     }
 
     #[test]
