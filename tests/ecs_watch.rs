@@ -95,6 +95,14 @@ impl Fixture {
         self.world.get::<BarNetFactor>(self.entity()).expect("factor").0.clone()
     }
 
+    fn newton_pattern(&self) -> Arc<PendingNewtonPattern> {
+        self.world
+            .get::<NewtonPatternSlot>(self.entity())
+            .expect("Newton pattern slot")
+            .0
+            .clone()
+    }
+
     fn report(&self) -> uvpin::report::Report {
         self.world.get::<Exported>(self.entity()).expect("exported").0.clone()
     }
@@ -111,6 +119,7 @@ fn a_constraint_edit_re_solves_from_the_cached_step1_layout_without_refactoring(
     assert_eq!(first.status, Status::Reached);
     assert!(first.times.factor_ms > 0.0);
     let factor = f.factor();
+    let newton = f.newton_pattern();
     let step1 = f.world.get::<Step1Layout>(f.entity()).unwrap().0.clone();
 
     f.write(0.53, "");
@@ -122,6 +131,10 @@ fn a_constraint_edit_re_solves_from_the_cached_step1_layout_without_refactoring(
     assert!((second.constraints[0].target.x - 0.53).abs() < 1e-12);
     assert!(second.constraints[0].residual <= 1e-9);
     assert!(Arc::ptr_eq(&factor, &f.factor()), "the bar-net factor was rebuilt");
+    assert!(
+        Arc::ptr_eq(&newton, &f.newton_pattern()),
+        "the Newton pattern was rebuilt"
+    );
     assert_eq!(second.times.factor_ms, 0.0);
     assert_eq!(second.times.boundary_ms, 0.0);
     assert_eq!(second.times.solve_ms, 0.0, "step 1 was solved again");
@@ -141,6 +154,8 @@ fn a_constraint_edit_re_solves_from_the_cached_step1_layout_without_refactoring(
     assert!(third.times.boundary_ms > 0.0 && third.times.solve_ms > 0.0);
     assert_eq!(third.times.factor_ms, 0.0);
     assert!(Arc::ptr_eq(&factor, &f.factor()));
+    // The same outer loop, so the same free set: the Newton pattern serves on.
+    assert!(Arc::ptr_eq(&newton, &f.newton_pattern()));
     let c = f.counters();
     assert_eq!((c.solves_started, c.geometry_reused, c.step1_reused), (3, 2, 1));
 }
@@ -186,6 +201,7 @@ fn an_asset_edit_redoes_everything() {
     f.send(FileEvent::ConstraintsChanged(ron));
     f.run();
     let factor = f.factor();
+    let newton = f.newton_pattern();
     let mut mesh = grid_mesh(N, N);
     for p in &mut mesh.positions {
         p.z = 0.2 * (p.y * 3.0).sin();
@@ -198,6 +214,7 @@ fn an_asset_edit_redoes_everything() {
     assert_eq!(report.status, Status::Reached);
     assert!(report.times.factor_ms > 0.0);
     assert!(!Arc::ptr_eq(&factor, &f.factor()));
+    assert!(!Arc::ptr_eq(&newton, &f.newton_pattern()));
     assert_eq!(f.counters().geometry_reused, 0);
 }
 

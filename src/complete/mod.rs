@@ -23,9 +23,10 @@ use crate::rbf::stepping::StepProblem;
 use crate::sparse::SparseError;
 use energy::{RestTriangle, rest_shapes};
 use glam::DVec2;
-use newton::{NewtonSystem, SoftTargets};
+use newton::{NewtonPattern, NewtonSystem, SoftTargets};
 use serde::Serialize;
 use std::f64::consts::FRAC_1_SQRT_2;
+use std::sync::Arc;
 
 /// Weight of virtual hole triangles in the energy, relative to their area:
 /// enough for the barrier (holes never fold), too little to resist reshaping.
@@ -166,18 +167,17 @@ impl CompletionState {
     }
 
     /// Soft-to-hard completion (then polish, if `polish` or if the layout
-    /// cannot be stored as f32 yet), from `layout`.
-    ///
-    /// # Errors
-    /// A sparsity pattern faer rejects.
+    /// cannot be stored as f32 yet), from `layout`, with the Newton pattern
+    /// of [`newton_pattern`].
     pub fn soft(
         filled: &FilledChart,
         problem: &StepProblem,
+        pattern: Arc<NewtonPattern>,
         layout: &[DVec2],
         options: &SolverOptions,
         polish: bool,
-    ) -> Result<Self, SparseError> {
-        let mut s = Self::with_system(filled, problem)?;
+    ) -> Self {
+        let mut s = Self::with_system(filled, problem, pattern);
         s.polish_enabled = polish;
         s.phase = if guard::all_positive_as_stored(layout, &filled.mesh.triangles) {
             CompletionPhase::Soft {
@@ -191,31 +191,29 @@ impl CompletionState {
         };
         s.stats.soft = true;
         s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
-        Ok(s)
+        s
     }
 
     /// Polish only (the targets are already reached), from `layout`; with
     /// `polish` false it only repairs a layout f32 cannot store yet.
-    ///
-    /// # Errors
-    /// A sparsity pattern faer rejects.
     pub fn polish(
         filled: &FilledChart,
         problem: &StepProblem,
+        pattern: Arc<NewtonPattern>,
         layout: &[DVec2],
         polish: bool,
-    ) -> Result<Self, SparseError> {
-        let mut s = Self::with_system(filled, problem)?;
+    ) -> Self {
+        let mut s = Self::with_system(filled, problem, pattern);
         s.polish_enabled = polish;
         s.phase = CompletionPhase::Polish { steps: 0 };
         s.stats.polish = polish;
         s.stats.repair = !guard::all_positive_as_stored(layout, &filled.mesh.triangles);
         s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
         s.stats.energy_end = s.stats.energy_start;
-        Ok(s)
+        s
     }
 
-    fn with_system(filled: &FilledChart, problem: &StepProblem) -> Result<Self, SparseError> {
+    fn with_system(filled: &FilledChart, problem: &StepProblem, pattern: Arc<NewtonPattern>) -> Self {
         let n = filled.mesh.n_vertices();
         let rest = rest_shapes(
             &filled.mesh.positions,
@@ -223,20 +221,22 @@ impl CompletionState {
             filled.n_real_triangles,
             VIRTUAL_WEIGHT,
         );
-        let mut free = vec![false; n];
-        problem.movable.iter().for_each(|&v| free[v as usize] = true);
-        let system = Some(NewtonSystem::new(&filled.mesh.triangles, &free)?);
+        debug_assert!(
+            pattern.has_free_set(&problem.movable),
+            "a Newton pattern for another free set"
+        );
+        let system = Some(NewtonSystem::new(pattern));
         let mut constrained = vec![false; n];
         problem
             .constraint_vertices
             .iter()
             .for_each(|&v| constrained[v as usize] = true);
-        Ok(CompletionState {
+        CompletionState {
             rest,
             system,
             constrained,
             ..Self::done()
-        })
+        }
     }
 
     pub fn is_done(&self) -> bool {
@@ -418,6 +418,18 @@ impl CompletionState {
             self.stats.energy_end = newton::energy(layout, &self.rest, triangles, None);
         }
     }
+}
+
+/// The Newton pattern over `problem`'s movable vertices (everything but the
+/// outer boundary): the completion's and polish's sparsity pattern and
+/// symbolic factorisation, which one chart's solves can share.
+///
+/// # Errors
+/// A sparsity pattern faer rejects (never for a valid mesh).
+pub fn newton_pattern(filled: &FilledChart, movable: &[u32]) -> Result<NewtonPattern, SparseError> {
+    let mut free = vec![false; filled.mesh.n_vertices()];
+    movable.iter().for_each(|&v| free[v as usize] = true);
+    NewtonPattern::new(&filled.mesh.triangles, &free)
 }
 
 /// The largest distance from a constrained vertex to its target.

@@ -17,7 +17,7 @@ use super::energy::{RestTriangle, triangle_terms};
 use crate::guard;
 use crate::sparse::{FactorWorkspace, SparseError, SpdPattern};
 use glam::DVec2;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 /// A soft pull of some vertices toward targets: `w/2 · Σ |x_c − t_c|²`.
 #[derive(Debug, Clone, Copy)]
@@ -27,9 +27,12 @@ pub struct SoftTargets<'a> {
     pub weight: f64,
 }
 
-/// The Newton system over one free set.
-#[derive(Debug, Clone)]
-pub struct NewtonSystem {
+/// The fixed part of the Newton system over one free set: the sparsity
+/// pattern with its symbolic factorisation and where each triangle's
+/// Hessian goes. It depends only on the mesh and the free set, so one chart's
+/// solves share it (the watch daemon across edits).
+#[derive(Debug)]
+pub struct NewtonPattern {
     free_row: Vec<Option<u32>>,
     n_free: usize,
     pattern: SpdPattern,
@@ -38,7 +41,13 @@ pub struct NewtonSystem {
     slots: Vec<[u32; 36]>,
     /// Per free vertex, the slots of its two diagonal entries.
     diagonal: Vec<[u32; 2]>,
-    /// Buffers reused from step to step.
+}
+
+/// The Newton system of one solve: a shared [`NewtonPattern`] and the
+/// buffers its steps reuse.
+#[derive(Debug, Clone)]
+pub struct NewtonSystem {
+    shape: Arc<NewtonPattern>,
     workspace: Workspace,
 }
 
@@ -73,7 +82,7 @@ pub struct NewtonStep {
     pub converged: bool,
 }
 
-impl NewtonSystem {
+impl NewtonPattern {
     /// Pattern for the vertices with `is_free[v]` over `triangles`.
     ///
     /// # Errors
@@ -139,18 +148,38 @@ impl NewtonSystem {
         let diagonal = (0..n_free)
             .map(|r| [slot(2 * r, 2 * r), slot(2 * r + 1, 2 * r + 1)])
             .collect();
-        Ok(NewtonSystem {
+        Ok(NewtonPattern {
             free_row,
             n_free,
             pattern,
             slots,
             diagonal,
-            workspace: Workspace::default(),
         })
     }
 
     pub fn n_free(&self) -> usize {
         self.n_free
+    }
+
+    /// Whether this pattern's free set is exactly `free` (sorted vertex ids).
+    pub fn has_free_set(&self, free: &[u32]) -> bool {
+        free.len() == self.n_free
+            && free
+                .iter()
+                .all(|&v| self.free_row.get(v as usize).is_some_and(Option::is_some))
+    }
+}
+
+impl NewtonSystem {
+    pub fn new(shape: Arc<NewtonPattern>) -> Self {
+        NewtonSystem {
+            shape,
+            workspace: Workspace::default(),
+        }
+    }
+
+    pub fn n_free(&self) -> usize {
+        self.shape.n_free
     }
 
     /// Energy at `layout`, with its gradient and Hessian written into
@@ -167,15 +196,15 @@ impl NewtonSystem {
     ) -> Option<f64> {
         let Buffers { values, grad, .. } = buffers;
         grad.clear();
-        grad.resize(2 * self.n_free, 0.0);
+        grad.resize(2 * self.shape.n_free, 0.0);
         values.clear();
-        values.resize(self.pattern.n_values(), 0.0);
+        values.resize(self.shape.pattern.n_values(), 0.0);
         let mut total = 0.0;
         let is_held = |v: u32| held.is_some_and(|h| h[v as usize]);
-        for ((t, r), slots) in triangles.iter().zip(rest).zip(&self.slots) {
+        for ((t, r), slots) in triangles.iter().zip(rest).zip(&self.shape.slots) {
             let (e, g, h) = triangle_terms(r, t.map(|v| layout[v as usize]))?;
             total += e;
-            let live = t.map(|v| self.free_row[v as usize].filter(|_| !is_held(v)));
+            let live = t.map(|v| self.shape.free_row[v as usize].filter(|_| !is_held(v)));
             for (k, row) in live.iter().enumerate() {
                 if let Some(row) = row {
                     grad[2 * *row as usize] += g[2 * k];
@@ -200,20 +229,20 @@ impl NewtonSystem {
             for (&v, &target) in s.vertices.iter().zip(s.targets) {
                 let d = layout[v as usize] - target;
                 total += 0.5 * s.weight * d.length_squared();
-                if let Some(r) = self.free_row[v as usize].filter(|_| !is_held(v)) {
+                if let Some(r) = self.shape.free_row[v as usize].filter(|_| !is_held(v)) {
                     let r = r as usize;
                     grad[2 * r] += s.weight * d.x;
                     grad[2 * r + 1] += s.weight * d.y;
-                    for slot in self.diagonal[r] {
+                    for slot in self.shape.diagonal[r] {
                         values[slot as usize] += s.weight;
                     }
                 }
             }
         }
         if let Some(held) = held {
-            for (v, row) in self.free_row.iter().enumerate() {
+            for (v, row) in self.shape.free_row.iter().enumerate() {
                 if let (Some(row), true) = (row, held[v]) {
-                    for slot in self.diagonal[*row as usize] {
+                    for slot in self.shape.diagonal[*row as usize] {
                         values[slot as usize] = 1.0;
                     }
                 }
@@ -228,6 +257,7 @@ impl NewtonSystem {
     fn direction(&self, buffers: &mut Buffers) -> Option<Vec<f64>> {
         let Buffers { values, grad, factor } = buffers;
         let max_diag = self
+            .shape
             .diagonal
             .iter()
             .flatten()
@@ -237,14 +267,15 @@ impl NewtonSystem {
         let mut shift = 1e-12 * max_diag;
         let mut added = 0.0;
         for _ in 0..6 {
-            self.diagonal
+            self.shape
+                .diagonal
                 .iter()
                 .flatten()
                 .for_each(|&slot| values[slot as usize] += shift - added);
             added = shift;
-            if self.pattern.factor_into(values, factor).is_ok() {
+            if self.shape.pattern.factor_into(values, factor).is_ok() {
                 let mut p: Vec<f64> = grad.iter().map(|g| -g).collect();
-                self.pattern.solve_with(factor, &mut p);
+                self.shape.pattern.solve_with(factor, &mut p);
                 return Some(p);
             }
             shift *= 1e3;
@@ -271,7 +302,7 @@ impl NewtonSystem {
             alpha: 0.0,
             converged: true,
         };
-        if self.n_free == 0 {
+        if self.shape.n_free == 0 {
             return stuck(energy(layout, rest, triangles, soft));
         }
         let mut buffers = self.workspace.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
@@ -286,7 +317,7 @@ impl NewtonSystem {
             return stuck(total);
         }
         let mut dir = vec![DVec2::ZERO; layout.len()];
-        for (v, r) in self.free_row.iter().enumerate() {
+        for (v, r) in self.shape.free_row.iter().enumerate() {
             if let Some(r) = r {
                 dir[v] = DVec2::new(p[2 * *r as usize], p[2 * *r as usize + 1]);
             }

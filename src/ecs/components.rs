@@ -55,6 +55,82 @@ pub struct Stepping {
     pub storable: bool,
 }
 
+/// The completion's Newton pattern (sparsity, symbolic factorisation,
+/// Hessian slots) for this chart's free set. It depends only on the mesh and
+/// the free set, so it is kept across constraint edits of the same geometry;
+/// when the polish will need it anyway it is built on another thread while
+/// the spline path runs.
+#[derive(Component, Debug, Clone)]
+pub struct NewtonPatternSlot(pub Arc<PendingNewtonPattern>);
+
+/// A [`NewtonPattern`](crate::complete::newton::NewtonPattern) being built
+/// in the background, built, or not built yet.
+#[derive(Debug)]
+pub struct PendingNewtonPattern {
+    filled: Arc<crate::param::bar_net::FilledChart>,
+    movable: Vec<u32>,
+    state: std::sync::Mutex<PatternState>,
+}
+
+type PatternResult = Result<Arc<crate::complete::newton::NewtonPattern>, crate::sparse::SparseError>;
+
+#[derive(Debug)]
+enum PatternState {
+    NotStarted,
+    Building(std::thread::JoinHandle<PatternResult>),
+    Built(PatternResult),
+}
+
+impl PendingNewtonPattern {
+    /// The pattern over `movable`, built on first use.
+    pub fn lazy(filled: Arc<crate::param::bar_net::FilledChart>, movable: Vec<u32>) -> Self {
+        PendingNewtonPattern {
+            filled,
+            movable,
+            state: std::sync::Mutex::new(PatternState::NotStarted),
+        }
+    }
+
+    /// The pattern over `movable`, started now on its own thread (built on
+    /// first use instead if no thread can be started).
+    pub fn in_background(filled: Arc<crate::param::bar_net::FilledChart>, movable: Vec<u32>) -> Self {
+        let pending = Self::lazy(filled.clone(), movable.clone());
+        let build = move || crate::complete::newton_pattern(&filled, &movable).map(Arc::new);
+        if let Ok(handle) = std::thread::Builder::new()
+            .name("uvpin-newton-pattern".into())
+            .spawn(build)
+        {
+            *pending.state.lock().unwrap_or_else(|p| p.into_inner()) = PatternState::Building(handle);
+        }
+        pending
+    }
+
+    /// Whether this is the pattern over exactly `movable`.
+    pub fn serves(&self, movable: &[u32]) -> bool {
+        self.movable == movable
+    }
+
+    /// The pattern: waits for the background build, or builds it now.
+    ///
+    /// # Errors
+    /// The pattern faer rejected (never for a valid mesh), or the build
+    /// thread panicked.
+    pub fn get(&self) -> PatternResult {
+        let mut state = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        let result = match std::mem::replace(&mut *state, PatternState::NotStarted) {
+            PatternState::Built(result) => result,
+            PatternState::Building(handle) => handle.join().unwrap_or_else(|_| {
+                Err(crate::sparse::SparseError::Pattern(
+                    "the Newton pattern thread panicked".into(),
+                ))
+            }),
+            PatternState::NotStarted => crate::complete::newton_pattern(&self.filled, &self.movable).map(Arc::new),
+        };
+        *state = PatternState::Built(result.clone());
+        result
+    }
+}
+
 /// The completion phase and polish (step 3), once the spline path is over.
 #[derive(Component, Debug, Clone)]
 pub struct Completing {

@@ -106,12 +106,13 @@ pub fn start_stepping(
             &ChartData,
             &BoundaryLayout,
             &Step1Layout,
+            Option<&NewtonPatternSlot>,
             &mut Timings,
         ),
         (Without<Stepping>, Without<Failed>),
     >,
 ) {
-    for (entity, job, data, boundary, step1, mut times) in &mut charts {
+    for (entity, job, data, boundary, step1, pattern, mut times) in &mut charts {
         let t0 = Instant::now();
         let c = &data.0;
         // One pass when storable (which implies positive in f64); the f64
@@ -129,6 +130,22 @@ pub fn start_stepping(
         match chart::step_problem(c, &job.constraints, &boundary.0, options.max_boundary_centres) {
             Ok(problem) => {
                 let state = SteppingState::start(&problem, &step1.0, options);
+                if pattern.is_none_or(|p| !p.0.serves(&problem.movable)) {
+                    // The polish runs after any result (and `Always` starts
+                    // the completion at once): then the Newton pattern is
+                    // needed anyway, so build it beside the spline path.
+                    let polish_runs = options.guard == crate::options::Guard::Exact
+                        && options.polish
+                        && c.filled.n_real_vertices <= options.polish_max_vertices;
+                    let needed = polish_runs || options.completion == crate::options::Completion::Always;
+                    let (filled, movable) = (c.filled.clone(), problem.movable.clone());
+                    let pending = if needed && !movable.is_empty() {
+                        PendingNewtonPattern::in_background(filled, movable)
+                    } else {
+                        PendingNewtonPattern::lazy(filled, movable)
+                    };
+                    commands.entity(entity).insert(NewtonPatternSlot(Arc::new(pending)));
+                }
                 commands
                     .entity(entity)
                     .insert(Stepping {
@@ -232,6 +249,7 @@ pub fn complete_constraints(
             &mut Layout,
             &Stepping,
             Option<&mut Completing>,
+            Option<&NewtonPatternSlot>,
             &mut Timings,
         ),
         (Without<Finished>, Without<Candidate>, Without<Failed>),
@@ -239,7 +257,7 @@ pub fn complete_constraints(
 ) {
     use crate::complete::CompletionState;
     use crate::rbf::stepping::SteppingPhase;
-    for (entity, job, data, step1, mut layout, stepping, completing, mut times) in &mut charts {
+    for (entity, job, data, step1, mut layout, stepping, completing, slot, mut times) in &mut charts {
         if stepping.state.is_stepping() {
             continue;
         }
@@ -264,10 +282,15 @@ pub fn complete_constraints(
                     stepping.storable
                 };
                 let has_free = !stepping.problem.movable.is_empty();
+                // Built beside the spline path when it was sure to be needed.
+                let pattern = || match slot {
+                    Some(s) if s.0.serves(&stepping.problem.movable) => s.0.get(),
+                    _ => crate::complete::newton_pattern(filled, &stepping.problem.movable).map(Arc::new),
+                };
                 let mut spline_layout = None;
                 let state = if reached {
                     if has_free && !paper && (polish || !storable) {
-                        CompletionState::polish(filled, &stepping.problem, &layout.0, polish)
+                        pattern().map(|p| CompletionState::polish(filled, &stepping.problem, p, &layout.0, polish))
                     } else {
                         Ok(CompletionState::done())
                     }
@@ -275,8 +298,10 @@ pub fn complete_constraints(
                     Ok(CompletionState::done())
                 } else {
                     // From the step-1 layout (algorithm.md); the spline's result is the fallback.
-                    spline_layout = Some(std::mem::replace(&mut layout.0, step1.0.clone()));
-                    CompletionState::soft(filled, &stepping.problem, &layout.0, options, polish)
+                    pattern().map(|p| {
+                        spline_layout = Some(std::mem::replace(&mut layout.0, step1.0.clone()));
+                        CompletionState::soft(filled, &stepping.problem, p, &layout.0, options, polish)
+                    })
                 };
                 let stretch_before_polish =
                     (reached && has_free && !paper && (polish || !storable)).then(|| stretch(&layout.0));

@@ -534,7 +534,7 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
     let mut e = world.entity_mut(entity);
     e.remove::<(Stepping, Completing, Candidate, Finished, Exported, Failed)>();
     if !keep_geometry {
-        e.remove::<(BoundaryLayout, BarNetFactor, Step1Layout, Layout)>();
+        e.remove::<(BoundaryLayout, BarNetFactor, Step1Layout, Layout, NewtonPatternSlot)>();
     } else if !keep_step1 {
         e.remove::<(BoundaryLayout, Step1Layout, Layout)>();
     } else if let Some(step1) = e.get::<Step1Layout>() {
