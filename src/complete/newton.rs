@@ -2,12 +2,14 @@
 //! constraint term) over a fixed set of free vertices.
 //!
 //! The sparsity pattern depends only on the mesh and the free set, so the
-//! symbolic Cholesky (minimum degree on vertices, 2 × 2 blocks) is done once.
+//! symbolic Cholesky (minimum degree on vertices, 2 × 2 blocks, numbered in
+//! elimination order) is a [`NewtonPattern`] made once per chart and shared.
 //! Each Newton step assembles the projected Hessian straight into the
-//! factor's value order (no sorting) and refactors numerically. (Reusing an
-//! older factorisation as a conjugate-gradient preconditioner was tried: the
-//! Hessian changes so much between steps that it needed 25–50 iterations,
-//! more than a fresh factorisation costs.)
+//! factor's value order (no sorting, no permutation) and refactors
+//! numerically into reused memory. (Reusing an older factorisation, as a
+//! conjugate-gradient preconditioner or as the Hessian of a cheaper lagged
+//! step, was tried: the Hessian changes so much between steps that CG needed
+//! 25–50 iterations, and lagged steps were cut to 5–10 % by the barrier.)
 //! The line search never lets a triangle's area reach zero: it starts at 0.9 ×
 //! the largest step that keeps every triangle (virtual ones included)
 //! positive, backtracks until Armijo holds, and accepts only layouts that
