@@ -124,6 +124,10 @@ pub struct CompletionState {
     stalled_rounds: u32,
     /// The attempt that came closest: its largest residual and layout.
     best: Option<(f64, Vec<DVec2>)>,
+    /// Whether the current layout keeps every triangle positive as stored
+    /// (f32). Once true it stays true (every accepted step keeps it), so it
+    /// is carried rather than recounted each step.
+    storable: bool,
 }
 
 /// Rounds in a row whose end leaves the largest residual where it was (to
@@ -163,6 +167,7 @@ impl CompletionState {
             last_round_residual: f64::INFINITY,
             stalled_rounds: 0,
             best: None,
+            storable: false,
         }
     }
 
@@ -179,7 +184,8 @@ impl CompletionState {
     ) -> Self {
         let mut s = Self::with_system(filled, problem, pattern);
         s.polish_enabled = polish;
-        s.phase = if guard::all_positive_as_stored(layout, &filled.mesh.triangles) {
+        s.storable = guard::all_positive_as_stored(layout, &filled.mesh.triangles);
+        s.phase = if s.storable {
             CompletionPhase::Soft {
                 round: 0,
                 weight: options.initial_weight,
@@ -191,6 +197,7 @@ impl CompletionState {
         };
         s.stats.soft = true;
         s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
+        s.stats.energy_end = s.stats.energy_start;
         s
     }
 
@@ -207,7 +214,8 @@ impl CompletionState {
         s.polish_enabled = polish;
         s.phase = CompletionPhase::Polish { steps: 0 };
         s.stats.polish = polish;
-        s.stats.repair = !guard::all_positive_as_stored(layout, &filled.mesh.triangles);
+        s.storable = guard::all_positive_as_stored(layout, &filled.mesh.triangles);
+        s.stats.repair = !s.storable;
         s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
         s.stats.energy_end = s.stats.energy_start;
         s
@@ -239,6 +247,14 @@ impl CompletionState {
         }
     }
 
+    /// After `layout` changed: a layout that was storable still is (every
+    /// accepted step and snap keeps it so); one that was not is recounted.
+    fn note_step(&mut self, layout: &[DVec2], triangles: &[[u32; 3]]) {
+        if !self.storable {
+            self.storable = guard::all_positive_as_stored(layout, triangles);
+        }
+    }
+
     pub fn is_done(&self) -> bool {
         self.phase == CompletionPhase::Done
     }
@@ -264,13 +280,22 @@ impl CompletionState {
             CompletionPhase::Done => {}
             CompletionPhase::Repair { steps } => {
                 let system = self.system.as_ref().expect("Newton system");
-                let step = system.step(layout, &self.rest, triangles, None, None, POLISH_TOLERANCE);
+                let step = system.step(
+                    layout,
+                    &self.rest,
+                    triangles,
+                    None,
+                    None,
+                    POLISH_TOLERANCE,
+                    self.storable,
+                );
+                self.note_step(layout, triangles);
                 self.stats.repair_steps += 1;
                 let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
                 // Spread on until the distortion has settled too: soft rounds
                 // from a layout that is merely storable crawl (tiny safe steps).
                 let settled = step.converged || step.energy_after > (1.0 - REPAIR_GAIN) * step.energy_before;
-                self.phase = if (settled && guard::all_positive_as_stored(layout, triangles)) || stuck {
+                self.phase = if (settled && self.storable) || stuck {
                     CompletionPhase::Soft {
                         round: 0,
                         weight: options.initial_weight,
@@ -305,7 +330,8 @@ impl CompletionState {
                 let system = self.system.as_ref().expect("Newton system");
                 // Scale the pull with the distortion energy (4 = isometry): a
                 // badly squeezed start has energy ~1e20 and must not drown it.
-                let scale = (newton::energy(layout, &self.rest, triangles, None) / 4.0).max(1.0);
+                // (`energy_end` is the current layout's, kept after every step.)
+                let scale = (self.stats.energy_end / 4.0).max(1.0);
                 let side = self.attempts[self.attempt];
                 let s = ((round + 1) as f64 / ARC_ROUNDS as f64).min(1.0);
                 let arc_targets: Option<Vec<DVec2>> = (side != 0.0 && s < 1.0)
@@ -315,14 +341,24 @@ impl CompletionState {
                     targets: arc_targets.as_deref().unwrap_or(&problem.targets),
                     weight: weight * scale,
                 };
-                let step = system.step(layout, &self.rest, triangles, Some(soft), None, ROUND_TOLERANCE);
+                let step = system.step(
+                    layout,
+                    &self.rest,
+                    triangles,
+                    Some(soft),
+                    None,
+                    ROUND_TOLERANCE,
+                    self.storable,
+                );
+                self.note_step(layout, triangles);
                 self.stats.newton_steps += 1;
                 self.stats.rounds = round + 1;
-                if try_snap(layout, problem, triangles) {
+                if try_snap(layout, problem, triangles, self.storable) {
                     self.stats.snapped = true;
                     self.stats.arc_retry = side != 0.0;
                     self.stats.snapped_at_round = Some(round);
-                    let storable = guard::all_positive_as_stored(layout, triangles);
+                    self.note_step(layout, triangles);
+                    let storable = self.storable;
                     self.stats.repair |= !storable;
                     self.phase = if self.polish_enabled || !storable {
                         self.stats.polish |= self.polish_enabled;
@@ -356,6 +392,7 @@ impl CompletionState {
                         match &self.soft_start {
                             Some(start) if self.attempt + 1 < self.attempts.len() => {
                                 layout.copy_from_slice(start);
+                                self.storable = guard::all_positive_as_stored(layout, triangles);
                                 self.attempt += 1;
                                 CompletionPhase::Soft {
                                     round: 0,
@@ -366,6 +403,7 @@ impl CompletionState {
                             _ => {
                                 if let Some((_, best)) = self.best.take() {
                                     layout.copy_from_slice(&best);
+                                    self.storable = guard::all_positive_as_stored(layout, triangles);
                                 }
                                 CompletionPhase::Done
                             }
@@ -387,7 +425,7 @@ impl CompletionState {
             }
             CompletionPhase::Polish { steps } => {
                 let system = self.system.as_ref().expect("Newton system");
-                let repairing = !guard::all_positive_as_stored(layout, triangles);
+                let repairing = !self.storable;
                 let step = system.step(
                     layout,
                     &self.rest,
@@ -395,7 +433,9 @@ impl CompletionState {
                     None,
                     Some(&self.constrained),
                     POLISH_TOLERANCE,
+                    self.storable,
                 );
+                self.note_step(layout, triangles);
                 self.stats.polish_steps = steps + 1;
                 if repairing {
                     self.stats.polish_repair_steps += 1;
@@ -405,7 +445,7 @@ impl CompletionState {
                     || step.converged
                     || relative_gain < POLISH_TOLERANCE
                     || steps + 1 - self.stats.polish_repair_steps >= options.polish_iterations;
-                let storable = guard::all_positive_as_stored(layout, triangles);
+                let storable = self.storable;
                 let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
                 self.phase = if (finished && storable) || stuck {
                     CompletionPhase::Done
@@ -477,13 +517,14 @@ fn paths_cross(paths: &[(DVec2, DVec2)]) -> bool {
 }
 
 /// Puts every constrained vertex exactly on its target if that keeps every
-/// triangle positive as stored; returns whether it did.
-pub fn try_snap(layout: &mut [DVec2], problem: &StepProblem, triangles: &[[u32; 3]]) -> bool {
+/// triangle positive (as stored, when `storable`: `layout` is); returns
+/// whether it did.
+pub fn try_snap(layout: &mut [DVec2], problem: &StepProblem, triangles: &[[u32; 3]], storable: bool) -> bool {
     let mut candidate = layout.to_vec();
     for (&v, &t) in problem.constraint_vertices.iter().zip(&problem.targets) {
         candidate[v as usize] = t;
     }
-    if guard::acceptable(&candidate, triangles, guard::all_positive_as_stored(layout, triangles)) {
+    if guard::acceptable(&candidate, triangles, storable) {
         layout.copy_from_slice(&candidate);
         true
     } else {

@@ -288,7 +288,9 @@ impl NewtonSystem {
     /// One projected Newton step from `layout` (updated in place), with the
     /// vertices marked in `held` kept where they are. The step counts as
     /// converged when the Newton decrement or the energy decrease is below
-    /// `tolerance` relative to the energy.
+    /// `tolerance` relative to the energy. `storable` says `layout` keeps
+    /// every triangle positive as stored (f32); the step then keeps it so.
+    #[allow(clippy::too_many_arguments)]
     pub fn step(
         &self,
         layout: &mut [DVec2],
@@ -297,6 +299,7 @@ impl NewtonSystem {
         soft: Option<SoftTargets>,
         held: Option<&[bool]>,
         tolerance: f64,
+        storable: bool,
     ) -> NewtonStep {
         let stuck = |e: f64| NewtonStep {
             energy_before: e,
@@ -334,7 +337,6 @@ impl NewtonSystem {
         let start: Vec<DVec2> = layout.to_vec();
         // Once storable as f32, always storable; a layout that is not yet (a
         // squeezed step 1) must only stay positive while the barrier spreads it.
-        let storable = guard::all_positive_as_stored(&start, triangles);
         for _ in 0..60 {
             for (v, x) in layout.iter_mut().enumerate() {
                 *x = start[v] + dir[v] * alpha;
