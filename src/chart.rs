@@ -231,9 +231,12 @@ pub fn step_problem(
     Ok(problem)
 }
 
+/// Texture coordinates per primitive of an asset (glTF's `TEXCOORD_0`, one per vertex).
+pub type PrimitiveUvs = Vec<Vec<[f32; 2]>>;
+
 /// Final per-primitive UVs (glTF texture coordinates, f32): the solved chart's
 /// from `layout`, every other vertex's as it was (or (0, 0) without UVs).
-pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> Vec<Vec<[f32; 2]>> {
+pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> PrimitiveUvs {
     asset
         .primitives
         .iter()

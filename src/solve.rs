@@ -1,7 +1,7 @@
 //! One-call solving for Rust users and the CLI: load, run the ECS schedule to
 //! convergence, write the output atomically, return the report.
 
-use crate::chart;
+use crate::chart::{self, PrimitiveUvs};
 use crate::constraints::LoadedConstraints;
 use crate::constraints::{ConstraintFile, ConstraintSpec, CornerSpec};
 use crate::ecs::{self, ChartData, Exported, Failed, Layout, PreviewRequest, SolveJob, Timings};
@@ -164,7 +164,7 @@ pub fn solve_loaded_shared(
 
 /// Runs the schedule on a spawned job and returns its report and final UVs
 /// (per primitive, glTF texture coordinates).
-fn run_job(mut world: World, entity: Entity) -> Result<(Report, Vec<Vec<[f32; 2]>>), Error> {
+fn run_job(mut world: World, entity: Entity) -> Result<(Report, PrimitiveUvs), Error> {
     let mut schedule = ecs::solve_schedule();
     ecs::run_to_convergence(&mut world, &mut schedule, MAX_TICKS);
     if let Some(failed) = world.entity_mut(entity).take::<Failed>() {

@@ -53,7 +53,7 @@ pub fn rest_shapes(
             r1 *= scale;
             r2 *= scale;
             area *= scale * scale;
-            if !(area > 1e-12 * mean_area) {
+            if area.is_nan() || area <= 1e-12 * mean_area {
                 // Equilateral of the mean area.
                 let side = (4.0 * mean_area / 3f64.sqrt()).sqrt();
                 r1 = DVec2::new(side, 0.0);
@@ -168,11 +168,11 @@ pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 
     }
     // (Bᵀ H B)[(k, i)][col] = Σ_j coef[k][j] (H B)[(i, j)][col].
     let mut hess = [0.0f64; 36];
-    for k in 0..3 {
+    for (k, c) in coef.iter().enumerate() {
         for i in 0..2 {
             let p = 2 * k + i;
             for col in 0..6 {
-                hess[p * 6 + col] = w * (coef[k][0] * hb[2 * i][col] + coef[k][1] * hb[2 * i + 1][col]);
+                hess[p * 6 + col] = w * (c[0] * hb[2 * i][col] + c[1] * hb[2 * i + 1][col]);
             }
         }
     }

@@ -318,7 +318,7 @@ impl NewtonSystem {
             return stuck(total);
         };
         let slope: f64 = buffers.grad.iter().zip(&p).map(|(g, d)| g * d).sum();
-        if !(slope < 0.0) || -slope < 1e-14 * total.abs().max(1e-300) {
+        if slope.is_nan() || slope >= 0.0 || -slope < 1e-14 * total.abs().max(1e-300) {
             return stuck(total);
         }
         let mut dir = vec![DVec2::ZERO; layout.len()];

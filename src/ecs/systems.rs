@@ -1,4 +1,6 @@
 //! Systems (verb phrases): each calls one core function for every chart that needs it.
+// A system's query names its components as a tuple: long, but read in place.
+#![allow(clippy::type_complexity)]
 
 use super::components::*;
 use crate::chart;

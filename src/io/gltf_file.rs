@@ -104,7 +104,7 @@ pub(super) fn load(
             Some(i) => i.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),
         };
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(perr(format!(
                 "{} indices is not a whole number of triangles",
                 indices.len()
@@ -251,7 +251,7 @@ fn f32_bytes(uvs: &[[f32; 2]]) -> Vec<u8> {
 }
 
 fn pad4(blob: &mut Vec<u8>) {
-    while blob.len() % 4 != 0 {
+    while !blob.len().is_multiple_of(4) {
         blob.push(0);
     }
 }

@@ -88,6 +88,7 @@ impl ThinPlateSpline {
             }
             v[k] -= alpha;
             let vnorm2: f64 = v.iter().map(|x| x * x).sum();
+            #[allow(clippy::needless_range_loop)] // j picks a column of the rows p[i]
             for j in k..3 {
                 let dot: f64 = (k..m).map(|i| v[i] * p[i][j]).sum();
                 for i in k..m {
@@ -413,9 +414,13 @@ fn phi_branch_free(r2: f64) -> f64 {
     if r2 > 0.0 { phi } else { 0.0 }
 }
 
+// fdlibm's constants, digit for digit as published (f64 rounds the tails).
+#[allow(clippy::excessive_precision)]
 const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-1;
+#[allow(clippy::excessive_precision)]
 const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
 /// fdlibm's `Lg1` … `Lg7`.
+#[allow(clippy::excessive_precision)]
 const LG: [f64; 7] = [
     6.666_666_666_666_735_130e-1,
     3.999_999_999_940_941_908e-1,
