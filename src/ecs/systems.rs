@@ -133,18 +133,13 @@ pub fn start_stepping(
             Ok(problem) => {
                 let state = SteppingState::start(&problem, &step1.0, options);
                 if pattern.is_none_or(|p| !p.0.serves(&problem.movable)) {
-                    // The Newton pattern is built beside the spline path
-                    // when Newton steps are cheap at this size (the polish
-                    // limit) and may be needed: by the polish, which runs
-                    // after any result, or by the completion, which takes
-                    // over if the path stalls (and at once under `Always`).
-                    // Built for nothing, it cost the other core a few ms
-                    // (1.7k vertices), once per geometry.
-                    use crate::options::{Completion, Guard};
-                    let cheap = c.filled.n_real_vertices <= options.polish_max_vertices;
-                    let exact = options.guard == Guard::Exact;
-                    let may_need = exact && (options.polish || options.completion != Completion::Never);
-                    let needed = (cheap && may_need) || options.completion == Completion::Always;
+                    // The polish runs after any result (and `Always` starts
+                    // the completion at once): then the Newton pattern is
+                    // needed anyway, so build it beside the spline path.
+                    let polish_runs = options.guard == crate::options::Guard::Exact
+                        && options.polish
+                        && c.filled.n_real_vertices <= options.polish_max_vertices;
+                    let needed = polish_runs || options.completion == crate::options::Completion::Always;
                     let (filled, movable) = (c.filled.clone(), problem.movable.clone());
                     let pending = if needed && !movable.is_empty() {
                         PendingNewtonPattern::in_background(filled, movable)
@@ -289,7 +284,7 @@ pub fn complete_constraints(
                     stepping.storable
                 };
                 let has_free = !stepping.problem.movable.is_empty();
-                // Built beside the spline path when it might be needed.
+                // Built beside the spline path when it was sure to be needed.
                 let pattern = || match slot {
                     Some(s) if s.0.serves(&stepping.problem.movable) => s.0.get(),
                     _ => crate::complete::newton_pattern(filled, &stepping.problem.movable).map(Arc::new),
