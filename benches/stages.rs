@@ -128,21 +128,11 @@ fn warp_constraints(mesh: &TriMesh, k: usize, seed: u64) -> Vec<(u32, DVec2)> {
 }
 
 fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: usize) -> Row {
-    bench_mesh_with(name, mesh, constraints, runs, SolverOptions::DEFAULT)
-}
-
-fn bench_mesh_with(
-    name: &str,
-    mesh: &TriMesh,
-    constraints: &[(u32, DVec2)],
-    runs: usize,
-    options: SolverOptions,
-) -> Row {
     let mut times = Vec::new();
     let mut status = String::new();
     let mut last = None;
     for _ in 0..runs {
-        let (report, _) = uvpin::solve_mesh(mesh, constraints, None, options).expect("solve");
+        let (report, _) = uvpin::solve_mesh(mesh, constraints, None, SolverOptions::DEFAULT).expect("solve");
         status = format!("{:?}", report.status).to_lowercase();
         times.push(report.times);
         last = Some(report);
@@ -156,6 +146,37 @@ fn bench_mesh_with(
         times,
         report: last,
     }
+}
+
+/// One case of an interleaved set: name, mesh, constraints, options.
+type Case<'a> = (&'a str, &'a TriMesh, Vec<(u32, DVec2)>, SolverOptions);
+
+/// Runs `cases` round-robin, one solve of each per round, `runs` rounds.
+/// This machine switches between fast and slow spells lasting about a
+/// second (up to 2× apart); run back to back, a case's runs would all land
+/// in one spell, so rows could not be compared with each other.
+fn bench_interleaved(cases: &[Case], runs: usize) -> Vec<Row> {
+    let mut rows: Vec<Row> = cases
+        .iter()
+        .map(|(name, mesh, constraints, _)| Row {
+            name: (*name).into(),
+            vertices: mesh.n_vertices(),
+            constraints: constraints.len(),
+            status: String::new(),
+            runs,
+            times: Vec::new(),
+            report: None,
+        })
+        .collect();
+    for _ in 0..runs {
+        for ((_, mesh, constraints, options), row) in cases.iter().zip(&mut rows) {
+            let (report, _) = uvpin::solve_mesh(mesh, constraints, None, *options).expect("solve");
+            row.status = format!("{:?}", report.status).to_lowercase();
+            row.times.push(report.times);
+            row.report = Some(report);
+        }
+    }
+    rows
 }
 
 fn bench_file(name: &str, constraints: &Path, out: &Path, runs: usize) -> Option<Row> {
@@ -208,19 +229,13 @@ fn main() {
     if wanted("paper") {
         let mesh = curved_grid(41, 1);
         let c = warp_constraints(&mesh, 50, 2);
-        show(bench_mesh("paper size: 41² curved grid", &mesh, &c, 21), &mut rows);
         let mut no_polish = SolverOptions::DEFAULT;
         no_polish.polish = false;
-        show(
-            bench_mesh_with("paper size, polish off", &mesh, &c, 21, no_polish),
-            &mut rows,
-        );
         // The paper's Fig. 8 crossing at the same size: the spline path stalls.
         let (a, b) = (15 + 41 * 20, 25 + 41 * 20);
         let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, no_polish).expect("step 1");
         let at = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
-        let crossing = [(a, at(b)), (b, at(a))];
-        show(bench_mesh("paper size, crossing pair", &mesh, &crossing, 11), &mut rows);
+        let crossing = vec![(a, at(b)), (b, at(a))];
         // 50 constraints turned by a strong swirl: the spline path stalls and
         // the completion reaches them (its result is the witness).
         let mut rng = Rng::new(2);
@@ -233,11 +248,17 @@ fn main() {
                 swirled.push((v, xy_to_uv(swirl(uv_to_xy(uv), 4.0))));
             }
         }
-        show(bench_mesh("paper size, swirl (stalls)", &mesh, &swirled, 11), &mut rows);
-        show(
-            bench_mesh_with("paper size, swirl, polish off", &mesh, &swirled, 11, no_polish),
-            &mut rows,
-        );
+        let d = SolverOptions::DEFAULT;
+        let cases: Vec<Case> = vec![
+            ("paper size: 41² curved grid", &mesh, c.clone(), d),
+            ("paper size, polish off", &mesh, c, no_polish),
+            ("paper size, crossing pair", &mesh, crossing, d),
+            ("paper size, swirl (stalls)", &mesh, swirled.clone(), d),
+            ("paper size, swirl, polish off", &mesh, swirled, no_polish),
+        ];
+        for row in bench_interleaved(&cases, 21) {
+            show(row, &mut rows);
+        }
     }
     let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
     if shared.is_dir() {
