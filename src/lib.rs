@@ -49,4 +49,4 @@ pub mod watch;
 
 pub use error::{Error, Result};
 pub use report::{Report, Status};
-pub use solve::{solve_file, solve_mesh};
+pub use solve::{solve_file, solve_mesh, unreachable_proof};

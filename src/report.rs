@@ -146,6 +146,11 @@ pub struct Report {
     /// For a partial result: which constraints conflict and where the mesh is squeezed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hint: Option<String>,
+    /// For a partial result that no fold-free layout of this mesh could
+    /// improve on: what would have to happen for every target to be reached
+    /// (a crossing, a flipped or overlapped piece pinned in place).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unreachable_proof: Option<String>,
     /// What each phase did, one line each (`uvpin solve --explain`).
     pub explain: Vec<String>,
     pub iterations: u32,
@@ -232,6 +237,39 @@ pub struct SolveSummary<'a> {
     pub times: StageTimes,
 }
 
+/// A chart vertex's id in the asset (the first primitive that has it).
+fn gltf_id(p: &crate::chart::PreparedChart, local: u32) -> Option<u32> {
+    let w = *p.chart.welded_ids.get(local as usize)?;
+    p.welded
+        .vertex_of
+        .iter()
+        .find_map(|map| map.iter().position(|&x| x == w).map(|i| i as u32))
+}
+
+/// Which constraint (its index in the file) pins a chart vertex, if any.
+pub(crate) fn constraint_of(p: &crate::chart::PreparedChart) -> impl Fn(u32) -> Option<usize> + '_ {
+    |v| {
+        p.constraints
+            .iter()
+            .zip(&p.constraint_vertices)
+            .find_map(|(c, &w)| (w == v).then_some(c.index))
+    }
+}
+
+/// How a message names a chart vertex: `constraints[i]`, `boundary vertex N`
+/// or `vertex N` (N its id in the asset).
+pub(crate) fn vertex_namer<'a>(
+    p: &'a crate::chart::PreparedChart,
+    on_outer: &'a [bool],
+) -> impl Fn(u32) -> String + 'a {
+    move |v| match (constraint_of(p)(v), gltf_id(p, v)) {
+        (Some(i), _) => format!("constraints[{i}]"),
+        (None, Some(id)) if on_outer[v as usize] => format!("boundary vertex {id}"),
+        (None, Some(id)) => format!("vertex {id}"),
+        (None, None) => "a hole's centre".into(),
+    }
+}
+
 /// The report of a finished solve (before the file is written).
 pub fn build(s: &SolveSummary) -> Report {
     use crate::param::xy_to_uv;
@@ -296,19 +334,22 @@ pub fn build(s: &SolveSummary) -> Report {
         .filter(|(c, _)| !c.reached)
         .map(|(c, &v)| (c.index, v))
         .collect();
-    let hint =
-        (!unreached.is_empty()).then(|| crate::complete::partial_hint(&p.filled, s.layout, s.problem, &unreached));
     let n_real = p.filled.n_real_vertices;
     let real = &p.chart.mesh;
     let stretch_step1 = crate::metrics::sander_stretch(&real.positions, &s.step1[..n_real], &real.triangles);
     let stretch_final = crate::metrics::sander_stretch(&real.positions, &s.layout[..n_real], &real.triangles);
-    let gltf_id = |local: u32| -> Option<u32> {
-        let w = p.chart.welded_ids[local as usize];
-        p.welded
-            .vertex_of
-            .iter()
-            .find_map(|map| map.iter().position(|&x| x == w).map(|i| i as u32))
-    };
+    let gltf_id = |local: u32| gltf_id(p, local);
+    // Unreached: a proof that no fold-free layout reaches them, if there is
+    // one, else where the mesh is squeezed.
+    let certificate = (!unreached.is_empty())
+        .then(|| crate::complete::find_obstruction(&p.filled, s.layout, s.problem))
+        .flatten();
+    let (constraint_of, vertex_name) = (constraint_of(p), vertex_namer(p, &on_outer));
+    let hint = (!unreached.is_empty()).then(|| match &certificate {
+        Some(c) => crate::complete::obstruction_hint(c, &constraint_of, &vertex_name),
+        None => crate::complete::partial_hint(&p.filled, s.layout, s.problem, &unreached),
+    });
+    let unreachable_proof = certificate.as_ref().map(|c| c.describe(&vertex_name));
     let mut warnings = p.warnings.clone();
     if s.boundary.shape == crate::param::boundary::BoundaryShape::BulgedSquare {
         warnings.push(format!(
@@ -334,6 +375,7 @@ pub fn build(s: &SolveSummary) -> Report {
         stretch_final,
         completion: s.completion.cloned(),
         hint,
+        unreachable_proof,
         explain,
         iterations: s.state.iterations,
         halvings: s.state.total_halvings,
@@ -420,6 +462,9 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
                         ""
                     }
                 ),
+                (None, _) if c.proven_unreachable => {
+                    "could not snap onto the targets (proven unreachable, see the hint: one straight attempt, no arc retries)".into()
+                }
                 (None, _) => "could not snap onto the targets (straight and arc paths tried)".into(),
             },
             c.energy_start,

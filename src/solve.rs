@@ -200,6 +200,21 @@ pub fn solve_mesh(
     options: SolverOptions,
 ) -> Result<(Report, Vec<[f32; 2]>), Error> {
     let t0 = Instant::now();
+    let loaded = memory_constraints(constraints, corners, options)?;
+    let asset = io::SourceAsset::from_mesh(mesh);
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut world = World::new();
+    let entity = spawn_job(&mut world, loaded, asset, None, load_ms)?;
+    let (report, mut uvs) = run_job(world, entity)?;
+    Ok((report, uvs.swap_remove(0)))
+}
+
+/// Constraints held in memory as a constraint file would give them.
+fn memory_constraints(
+    constraints: &[(u32, DVec2)],
+    corners: Option<[u32; 4]>,
+    options: SolverOptions,
+) -> Result<LoadedConstraints, Error> {
     let file = ConstraintFile {
         asset: "<memory>".into(),
         mesh: None,
@@ -222,11 +237,50 @@ pub fn solve_mesh(
         }),
         solver: Some(options),
     };
-    let loaded = LoadedConstraints::from_file(Path::new("<memory>"), file)?;
-    let asset = io::SourceAsset::from_mesh(mesh);
-    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    Ok(LoadedConstraints::from_file(Path::new("<memory>"), file)?)
+}
+
+/// Whether `constraints` (as for [`solve_mesh`]) are provably unreachable on
+/// `mesh`, without solving them: step 1 puts the boundary on the square,
+/// then [`crate::complete::obstruction`] looks for pieces pinned in place
+/// (by the boundary and the targets) that already fold or overlap.
+/// `Some(reason)` says what would have to happen for every target to be
+/// reached; `None` proves nothing either way.
+///
+/// # Errors
+/// As [`solve_mesh`].
+pub fn unreachable_proof(
+    mesh: &TriMesh,
+    constraints: &[(u32, DVec2)],
+    corners: Option<[u32; 4]>,
+) -> Result<Option<String>, Error> {
+    let loaded = memory_constraints(constraints, corners, SolverOptions::DEFAULT)?;
     let mut world = World::new();
-    let entity = spawn_job(&mut world, loaded, asset, None, load_ms)?;
-    let (report, mut uvs) = run_job(world, entity)?;
-    Ok((report, uvs.swap_remove(0)))
+    let entity = spawn_job(&mut world, loaded, io::SourceAsset::from_mesh(mesh), None, 0.0)?;
+    let mut schedule = ecs::solve_schedule();
+    // Step 1 and the stepping set-up take a few ticks.
+    for _ in 0..16 {
+        schedule.run(&mut world);
+        if let Some(failed) = world.entity_mut(entity).take::<Failed>() {
+            return Err(Arc::try_unwrap(failed.0).unwrap_or_else(|e| Error::Internal(e.to_string())));
+        }
+        let entity = world.entity(entity);
+        let (Some(data), Some(step1), Some(stepping), Some(boundary)) = (
+            entity.get::<ChartData>(),
+            entity.get::<ecs::Step1Layout>(),
+            entity.get::<ecs::Stepping>(),
+            entity.get::<ecs::BoundaryLayout>(),
+        ) else {
+            continue;
+        };
+        let mut on_outer = vec![false; data.0.filled.mesh.n_vertices()];
+        boundary
+            .0
+            .loop_vertices
+            .iter()
+            .for_each(|&v| on_outer[v as usize] = true);
+        let certificate = crate::complete::find_obstruction(&data.0.filled, &step1.0, &stepping.problem);
+        return Ok(certificate.map(|c| c.describe(crate::report::vertex_namer(&data.0, &on_outer))));
+    }
+    Err(Error::Internal("step 1 did not finish".into()))
 }

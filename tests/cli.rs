@@ -194,6 +194,13 @@ fn mirrored_targets_end_partial_with_a_hint_and_exit_code_2() {
         hint.contains("cannot reach their targets") && hint.contains("constraints["),
         "{hint}"
     );
+    // Proven, not guessed: the three pinned corners come out flipped.
+    let proof = r["unreachable_proof"].as_str().unwrap();
+    assert_eq!(
+        proof,
+        "the triangle of constraints[0], constraints[1] and constraints[2] would be flipped or flat"
+    );
+    assert!(hint.contains(proof), "{hint}");
     let o = uvpin(&["check", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
 }

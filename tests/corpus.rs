@@ -109,6 +109,11 @@ fn warp_case(name: &str, mesh: &TriMesh, k: usize, amp: f64, seed: u64) -> Repor
         .collect();
     let r = solve(name, mesh, &constraints);
     assert_reached(name, &r);
+    assert_eq!(
+        uvpin::unreachable_proof(mesh, &constraints, None).unwrap(),
+        None,
+        "{name}"
+    );
     r
 }
 
@@ -133,6 +138,11 @@ fn swirl_case(name: &str, mesh: &TriMesh, k: usize, angle: f64, seed: u64) -> Op
         .collect();
     let r = solve(name, mesh, &constraints);
     assert_reached(name, &r);
+    assert_eq!(
+        uvpin::unreachable_proof(mesh, &constraints, None).unwrap(),
+        None,
+        "{name}"
+    );
     Some(r)
 }
 
@@ -149,7 +159,14 @@ fn crossing_case(name: &str, mesh: &TriMesh, seed: u64) -> Report {
         }
     };
     let constraints = [(a, xy_to_uv(layout[b as usize])), (b, xy_to_uv(layout[a as usize]))];
-    solve(name, mesh, &constraints)
+    let r = solve(name, mesh, &constraints);
+    let proof = uvpin::unreachable_proof(mesh, &constraints, None).unwrap();
+    match r.status {
+        // Soundness: a proof of impossibility for targets that were reached is a bug.
+        Status::Reached => assert_eq!(proof, None, "{name}"),
+        _ => assert_eq!(r.unreachable_proof, proof, "{name}: the report carries the proof"),
+    }
+    r
 }
 
 /// Impossible: an interior triangle's corners sent to its mirror image.
@@ -175,6 +192,14 @@ fn mirrored_case(name: &str, mesh: &TriMesh, seed: u64) -> Report {
     assert!(r.constraints.iter().any(|c| !c.reached));
     let hint = r.hint.as_deref().unwrap_or_default();
     assert!(hint.contains("cannot reach their targets"), "{name}: {hint}");
+    // The mirrored triangle is pinned flipped: proven, and said so.
+    let proof = r.unreachable_proof.as_deref().unwrap_or_default();
+    assert!(proof.contains("would be flipped or flat"), "{name}: {proof}");
+    assert!(hint.contains(proof), "{name}: {hint}");
+    assert_eq!(
+        uvpin::unreachable_proof(mesh, &constraints, None).unwrap().as_deref(),
+        Some(proof)
+    );
     r
 }
 
@@ -229,10 +254,11 @@ fn witnessed_swirls_are_reached_exactly() {
 
 #[test]
 fn crossing_and_impossible_procedural_cases() {
-    // Every case is fold-free (checked in `solve`). Two constraints swapping
-    // head-on can still deadlock against the barrier when few triangles lie
-    // between them: at most one of these six may end Partial (a known gap;
-    // measured: 5 of 6 reached; straight paths alone reached 4).
+    // Every case is fold-free (checked in `solve`). A swap is reached, or
+    // proven impossible on its mesh: "crossing disk 4" asks two vertices
+    // next to the boundary to swap, so their edges to it would cross
+    // (measured: 5 of 6 reached, the sixth proven; straight paths alone
+    // reached 4).
     let mut unreached = Vec::new();
     for seed in 0..6u64 {
         let mut rng = Rng::new(900 + seed);
@@ -244,13 +270,17 @@ fn crossing_and_impossible_procedural_cases() {
             Status::Reached => assert!(r.max_residual <= 1e-9, "{name}"),
             _ => {
                 eprintln!("{name}: {}\n  hint: {:?}", r.explain.join("\n  "), r.hint);
-                unreached.push(name)
+                if r.unreachable_proof.is_none() {
+                    unreached.push(name)
+                }
             }
         }
         mirrored_case(&format!("mirrored disk {seed}"), &mesh, seed);
     }
-    eprintln!("crossings not reached: {unreached:?}");
-    assert!(unreached.len() <= 1, "{unreached:?}");
+    assert!(
+        unreached.is_empty(),
+        "crossings neither reached nor proven impossible: {unreached:?}"
+    );
 }
 
 #[test]

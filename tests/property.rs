@@ -20,8 +20,13 @@ fn interior_vertices(mesh: &uvpin::mesh::TriMesh) -> Vec<u32> {
 fn random_disks_and_random_constraints_never_fold() {
     let mut reached = 0;
     let mut partial = 0;
+    let mut proven = 0;
     let mut bulged = 0;
-    let cases = 240;
+    // UVPIN_PROPERTY_CASES=3000 for a longer stress run.
+    let cases: u64 = std::env::var("UVPIN_PROPERTY_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(240);
     for case in 0..cases {
         let mut rng = Rng::new(1000 + case);
         let n = 8 + rng.below(14);
@@ -57,6 +62,14 @@ fn random_disks_and_random_constraints_never_fold() {
         assert!(report.orientation.is_clean(), "case {case}: {:?}", report.orientation);
         let counts = uvpin::guard::count_uv_orientations(&uvs, &mesh.triangles);
         assert!(counts.is_clean(), "case {case}: {counts:?}");
+        // Soundness of the certificates: never for targets that were
+        // reached; the report carries the same one when they were not.
+        let proof = uvpin::unreachable_proof(&mesh, &constraints, None).unwrap();
+        match report.status {
+            Status::Reached => assert_eq!(proof, None, "case {case}: reached, yet 'proven' unreachable"),
+            _ => assert_eq!(report.unreachable_proof, proof, "case {case}"),
+        }
+        proven += usize::from(proof.is_some());
         match report.status {
             Status::Reached => {
                 reached += 1;
@@ -74,7 +87,10 @@ fn random_disks_and_random_constraints_never_fold() {
             Status::Error => panic!("case {case}: {:?}", report.message),
         }
     }
-    eprintln!("{cases} cases: {reached} reached, {partial} partial, 0 folded; {bulged} needed the bulged boundary");
+    eprintln!(
+        "{cases} cases: {reached} reached, {partial} partial ({proven} of them proven unreachable), 0 folded; \
+         {bulged} needed the bulged boundary"
+    );
     assert!(
         bulged * 20 <= cases as usize,
         "the square should be kept in nearly every case ({bulged} bulged)"
