@@ -13,13 +13,18 @@
 //! The line search never lets a triangle's area reach zero: it starts at 0.9 ×
 //! the largest step that keeps every triangle (virtual ones included)
 //! positive, backtracks until Armijo holds, and accepts only layouts that
-//! also keep their orientation as stored (f32).
+//! also keep their orientation as stored (f32). A full step with room left
+//! before the barrier is stretched (doubled, up to 8×) while the energy
+//! keeps falling and the layout stays acceptable.
 
 use super::energy::{RestTriangle, triangle_terms};
 use crate::guard;
 use crate::sparse::{FactorWorkspace, SparseError, SpdPattern};
 use glam::DVec2;
 use std::sync::{Arc, Mutex};
+
+/// How far a full Newton step may be stretched (doubling) while the energy falls.
+const MAX_STRETCH: f64 = 8.0;
 
 /// A soft pull of some vertices toward targets: `w/2 · Σ |x_c − t_c|²`.
 #[derive(Debug, Clone, Copy)]
@@ -333,7 +338,8 @@ impl NewtonSystem {
                 .filter(|(_, h)| **h)
                 .for_each(|(d, _)| *d = DVec2::ZERO);
         }
-        let mut alpha = (0.9 * max_safe_step(layout, &dir, triangles)).min(1.0);
+        let safe = 0.9 * max_safe_step(layout, &dir, triangles);
+        let mut alpha = safe.min(1.0);
         let start: Vec<DVec2> = layout.to_vec();
         // Once storable as f32, always storable; a layout that is not yet (a
         // squeezed step 1) must only stay positive while the barrier spreads it.
@@ -343,6 +349,30 @@ impl NewtonSystem {
             }
             let e = energy(layout, rest, triangles, soft);
             if e <= total + 1e-4 * alpha * slope && guard::acceptable(layout, triangles, storable) {
+                // A full step with room before the barrier is stretched while
+                // the energy keeps falling: the PSD projection makes the model
+                // too stiff where the energy is nearly flat, so the tail of a
+                // polish takes full steps that each gain under 1 % (sample
+                // face: 20 → 17 polish steps, energy 5.950 → 5.920).
+                let (mut alpha, mut e) = (alpha, e);
+                if alpha == 1.0 {
+                    let mut a = alpha;
+                    while 2.0 * a <= safe && a < MAX_STRETCH {
+                        a *= 2.0;
+                        for (v, x) in layout.iter_mut().enumerate() {
+                            *x = start[v] + dir[v] * a;
+                        }
+                        let ea = energy(layout, rest, triangles, soft);
+                        if ea < e && guard::acceptable(layout, triangles, storable) {
+                            (alpha, e) = (a, ea);
+                        } else {
+                            break;
+                        }
+                    }
+                    for (v, x) in layout.iter_mut().enumerate() {
+                        *x = start[v] + dir[v] * alpha;
+                    }
+                }
                 let converged = -0.5 * slope < tolerance * total || (total - e) < tolerance * total;
                 return NewtonStep {
                     energy_before: total,
