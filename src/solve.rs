@@ -162,13 +162,19 @@ pub fn solve_loaded_shared(
     run_job(world, entity).map(|(report, _)| report)
 }
 
+/// The error a job failed with, if it did (taken out of the world).
+fn take_failure(world: &mut World, entity: Entity) -> Option<Error> {
+    let failed = world.entity_mut(entity).take::<Failed>()?;
+    Some(Arc::try_unwrap(failed.0).unwrap_or_else(|e| Error::Internal(e.to_string())))
+}
+
 /// Runs the schedule on a spawned job and returns its report and final UVs
 /// (per primitive, glTF texture coordinates).
 fn run_job(mut world: World, entity: Entity) -> Result<(Report, PrimitiveUvs), Error> {
     let mut schedule = ecs::solve_schedule();
     ecs::run_to_convergence(&mut world, &mut schedule, MAX_TICKS);
-    if let Some(failed) = world.entity_mut(entity).take::<Failed>() {
-        return Err(Arc::try_unwrap(failed.0).unwrap_or_else(|e| Error::Internal(e.to_string())));
+    if let Some(error) = take_failure(&mut world, entity) {
+        return Err(error);
     }
     let report = world
         .get::<Exported>(entity)
@@ -261,8 +267,8 @@ pub fn unreachable_proof(
     // Step 1 and the stepping set-up take a few ticks.
     for _ in 0..16 {
         schedule.run(&mut world);
-        if let Some(failed) = world.entity_mut(entity).take::<Failed>() {
-            return Err(Arc::try_unwrap(failed.0).unwrap_or_else(|e| Error::Internal(e.to_string())));
+        if let Some(error) = take_failure(&mut world, entity) {
+            return Err(error);
         }
         let entity = world.entity(entity);
         let (Some(data), Some(step1), Some(stepping), Some(boundary)) = (

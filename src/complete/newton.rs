@@ -341,12 +341,15 @@ impl NewtonSystem {
         let safe = 0.9 * max_safe_step(layout, &dir, triangles);
         let mut alpha = safe.min(1.0);
         let start: Vec<DVec2> = layout.to_vec();
+        let place = |layout: &mut [DVec2], alpha: f64| {
+            for ((x, &s), &d) in layout.iter_mut().zip(&start).zip(&dir) {
+                *x = s + d * alpha;
+            }
+        };
         // Once storable as f32, always storable; a layout that is not yet (a
         // squeezed step 1) must only stay positive while the barrier spreads it.
         for _ in 0..60 {
-            for (v, x) in layout.iter_mut().enumerate() {
-                *x = start[v] + dir[v] * alpha;
-            }
+            place(layout, alpha);
             let e = energy(layout, rest, triangles, soft);
             if e <= total + 1e-4 * alpha * slope && guard::acceptable(layout, triangles, storable) {
                 // A full step with room before the barrier is stretched while
@@ -359,9 +362,7 @@ impl NewtonSystem {
                     let mut a = alpha;
                     while 2.0 * a <= safe && a < MAX_STRETCH {
                         a *= 2.0;
-                        for (v, x) in layout.iter_mut().enumerate() {
-                            *x = start[v] + dir[v] * a;
-                        }
+                        place(layout, a);
                         let ea = energy(layout, rest, triangles, soft);
                         if ea < e && guard::acceptable(layout, triangles, storable) {
                             (alpha, e) = (a, ea);
@@ -369,9 +370,7 @@ impl NewtonSystem {
                             break;
                         }
                     }
-                    for (v, x) in layout.iter_mut().enumerate() {
-                        *x = start[v] + dir[v] * alpha;
-                    }
+                    place(layout, alpha);
                 }
                 let converged = -0.5 * slope < tolerance * total || (total - e) < tolerance * total;
                 return NewtonStep {
