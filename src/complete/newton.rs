@@ -19,7 +19,7 @@
 
 use super::energy::{RestTriangle, triangle_terms};
 use crate::guard;
-use crate::sparse::{FactorWorkspace, SparseError, SpdPattern};
+use crate::sparse::{BlockedPattern, BlockedWorkspace, SparseError};
 use glam::DVec2;
 use std::sync::{Arc, Mutex};
 
@@ -42,7 +42,7 @@ pub struct SoftTargets<'a> {
 pub struct NewtonPattern {
     free_row: Vec<Option<u32>>,
     n_free: usize,
-    pattern: SpdPattern,
+    pattern: BlockedPattern,
     /// Per triangle, per entry of its 6 × 6 Hessian: where it adds into the
     /// pattern's values (`u32::MAX`: a fixed vertex, or the upper triangle).
     slots: Vec<[u32; 36]>,
@@ -69,7 +69,7 @@ struct Workspace(Mutex<Buffers>);
 struct Buffers {
     values: Vec<f64>,
     grad: Vec<f64>,
-    factor: FactorWorkspace,
+    factor: BlockedWorkspace,
 }
 
 impl Clone for Workspace {
@@ -103,48 +103,49 @@ impl NewtonPattern {
                 n_free += 1;
             }
         }
+        // Each triangle edge between free vertices is a pair (shared edges twice).
         let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(3 * triangles.len());
-        for t in triangles {
+        let mut edge_pair = vec![[u32::MAX; 3]; triangles.len()];
+        for (t, edges) in triangles.iter().zip(&mut edge_pair) {
             for k in 0..3 {
                 if let (Some(a), Some(b)) = (free_index[t[k] as usize], free_index[t[(k + 1) % 3] as usize]) {
+                    edges[k] = pairs.len() as u32;
                     pairs.push((a, b));
                 }
             }
         }
-        let (pattern, position) = SpdPattern::new_blocked(n_free.max(1), 2, &pairs)?;
+        let (pattern, placement) = BlockedPattern::new(n_free.max(1), &pairs)?;
         // A free vertex's row block is its place in the elimination order.
-        let free_row: Vec<Option<u32>> = free_index.iter().map(|i| i.map(|i| position[i as usize])).collect();
-        let slot = |r: usize, c: usize| pattern.slot(r, c).expect("entry in the pattern") as u32;
+        let free_row: Vec<Option<u32>> = free_index
+            .iter()
+            .map(|i| i.map(|i| placement.position[i as usize]))
+            .collect();
         let slots = triangles
             .iter()
-            .map(|t| {
+            .zip(&edge_pair)
+            .map(|(t, edges)| {
                 let mut s = [u32::MAX; 36];
-                let rows = t.map(|v| free_row[v as usize]);
                 for a in 0..3 {
-                    let Some(ra) = rows[a] else { continue };
+                    let Some(ra) = free_row[t[a] as usize] else { continue };
                     for b in 0..3 {
-                        let Some(rb) = rows[b] else { continue };
+                        let Some(rb) = free_row[t[b] as usize] else { continue };
                         if ra < rb {
                             continue;
                         }
-                        // One lookup per vertex pair: the 2 × 2 block is contiguous in its columns.
-                        let (ra, rb) = (2 * ra as usize, 2 * rb as usize);
-                        let col0 = slot(ra, rb);
-                        let col1 = if ra == rb {
-                            slot(ra + 1, rb + 1)
+                        // The block's columns: the vertex's own, or the edge's (a, b).
+                        let columns = if a == b {
+                            placement.diagonal[free_index[t[a] as usize].expect("free") as usize]
                         } else {
-                            slot(ra, rb + 1)
+                            let k = if (a + 1) % 3 == b { a } else { b };
+                            placement.pairs[edges[k] as usize]
                         };
                         for i in 0..2 {
                             for j in 0..2 {
-                                if ra + i < rb + j {
+                                // The lower triangle only (on a diagonal block, i ≥ j).
+                                if a == b && i < j {
                                     continue;
                                 }
-                                let base = if j == 0 { col0 } else { col1 };
-                                // Rows within a column are sorted and the block's two rows adjacent;
-                                // on the diagonal block, column rb + 1 starts at row ra + 1.
-                                let offset = if ra == rb && j == 1 { i - 1 } else { i };
-                                s[(2 * a + i) * 6 + 2 * b + j] = base + offset as u32;
+                                s[(2 * a + i) * 6 + 2 * b + j] = columns[j] + i as u32;
                             }
                         }
                     }
@@ -152,9 +153,12 @@ impl NewtonPattern {
                 s
             })
             .collect();
-        let diagonal = (0..n_free)
-            .map(|r| [slot(2 * r, 2 * r), slot(2 * r + 1, 2 * r + 1)])
-            .collect();
+        // Per free vertex in elimination order, its two diagonal entries.
+        let mut diagonal = vec![[0u32; 2]; n_free];
+        for (i, &p) in placement.position.iter().enumerate().take(n_free) {
+            let [c0, c1] = placement.diagonal[i];
+            diagonal[p as usize] = [c0, c1 + 1];
+        }
         Ok(NewtonPattern {
             free_row,
             n_free,

@@ -4,6 +4,11 @@
 //! with weights. Always `Par::Seq`: on 2 cores faer's parallel triangular solve
 //! is 20–30× slower (crate-stack.md, F1).
 
+pub mod supernodal;
+
+pub use supernodal::Placement;
+use supernodal::{SupernodalFactor, SupernodalPattern};
+
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::amd;
@@ -14,6 +19,96 @@ use faer::sparse::{Pair, SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 use faer::{Mat, Par, Side};
 use std::sync::Arc;
 use thiserror::Error;
+
+/// Up to this many nodes (vertices) a 2 × 2-block system is factored by
+/// [`supernodal`]; above it by faer, whose dense kernels win on the large
+/// supernodes of big meshes (measured on grid Hessians: the supernodal code
+/// is ahead up to ~60² nodes, even at ~80², 2.4× behind at 160²).
+pub const SUPERNODAL_UP_TO: usize = 5_000;
+
+/// A symmetric positive definite system of 2 × 2 blocks over a node graph
+/// (the Newton Hessians): its symbolic factorisation, by [`supernodal`] for
+/// small systems and by faer for large ones.
+#[derive(Debug, Clone)]
+pub enum BlockedPattern {
+    Supernodal(SupernodalPattern),
+    Faer(SpdPattern),
+}
+
+/// The numeric factor and scratch of a [`BlockedPattern`], reused across
+/// factorisations.
+#[derive(Debug, Default)]
+pub struct BlockedWorkspace {
+    supernodal: SupernodalFactor,
+    faer: FactorWorkspace,
+}
+
+impl BlockedPattern {
+    /// The pattern of `n_nodes` nodes coupled where `node_pairs` says (either
+    /// order), ordered by minimum degree on the node graph, and where each
+    /// node's and each pair's block went.
+    ///
+    /// # Errors
+    /// A pair naming a node out of range, or a pattern faer rejects.
+    pub fn new(n_nodes: usize, node_pairs: &[(u32, u32)]) -> Result<(Self, Placement), SparseError> {
+        if n_nodes <= SUPERNODAL_UP_TO {
+            let (pattern, placement) = SupernodalPattern::new(n_nodes, node_pairs)?;
+            return Ok((BlockedPattern::Supernodal(pattern), placement));
+        }
+        let (pattern, position) = SpdPattern::new_blocked(n_nodes, 2, node_pairs)?;
+        let slot = |r: usize, c: usize| pattern.slot(r, c).expect("entry in the pattern") as u32;
+        // Column 2p + 1 of a diagonal block starts at its diagonal.
+        let diagonal = position
+            .iter()
+            .map(|&p| {
+                let p = 2 * p as usize;
+                [slot(p, p), slot(p + 1, p + 1) - 1]
+            })
+            .collect();
+        let pairs = node_pairs
+            .iter()
+            .map(|&(a, b)| {
+                let (a, b) = (position[a as usize], position[b as usize]);
+                let (r, c) = (2 * a.max(b) as usize, 2 * a.min(b) as usize);
+                [slot(r, c), slot(r, c + 1)]
+            })
+            .collect();
+        let placement = Placement {
+            position,
+            diagonal,
+            pairs,
+        };
+        Ok((BlockedPattern::Faer(pattern), placement))
+    }
+
+    /// How many values [`BlockedPattern::factor_into`] takes.
+    pub fn n_values(&self) -> usize {
+        match self {
+            BlockedPattern::Supernodal(p) => p.n_values(),
+            BlockedPattern::Faer(p) => p.n_values(),
+        }
+    }
+
+    /// Factors values laid out as the [`Placement`] says.
+    ///
+    /// # Errors
+    /// [`SparseError::NotPositiveDefinite`].
+    pub fn factor_into(&self, values: &[f64], workspace: &mut BlockedWorkspace) -> Result<(), SparseError> {
+        match self {
+            BlockedPattern::Supernodal(p) => p.factor_into(values, &mut workspace.supernodal),
+            BlockedPattern::Faer(p) => p.factor_into(values, &mut workspace.faer),
+        }
+    }
+
+    /// Solves `A x = b` in place (in elimination numbering) with the factor
+    /// last made by [`BlockedPattern::factor_into`] in `workspace`.
+    pub fn solve_with(&self, workspace: &mut BlockedWorkspace, b: &mut [f64]) {
+        match self {
+            BlockedPattern::Supernodal(p) => p.solve_with(&mut workspace.supernodal, b),
+            BlockedPattern::Faer(p) => p.solve_with(&mut workspace.faer, b),
+        }
+    }
+}
 
 /// Below this many unknowns the simplicial factorisation is used: faer's
 /// supernodal analysis costs more than it saves on small charts.
@@ -572,5 +667,89 @@ mod tests {
         for i in 0..n {
             assert!((a[(i, 0)] - b[(i, 0)]).abs() < 1e-10);
         }
+    }
+
+    /// 2 × 2 blocks on an `nx × ny` grid graph: diagonal blocks
+    /// [[4.5, 0.3], [0.3, 4.5]], coupling blocks −I (and a 0.1 cross term).
+    fn grid_system(nx: usize, ny: usize) -> (usize, Vec<(u32, u32)>) {
+        let mut pairs = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let v = (i + j * nx) as u32;
+                if i + 1 < nx {
+                    pairs.push((v, v + 1));
+                }
+                if j + 1 < ny {
+                    pairs.push((v + nx as u32, v));
+                }
+                if i + 1 < nx && j + 1 < ny {
+                    pairs.push((v, v + nx as u32 + 1));
+                }
+            }
+        }
+        (nx * ny, pairs)
+    }
+
+    #[test]
+    fn blocked_systems_small_and_large_factor_and_solve() {
+        // Below and above SUPERNODAL_UP_TO nodes: both factorisations.
+        for (nx, ny) in [(1, 1), (2, 1), (12, 9), (30, 31), (75, 70)] {
+            let (n_nodes, pairs) = grid_system(nx, ny);
+            let (pattern, placement) = BlockedPattern::new(n_nodes, &pairs).unwrap();
+            let position = &placement.position;
+            let mut seen = position.clone();
+            seen.sort_unstable();
+            assert_eq!(seen, (0..n_nodes as u32).collect::<Vec<_>>());
+            let mut values = vec![0.0; pattern.n_values()];
+            let x_true: Vec<f64> = (0..2 * n_nodes).map(|k| (k as f64 * 0.37).sin()).collect();
+            let mut b: Vec<f64> = x_true.iter().map(|x| 8.0 * x).collect();
+            for v in 0..n_nodes {
+                b[2 * v] += 0.3 * x_true[2 * v + 1];
+                b[2 * v + 1] += 0.3 * x_true[2 * v];
+                let [c0, c1] = placement.diagonal[v].map(|c| c as usize);
+                values[c0] = 8.0;
+                values[c0 + 1] = 0.3;
+                values[c1 + 1] = 8.0;
+            }
+            for (&(a, c), columns) in pairs.iter().zip(&placement.pairs) {
+                let (a, c) = (a as usize, c as usize);
+                // Block [[-1, 0.1], [0.1, -1]] between a and c (symmetric).
+                for k in 0..2 {
+                    b[2 * a + k] -= x_true[2 * c + k];
+                    b[2 * c + k] -= x_true[2 * a + k];
+                    b[2 * a + k] += 0.1 * x_true[2 * c + 1 - k];
+                    b[2 * c + k] += 0.1 * x_true[2 * a + 1 - k];
+                }
+                for (column, &start) in columns.iter().enumerate() {
+                    for row in 0..2 {
+                        values[start as usize + row] = if row == column { -1.0 } else { 0.1 };
+                    }
+                }
+            }
+            let mut rhs = vec![0.0; 2 * n_nodes];
+            for v in 0..n_nodes {
+                for k in 0..2 {
+                    rhs[2 * position[v] as usize + k] = b[2 * v + k];
+                }
+            }
+            let mut factor = BlockedWorkspace::default();
+            for _ in 0..2 {
+                pattern.factor_into(&values, &mut factor).unwrap();
+                let mut x = rhs.clone();
+                pattern.solve_with(&mut factor, &mut x);
+                for v in 0..n_nodes {
+                    for k in 0..2 {
+                        let err = (x[2 * position[v] as usize + k] - x_true[2 * v + k]).abs();
+                        assert!(err < 1e-11, "{nx}×{ny}: node {v}.{k} off by {err:.1e}");
+                    }
+                }
+            }
+            let negative: Vec<f64> = values.iter().map(|v| -v).collect();
+            assert_eq!(
+                pattern.factor_into(&negative, &mut factor),
+                Err(SparseError::NotPositiveDefinite)
+            );
+        }
+        assert!(BlockedPattern::new(3, &[(0, 3)]).is_err());
     }
 }
