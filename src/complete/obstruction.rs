@@ -54,7 +54,7 @@ impl Obstruction {
     }
 
     /// One clause saying what would have to happen, naming vertices with
-    /// `name` (e.g. "constraints[3]'s vertex 120", "boundary vertex 7").
+    /// `name` (e.g. "constraints\[3\]'s vertex 120", "boundary vertex 7").
     pub fn describe(&self, name: impl Fn(u32) -> String) -> String {
         match self {
             Obstruction::FlippedPinnedTriangle { corners } => format!(

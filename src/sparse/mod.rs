@@ -311,7 +311,7 @@ impl SpdPattern {
     }
 
     /// Where entry `(row, col)` (`row >= col`) sits in the values of
-    /// [`SpdPattern::factor_assembled`]; `None` outside the pattern.
+    /// [`SpdPattern::factor_into`]; `None` outside the pattern.
     pub fn slot(&self, row: usize, col: usize) -> Option<usize> {
         let start = self.symbolic.col_ptr()[col];
         self.symbolic
@@ -321,7 +321,7 @@ impl SpdPattern {
             .map(|k| start + k)
     }
 
-    /// How many values [`SpdPattern::factor_assembled`] takes.
+    /// How many values [`SpdPattern::factor_into`] takes.
     pub fn n_values(&self) -> usize {
         self.symbolic.row_idx().len()
     }
@@ -693,7 +693,7 @@ mod tests {
     #[test]
     fn blocked_systems_small_and_large_factor_and_solve() {
         // Below and above SUPERNODAL_UP_TO nodes: both factorisations.
-        for (nx, ny) in [(1, 1), (2, 1), (12, 9), (30, 31), (75, 70)] {
+        for (nx, ny) in [(1, 1), (2, 1), (12, 9), (30, 31), (45, 44), (75, 70)] {
             let (n_nodes, pairs) = grid_system(nx, ny);
             let (pattern, placement) = BlockedPattern::new(n_nodes, &pairs).unwrap();
             let position = &placement.position;
