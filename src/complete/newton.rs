@@ -263,33 +263,29 @@ impl NewtonSystem {
     }
 
     /// The Newton direction `H p = −g` for the Hessian and gradient in
-    /// `buffers`, with a growing diagonal shift if `H` is singular (the
-    /// Hessian values are shifted in place).
-    fn direction(&self, buffers: &mut Buffers) -> Option<Vec<f64>> {
-        let Buffers { values, grad, factor } = buffers;
-        let max_diag = self
-            .shape
-            .diagonal
-            .iter()
-            .flatten()
-            .map(|&slot| values[slot as usize])
-            .fold(0.0f64, f64::max)
-            .max(1e-300);
-        let mut shift = 1e-12 * max_diag;
-        let mut added = 0.0;
-        for _ in 0..6 {
-            self.shape
-                .diagonal
-                .iter()
-                .flatten()
-                .for_each(|&slot| values[slot as usize] += shift - added);
-            added = shift;
-            if self.shape.pattern.factor_into(values, factor).is_ok() {
+    /// `buffers`, with a growing diagonal shift if `H` is singular. The
+    /// factorisation takes the Hessian values, so each retry has them
+    /// assembled anew by `reassemble`.
+    fn direction(&self, buffers: &mut Buffers, mut reassemble: impl FnMut(&mut Buffers)) -> Option<Vec<f64>> {
+        let mut relative_shift = 1e-12;
+        for attempt in 0..6 {
+            if attempt > 0 {
+                reassemble(buffers);
+            }
+            let Buffers { values, grad, factor } = buffers;
+            let diagonal = self.shape.diagonal.iter().flatten();
+            let max_diag = diagonal
+                .clone()
+                .map(|&slot| values[slot as usize])
+                .fold(0.0f64, f64::max)
+                .max(1e-300);
+            diagonal.for_each(|&slot| values[slot as usize] += relative_shift * max_diag);
+            if self.shape.pattern.factor_taking(values, factor).is_ok() {
                 let mut p: Vec<f64> = grad.iter().map(|g| -g).collect();
                 self.shape.pattern.solve_with(factor, &mut p);
                 return Some(p);
             }
-            shift *= 1e3;
+            relative_shift *= 1e3;
         }
         None
     }
@@ -323,7 +319,10 @@ impl NewtonSystem {
         let Some(total) = self.assemble(&mut buffers, layout, rest, triangles, soft, held) else {
             return stuck(f64::INFINITY);
         };
-        let Some(p) = self.direction(&mut buffers) else {
+        let reassemble = |buffers: &mut Buffers| {
+            self.assemble(buffers, layout, rest, triangles, soft, held);
+        };
+        let Some(p) = self.direction(&mut buffers, reassemble) else {
             return stuck(total);
         };
         let slope: f64 = buffers.grad.iter().zip(&p).map(|(g, d)| g * d).sum();

@@ -100,6 +100,18 @@ impl BlockedPattern {
         }
     }
 
+    /// As [`BlockedPattern::factor_into`], but `values` may be taken rather
+    /// than copied: afterwards their contents are unspecified.
+    ///
+    /// # Errors
+    /// [`SparseError::NotPositiveDefinite`].
+    pub fn factor_taking(&self, values: &mut Vec<f64>, workspace: &mut BlockedWorkspace) -> Result<(), SparseError> {
+        match self {
+            BlockedPattern::Supernodal(p) => p.factor_taking(values, &mut workspace.supernodal),
+            BlockedPattern::Faer(p) => p.factor_into(values, &mut workspace.faer),
+        }
+    }
+
     /// Solves `A x = b` in place (in elimination numbering) with the factor
     /// last made by [`BlockedPattern::factor_into`] in `workspace`.
     pub fn solve_with(&self, workspace: &mut BlockedWorkspace, b: &mut [f64]) {
