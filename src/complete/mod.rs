@@ -474,14 +474,20 @@ impl CompletionState {
 
 /// The Newton pattern over `problem`'s movable vertices (everything but the
 /// outer boundary): the completion's and polish's sparsity pattern and
-/// symbolic factorisation, which one chart's solves can share.
+/// symbolic factorisation, which one chart's solves can share. `order`: the
+/// movable vertices in an elimination order of the same graph (step 1's, see
+/// [`crate::param::bar_net::BarNet::elimination_order`]), if known.
 ///
 /// # Errors
 /// A sparsity pattern faer rejects (never for a valid mesh).
-pub fn newton_pattern(filled: &FilledChart, movable: &[u32]) -> Result<NewtonPattern, SparseError> {
+pub fn newton_pattern(
+    filled: &FilledChart,
+    movable: &[u32],
+    order: Option<&[u32]>,
+) -> Result<NewtonPattern, SparseError> {
     let mut free = vec![false; filled.mesh.n_vertices()];
     movable.iter().for_each(|&v| free[v as usize] = true);
-    NewtonPattern::new(&filled.mesh.triangles, &free)
+    NewtonPattern::new(&filled.mesh.triangles, &free, order)
 }
 
 /// The largest distance from a constrained vertex to its target.

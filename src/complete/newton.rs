@@ -90,11 +90,14 @@ pub struct NewtonStep {
 }
 
 impl NewtonPattern {
-    /// Pattern for the vertices with `is_free[v]` over `triangles`.
+    /// Pattern for the vertices with `is_free[v]` over `triangles`. `order`,
+    /// the free vertices in a fill-reducing elimination order of the same
+    /// graph (step 1's bar-net factorisation has one), saves ordering again;
+    /// an order of another vertex set is ignored.
     ///
     /// # Errors
     /// A pattern faer rejects (never for a valid mesh).
-    pub fn new(triangles: &[[u32; 3]], is_free: &[bool]) -> Result<Self, SparseError> {
+    pub fn new(triangles: &[[u32; 3]], is_free: &[bool], order: Option<&[u32]>) -> Result<Self, SparseError> {
         let mut free_index = vec![None; is_free.len()];
         let mut n_free = 0usize;
         for (v, &f) in is_free.iter().enumerate() {
@@ -114,7 +117,12 @@ impl NewtonPattern {
                 }
             }
         }
-        let (pattern, placement) = BlockedPattern::new(n_free.max(1), &pairs)?;
+        let node_order: Option<Vec<u32>> = order.filter(|o| o.len() == n_free).and_then(|o| {
+            o.iter()
+                .map(|&v| free_index.get(v as usize).copied().flatten())
+                .collect()
+        });
+        let (pattern, placement) = BlockedPattern::new(n_free.max(1), &pairs, node_order.as_deref())?;
         // A free vertex's row block is its place in the elimination order.
         let free_row: Vec<Option<u32>> = free_index
             .iter()

@@ -69,6 +69,8 @@ pub struct NewtonPatternSlot(pub Arc<PendingNewtonPattern>);
 pub struct PendingNewtonPattern {
     filled: Arc<crate::param::bar_net::FilledChart>,
     movable: Vec<u32>,
+    /// The movable vertices in step 1's elimination order, if known.
+    order: Option<Arc<Vec<u32>>>,
     state: std::sync::Mutex<PatternState>,
 }
 
@@ -82,20 +84,32 @@ enum PatternState {
 }
 
 impl PendingNewtonPattern {
-    /// The pattern over `movable`, built on first use.
-    pub fn lazy(filled: Arc<crate::param::bar_net::FilledChart>, movable: Vec<u32>) -> Self {
+    /// The pattern over `movable`, built on first use (in elimination order
+    /// `order` if given, see [`crate::complete::newton_pattern`]).
+    pub fn lazy(
+        filled: Arc<crate::param::bar_net::FilledChart>,
+        movable: Vec<u32>,
+        order: Option<Arc<Vec<u32>>>,
+    ) -> Self {
         PendingNewtonPattern {
             filled,
             movable,
+            order,
             state: std::sync::Mutex::new(PatternState::NotStarted),
         }
     }
 
     /// The pattern over `movable`, started now on its own thread (built on
     /// first use instead if no thread can be started).
-    pub fn in_background(filled: Arc<crate::param::bar_net::FilledChart>, movable: Vec<u32>) -> Self {
-        let pending = Self::lazy(filled.clone(), movable.clone());
-        let build = move || crate::complete::newton_pattern(&filled, &movable).map(Arc::new);
+    pub fn in_background(
+        filled: Arc<crate::param::bar_net::FilledChart>,
+        movable: Vec<u32>,
+        order: Option<Arc<Vec<u32>>>,
+    ) -> Self {
+        let pending = Self::lazy(filled.clone(), movable.clone(), order.clone());
+        let build = move || {
+            crate::complete::newton_pattern(&filled, &movable, order.as_deref().map(Vec::as_slice)).map(Arc::new)
+        };
         if let Ok(handle) = std::thread::Builder::new()
             .name("uvpin-newton-pattern".into())
             .spawn(build)
@@ -124,7 +138,10 @@ impl PendingNewtonPattern {
                     "the Newton pattern thread panicked".into(),
                 ))
             }),
-            PatternState::NotStarted => crate::complete::newton_pattern(&self.filled, &self.movable).map(Arc::new),
+            PatternState::NotStarted => {
+                crate::complete::newton_pattern(&self.filled, &self.movable, self.order.as_deref().map(Vec::as_slice))
+                    .map(Arc::new)
+            }
         };
         *state = PatternState::Built(result.clone());
         result

@@ -109,12 +109,13 @@ pub fn start_stepping(
             &BoundaryLayout,
             &Step1Layout,
             Option<&NewtonPatternSlot>,
+            Option<&BarNetFactor>,
             &mut Timings,
         ),
         (Without<Stepping>, Without<Failed>),
     >,
 ) {
-    for (entity, job, data, boundary, step1, pattern, mut times) in &mut charts {
+    for (entity, job, data, boundary, step1, pattern, bar_net, mut times) in &mut charts {
         let t0 = Instant::now();
         let c = &data.0;
         // One pass when storable (which implies positive in f64); the f64
@@ -141,10 +142,12 @@ pub fn start_stepping(
                         && c.filled.n_real_vertices <= options.polish_max_vertices;
                     let needed = polish_runs || options.completion == crate::options::Completion::Always;
                     let (filled, movable) = (c.filled.clone(), problem.movable.clone());
+                    // Step 1 ordered the same vertex graph: no second ordering.
+                    let order = bar_net.and_then(|b| b.0.elimination_order()).map(Arc::new);
                     let pending = if needed && !movable.is_empty() {
-                        PendingNewtonPattern::in_background(filled, movable)
+                        PendingNewtonPattern::in_background(filled, movable, order)
                     } else {
-                        PendingNewtonPattern::lazy(filled, movable)
+                        PendingNewtonPattern::lazy(filled, movable, order)
                     };
                     commands.entity(entity).insert(NewtonPatternSlot(Arc::new(pending)));
                 }
@@ -287,7 +290,7 @@ pub fn complete_constraints(
                 // Built beside the spline path when it was sure to be needed.
                 let pattern = || match slot {
                     Some(s) if s.0.serves(&stepping.problem.movable) => s.0.get(),
-                    _ => crate::complete::newton_pattern(filled, &stepping.problem.movable).map(Arc::new),
+                    _ => crate::complete::newton_pattern(filled, &stepping.problem.movable, None).map(Arc::new),
                 };
                 let mut spline_layout = None;
                 let state = if reached {

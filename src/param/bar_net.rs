@@ -230,6 +230,15 @@ impl BarNet {
         self.free_vertices.len()
     }
 
+    /// The free vertices in the order the factorisation eliminates them
+    /// (minimum degree, or nested dissection on big charts): a fill-reducing
+    /// order for any system on the same vertex graph, such as the Newton
+    /// Hessians of the completion.
+    pub fn elimination_order(&self) -> Option<Vec<u32>> {
+        let order = self.factor.pattern().elimination_order()?;
+        Some(order.into_iter().map(|r| self.free_vertices[r]).collect())
+    }
+
     pub fn is_free(&self, v: u32) -> bool {
         self.free_row[v as usize].is_some()
     }
@@ -318,5 +327,17 @@ mod tests {
         assert_eq!(filled.mesh.n_vertices(), mesh.n_vertices() + 3);
         assert!(net.n_free() > 0);
         assert!(crate::guard::all_positive(&layout, &filled.mesh.triangles));
+        // Its elimination order covers every free vertex (virtual ones
+        // included) once: the Newton pattern takes it as its own order.
+        let mut order = net.elimination_order().expect("an ordered factorisation");
+        order.sort_unstable();
+        let free: Vec<u32> = (0..filled.mesh.n_vertices() as u32)
+            .filter(|&v| net.is_free(v))
+            .collect();
+        assert_eq!(order, free);
+        assert!(
+            free.contains(&(mesh.n_vertices() as u32)),
+            "a virtual hole vertex is free"
+        );
     }
 }

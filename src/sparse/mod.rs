@@ -45,17 +45,24 @@ pub struct BlockedWorkspace {
 
 impl BlockedPattern {
     /// The pattern of `n_nodes` nodes coupled where `node_pairs` says (either
-    /// order), ordered by minimum degree on the node graph, and where each
+    /// order), in the elimination order `order` if given (`order[k]` = the
+    /// node eliminated k-th, a fill-reducing order of the same graph such as
+    /// step 1's), else by minimum degree on the node graph, and where each
     /// node's and each pair's block went.
     ///
     /// # Errors
-    /// A pair naming a node out of range, or a pattern faer rejects.
-    pub fn new(n_nodes: usize, node_pairs: &[(u32, u32)]) -> Result<(Self, Placement), SparseError> {
+    /// A pair naming a node out of range, a bad `order`, or a pattern faer
+    /// rejects.
+    pub fn new(
+        n_nodes: usize,
+        node_pairs: &[(u32, u32)],
+        order: Option<&[u32]>,
+    ) -> Result<(Self, Placement), SparseError> {
         if n_nodes <= SUPERNODAL_UP_TO {
-            let (pattern, placement) = SupernodalPattern::new(n_nodes, node_pairs)?;
+            let (pattern, placement) = SupernodalPattern::new(n_nodes, node_pairs, order)?;
             return Ok((BlockedPattern::Supernodal(pattern), placement));
         }
-        let (pattern, position) = SpdPattern::new_blocked(n_nodes, 2, node_pairs)?;
+        let (pattern, position) = SpdPattern::new_blocked(n_nodes, 2, node_pairs, order)?;
         let slot = |r: usize, c: usize| pattern.slot(r, c).expect("entry in the pattern") as u32;
         // Column 2p + 1 of a diagonal block starts at its diagonal.
         let diagonal = position
@@ -226,9 +233,14 @@ impl SpdPattern {
 
     /// The pattern of a symmetric matrix made of `block × block` blocks over
     /// `n_nodes` nodes, coupled where `node_pairs` `(a, b)` says so (either
-    /// order; diagonal blocks always). The elimination order is minimum
-    /// degree on the node graph, each node's unknowns kept together: less
+    /// order; diagonal blocks always). The elimination order is `order` if
+    /// given (`order[k]` = the node eliminated k-th), else minimum degree on
+    /// the node graph; either way each node's unknowns stay together: less
     /// fill, and far cheaper to analyse, than minimum degree on the unknowns.
+    ///
+    /// # Errors
+    /// A pair naming a node out of range, an `order` that is not a
+    /// permutation of the nodes, or a pattern faer rejects.
     ///
     /// The pattern is numbered in that elimination order, so factorising
     /// permutes nothing: node `v` is node `position[v]` of the pattern (its
@@ -240,6 +252,7 @@ impl SpdPattern {
         n_nodes: usize,
         block: usize,
         node_pairs: &[(u32, u32)],
+        order: Option<&[u32]>,
     ) -> Result<(Self, Vec<u32>), SparseError> {
         let pattern_error = |e: &dyn std::fmt::Debug| SparseError::Pattern(format!("{e:?}"));
         if node_pairs.iter().any(|&(a, b)| a.max(b) as usize >= n_nodes) {
@@ -252,18 +265,23 @@ impl SpdPattern {
         }));
         let (node_graph, _) = SymbolicSparseColMat::<usize>::try_new_from_indices(n_nodes, n_nodes, &nodes)
             .map_err(|e| pattern_error(&e))?;
-        let mut node_order = vec![0usize; n_nodes];
-        let mut node_rank = vec![0usize; n_nodes];
-        let mut mem = MemBuffer::new(amd::order_scratch::<usize>(n_nodes, node_graph.compute_nnz()));
-        amd::order(
-            &mut node_order,
-            &mut node_rank,
-            node_graph.as_ref(),
-            amd::Control::default(),
-            MemStack::new(&mut mem),
-        )
-        .map_err(|e| pattern_error(&e))?;
-        let position: Vec<u32> = node_rank.iter().map(|&r| r as u32).collect();
+        let position = match order {
+            Some(order) => positions_of(order, n_nodes)?,
+            None => {
+                let mut node_order = vec![0usize; n_nodes];
+                let mut node_rank = vec![0usize; n_nodes];
+                let mut mem = MemBuffer::new(amd::order_scratch::<usize>(n_nodes, node_graph.compute_nnz()));
+                amd::order(
+                    &mut node_order,
+                    &mut node_rank,
+                    node_graph.as_ref(),
+                    amd::Control::default(),
+                    MemStack::new(&mut mem),
+                )
+                .map_err(|e| pattern_error(&e))?;
+                node_rank.iter().map(|&r| r as u32).collect()
+            }
+        };
         // Node columns in elimination order: the later node of each pair is a
         // row of the earlier one's column (lower triangle), diagonal first.
         let mut node_rows: Vec<Vec<u32>> = (0..n_nodes as u32).map(|c| vec![c]).collect();
@@ -446,6 +464,39 @@ impl SpdFactor {
     }
 }
 
+impl SpdPattern {
+    /// The fill-reducing elimination order the analysis chose (`order[k]` =
+    /// the unknown eliminated k-th), if it permuted at all.
+    pub fn elimination_order(&self) -> Option<Vec<usize>> {
+        self.cholesky.perm().map(|p| p.arrays().0.to_vec())
+    }
+}
+
+/// Each node's place in `order` (the nodes in elimination order).
+///
+/// # Errors
+/// `order` is not a permutation of `0..n_nodes`.
+pub(crate) fn positions_of(order: &[u32], n_nodes: usize) -> Result<Vec<u32>, SparseError> {
+    if order.len() != n_nodes {
+        return Err(SparseError::Pattern(format!(
+            "elimination order of {} nodes for {n_nodes}",
+            order.len()
+        )));
+    }
+    let mut position = vec![u32::MAX; n_nodes];
+    for (k, &v) in order.iter().enumerate() {
+        match position.get_mut(v as usize) {
+            Some(p) if *p == u32::MAX => *p = k as u32,
+            _ => {
+                return Err(SparseError::Pattern(format!(
+                    "elimination order names node {v} twice or out of range"
+                )));
+            }
+        }
+    }
+    Ok(position)
+}
+
 /// Leaves of the dissection at most this big are ordered as they come.
 const DISSECTION_LEAF: usize = 96;
 
@@ -575,7 +626,7 @@ mod tests {
                 }
             }
         }
-        let (pattern, position) = SpdPattern::new_blocked(n_nodes, 2, &pairs).unwrap();
+        let (pattern, position) = SpdPattern::new_blocked(n_nodes, 2, &pairs, None).unwrap();
         let mut seen: Vec<u32> = position.clone();
         seen.sort_unstable();
         assert_eq!(seen, (0..n_nodes as u32).collect::<Vec<_>>());
@@ -625,7 +676,7 @@ mod tests {
             pattern.factor_into(&negative, &mut workspace),
             Err(SparseError::NotPositiveDefinite)
         );
-        assert!(SpdPattern::new_blocked(3, 2, &[(0, 3)]).is_err());
+        assert!(SpdPattern::new_blocked(3, 2, &[(0, 3)], None).is_err());
     }
 
     #[test]
@@ -707,7 +758,14 @@ mod tests {
         // Below and above SUPERNODAL_UP_TO nodes: both factorisations.
         for (nx, ny) in [(1, 1), (2, 1), (12, 9), (30, 31), (45, 44), (75, 70)] {
             let (n_nodes, pairs) = grid_system(nx, ny);
-            let (pattern, placement) = BlockedPattern::new(n_nodes, &pairs).unwrap();
+            // Ordered by minimum degree, or as numbered (a valid, worse
+            // order), on both paths.
+            let numbered: Vec<u32> = (0..n_nodes as u32).collect();
+            let order = (nx == 30 || nx == 75).then_some(&numbered[..]);
+            let (pattern, placement) = BlockedPattern::new(n_nodes, &pairs, order).unwrap();
+            if order.is_some() {
+                assert_eq!(placement.position, numbered);
+            }
             let position = &placement.position;
             let mut seen = position.clone();
             seen.sort_unstable();
@@ -762,6 +820,9 @@ mod tests {
                 Err(SparseError::NotPositiveDefinite)
             );
         }
-        assert!(BlockedPattern::new(3, &[(0, 3)]).is_err());
+        assert!(BlockedPattern::new(3, &[(0, 3)], None).is_err());
+        assert!(BlockedPattern::new(3, &[(0, 1)], Some(&[0, 1, 1])).is_err());
+        assert!(BlockedPattern::new(3, &[(0, 1)], Some(&[0, 1])).is_err());
+        assert!(SpdPattern::new_blocked(3, 2, &[(0, 1)], Some(&[2, 1, 1])).is_err());
     }
 }

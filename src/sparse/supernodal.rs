@@ -138,15 +138,25 @@ impl SupernodalPattern {
     /// The pattern of `n_nodes` nodes of two unknowns each, coupled where
     /// `node_pairs` says (either order; diagonal blocks always), ordered by
     /// minimum degree on the node graph, with where each node and each pair
-    /// ended up ([`Placement`]).
+    /// ended up ([`Placement`]). `order`, if given (`order[k]` = the node
+    /// eliminated k-th, a fill-reducing order of the same graph, e.g. step
+    /// 1's), replaces the minimum-degree ordering.
     ///
     /// # Errors
-    /// A pair naming a node out of range, or an ordering faer rejects.
-    pub fn new(n_nodes: usize, node_pairs: &[(u32, u32)]) -> Result<(Self, Placement), SparseError> {
+    /// A pair naming a node out of range, an `order` that is not a
+    /// permutation of the nodes, or an ordering faer rejects.
+    pub fn new(
+        n_nodes: usize,
+        node_pairs: &[(u32, u32)],
+        order: Option<&[u32]>,
+    ) -> Result<(Self, Placement), SparseError> {
         if node_pairs.iter().any(|&(a, b)| a.max(b) as usize >= n_nodes) {
             return Err(SparseError::Pattern(format!("a node pair names a node ≥ {n_nodes}")));
         }
-        let mut position = minimum_degree(n_nodes, node_pairs)?;
+        let mut position = match order {
+            Some(order) => super::positions_of(order, n_nodes)?,
+            None => minimum_degree(n_nodes, node_pairs)?,
+        };
         // Neighbours later in the elimination order, per node (in that order).
         let later_neighbours = |position: &[u32]| {
             Lists::grouped(
