@@ -42,7 +42,10 @@ pub struct SolverOptions {
     /// Spline path: an iteration needing at least this many halvings is "heavy" (default 3:
     /// it moved the constraints at most 1/8 of their remaining way).
     pub stall_halvings: u32,
-    /// Spline path: this many heavy iterations in a row is a stall (default 2).
+    /// Spline path: this many heavy iterations in a row is a stall (default 1:
+    /// in 1,500 random, warped and swirled cases no spline path that reached
+    /// its targets had a heavy iteration; after a stall the completion takes
+    /// over, which reaches them anyway).
     pub stall_iterations: u32,
     /// Spline path: outer-boundary vertices used as zero-displacement centres, at most (default 48).
     pub max_boundary_centres: usize,
@@ -76,7 +79,7 @@ impl SolverOptions {
         max_iterations: 100,
         max_halvings: 20,
         stall_halvings: 3,
-        stall_iterations: 2,
+        stall_iterations: 1,
         max_boundary_centres: 48,
         tolerance: 1e-9,
         completion: Completion::Auto,

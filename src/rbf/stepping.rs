@@ -5,10 +5,14 @@
 //! constrained vertex a fraction `t` of its remaining way to its target
 //! (outer-boundary anchors held with zero displacement, so the boundary stays
 //! on the square), applies it to every free vertex, and asks the guard. A fold
-//! halves `t`; an accepted step resets `t = 1`. The path **stalls** when two
-//! iterations in a row need ≥ `stall_halvings` halvings, when no step survives
-//! `max_halvings` halvings, or at `max_iterations` (algorithm.md: halving never
-//! rescued a stalled run, so stop early and report).
+//! halves `t`; an accepted step resets `t = 1`. The path **stalls** when
+//! `stall_iterations` iterations in a row (default one) need ≥
+//! `stall_halvings` halvings, when no step survives `max_halvings` halvings,
+//! or at `max_iterations` (algorithm.md: halving never rescued a stalled run,
+//! so stop early and report). When the completion takes over after a stall,
+//! the last heavy iteration is not finished: the stall is called at its
+//! `stall_halvings`-th halving, since the completion starts from the step-1
+//! layout anyway.
 
 use super::tps::{ThinPlateSpline, TpsError};
 use crate::options::SolverOptions;
@@ -172,6 +176,10 @@ pub struct SteppingState {
     pub halvings_this_iteration: u32,
     pub total_halvings: u32,
     heavy_streak: u32,
+    /// The completion takes over after a stall (`completion: Auto` with the
+    /// exact guard), so a stall can be called before its last heavy
+    /// iteration is finished: that step would be thrown away.
+    completion_follows: bool,
 }
 
 impl SteppingState {
@@ -191,6 +199,8 @@ impl SteppingState {
             halvings_this_iteration: 0,
             total_halvings: 0,
             heavy_streak: 0,
+            completion_follows: options.completion == crate::options::Completion::Auto
+                && options.guard == crate::options::Guard::Exact,
         }
     }
 
@@ -213,6 +223,13 @@ impl SteppingState {
                     "no fold-free step found after {} halvings (step < 2^-{})",
                     options.max_halvings, options.max_halvings
                 ));
+            } else if self.completion_follows
+                && self.halvings_this_iteration >= options.stall_halvings
+                && self.heavy_streak + 1 >= options.stall_iterations
+            {
+                // This iteration is heavy whatever step it ends with, and it
+                // completes the streak: finishing it would only be thrown away.
+                self.phase = SteppingPhase::Stalled(stall_reason(options));
             }
             return;
         }
@@ -227,10 +244,7 @@ impl SteppingState {
         if max_residual <= options.tolerance {
             self.phase = SteppingPhase::Reached;
         } else if self.heavy_streak >= options.stall_iterations {
-            self.phase = SteppingPhase::Stalled(format!(
-                "{} iterations in a row needed ≥ {} halvings",
-                options.stall_iterations, options.stall_halvings
-            ));
+            self.phase = SteppingPhase::Stalled(stall_reason(options));
         } else if self.iterations >= options.max_iterations {
             self.phase = SteppingPhase::Stalled(format!("iteration cap of {} reached", options.max_iterations));
         }
@@ -239,6 +253,14 @@ impl SteppingState {
     /// Records a proposal that could not be made (singular spline system).
     pub fn record_failure(&mut self, error: &TpsError) {
         self.phase = SteppingPhase::Stalled(format!("spline system: {error}"));
+    }
+}
+
+/// Why the spline path stopped: its heavy iterations.
+fn stall_reason(options: &SolverOptions) -> String {
+    match options.stall_iterations {
+        0 | 1 => format!("an iteration needed ≥ {} halvings", options.stall_halvings),
+        n => format!("{n} iterations in a row needed ≥ {} halvings", options.stall_halvings),
     }
 }
 
@@ -265,22 +287,57 @@ mod tests {
     }
 
     #[test]
-    fn two_heavy_iterations_stall() {
-        let o = SolverOptions::DEFAULT;
+    fn heavy_iterations_stall() {
         let problem = StepProblem {
             constraint_vertices: vec![0],
             targets: vec![DVec2::ONE],
             ..Default::default()
         };
+        // Spline path alone (no completion after it): every heavy iteration
+        // is finished, and two in a row stall.
+        let mut o = SolverOptions::DEFAULT;
+        o.stall_iterations = 2;
+        o.completion = crate::options::Completion::Never;
         let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
         for _ in 0..2 {
             for _ in 0..o.stall_halvings {
                 s.record_guard(false, 0.0, &o);
             }
+            assert!(s.is_stepping());
             s.record_guard(true, 0.3, &o);
         }
         assert!(matches!(s.phase, SteppingPhase::Stalled(_)), "{:?}", s.phase);
-        assert_eq!(s.total_halvings, 2 * o.stall_halvings);
+        assert_eq!((s.iterations, s.total_halvings), (2, 2 * o.stall_halvings));
+
+        // With the completion to follow, the heavy iteration that completes
+        // the streak stops at its `stall_halvings`-th halving.
+        o.completion = crate::options::Completion::Auto;
+        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
+        for _ in 0..o.stall_halvings {
+            s.record_guard(false, 0.0, &o);
+        }
+        s.record_guard(true, 0.3, &o);
+        for _ in 0..o.stall_halvings {
+            assert!(s.is_stepping());
+            s.record_guard(false, 0.0, &o);
+        }
+        assert!(matches!(s.phase, SteppingPhase::Stalled(_)), "{:?}", s.phase);
+        assert_eq!((s.iterations, s.total_halvings), (1, 2 * o.stall_halvings));
+
+        // The defaults: the first heavy iteration is a stall.
+        let o = SolverOptions::DEFAULT;
+        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
+        s.record_guard(false, 0.0, &o);
+        s.record_guard(true, 0.5, &o);
+        for _ in 0..o.stall_halvings {
+            assert!(s.is_stepping());
+            s.record_guard(false, 0.0, &o);
+        }
+        let SteppingPhase::Stalled(reason) = &s.phase else {
+            panic!("{:?}", s.phase)
+        };
+        assert_eq!(reason, "an iteration needed ≥ 3 halvings");
+        assert_eq!((s.iterations, s.total_halvings), (1, 1 + o.stall_halvings));
     }
 
     #[test]
