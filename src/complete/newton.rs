@@ -213,9 +213,14 @@ impl NewtonSystem {
         soft: Option<SoftTargets>,
         held: Option<&[bool]>,
     ) -> Option<f64> {
-        let Buffers { values, grad, .. } = buffers;
+        let Buffers { values, grad, factor } = buffers;
         grad.clear();
         grad.resize(2 * self.shape.n_free, 0.0);
+        // The last step's factor has been solved with: its memory takes the
+        // values (one ~1 MB buffer per solve instead of two, each page-faulted in).
+        if values.capacity() == 0 {
+            *values = factor.take_memory();
+        }
         values.clear();
         values.resize(self.shape.pattern.n_values(), 0.0);
         let mut total = 0.0;

@@ -43,6 +43,15 @@ pub struct BlockedWorkspace {
     faer: FactorWorkspace,
 }
 
+impl BlockedWorkspace {
+    /// Memory of the last factor that [`BlockedPattern::factor_taking`]
+    /// took, for the next values to be assembled into (empty if it took
+    /// none); the factor is gone, so solve with it first.
+    pub fn take_memory(&mut self) -> Vec<f64> {
+        self.supernodal.take_memory()
+    }
+}
+
 impl BlockedPattern {
     /// The pattern of `n_nodes` nodes coupled where `node_pairs` says (either
     /// order), in the elimination order `order` if given (`order[k]` = the
@@ -803,8 +812,17 @@ mod tests {
                 }
             }
             let mut factor = BlockedWorkspace::default();
-            for _ in 0..2 {
-                pattern.factor_into(&values, &mut factor).unwrap();
+            for round in 0..3 {
+                if round == 0 {
+                    pattern.factor_into(&values, &mut factor).unwrap();
+                } else {
+                    // As Newton steps do: values assembled into the last
+                    // factor's memory, then taken by the factorisation.
+                    let mut taken = factor.take_memory();
+                    taken.clear();
+                    taken.extend_from_slice(&values);
+                    pattern.factor_taking(&mut taken, &mut factor).unwrap();
+                }
                 let mut x = rhs.clone();
                 pattern.solve_with(&mut factor, &mut x);
                 for v in 0..n_nodes {

@@ -134,6 +134,16 @@ pub struct SupernodalFactor {
     gathered: Vec<f64>,
 }
 
+impl SupernodalFactor {
+    /// The factor's memory, handed back for the next assembly once its
+    /// solves are done (the factor is gone): one buffer serves both, where
+    /// [`SupernodalPattern::factor_taking`] alone would alternate two.
+    pub fn take_memory(&mut self) -> Vec<f64> {
+        self.factored = false;
+        std::mem::take(&mut self.values)
+    }
+}
+
 impl SupernodalPattern {
     /// The pattern of `n_nodes` nodes of two unknowns each, coupled where
     /// `node_pairs` says (either order; diagonal blocks always), ordered by
