@@ -340,10 +340,13 @@ pub fn build(s: &SolveSummary) -> Report {
     let stretch_final = crate::metrics::sander_stretch(&real.positions, &s.layout[..n_real], &real.triangles);
     let gltf_id = |local: u32| gltf_id(p, local);
     // Unreached: a proof that no fold-free layout reaches them, if there is
-    // one, else where the mesh is squeezed.
-    let certificate = (!unreached.is_empty())
-        .then(|| crate::complete::find_obstruction(&p.filled, s.layout, s.problem))
-        .flatten();
+    // one, else where the mesh is squeezed. The soft rounds looked for one
+    // when they started (it depends only on the boundary and the targets).
+    let certificate = match s.completion.filter(|c| c.soft) {
+        _ if unreached.is_empty() => None,
+        Some(c) => c.obstruction.clone(),
+        None => crate::complete::find_obstruction(&p.filled, s.layout, s.problem),
+    };
     let (constraint_of, vertex_name) = (constraint_of(p), vertex_namer(p, &on_outer));
     let hint = (!unreached.is_empty()).then(|| match &certificate {
         Some(c) => crate::complete::obstruction_hint(c, &constraint_of, &vertex_name),

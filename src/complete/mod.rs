@@ -100,6 +100,10 @@ pub struct CompletionStats {
     /// The targets are provably unreachable ([`obstruction`]): one straight
     /// attempt for the closest layout, no retries along arcs.
     pub proven_unreachable: bool,
+    /// The certificate behind `proven_unreachable`, found when the soft
+    /// rounds started (the report names it without searching again).
+    #[serde(skip)]
+    pub obstruction: Option<obstruction::Obstruction>,
 }
 
 /// The completion and polish of one chart.
@@ -200,7 +204,8 @@ impl CompletionState {
             CompletionPhase::Repair { steps: 0 }
         };
         s.stats.soft = true;
-        s.stats.proven_unreachable = find_obstruction(filled, layout, problem).is_some();
+        s.stats.obstruction = find_obstruction(filled, layout, problem);
+        s.stats.proven_unreachable = s.stats.obstruction.is_some();
         s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
         s.stats.energy_end = s.stats.energy_start;
         s
