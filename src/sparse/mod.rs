@@ -267,29 +267,10 @@ impl SpdPattern {
         if node_pairs.iter().any(|&(a, b)| a.max(b) as usize >= n_nodes) {
             return Err(SparseError::Pattern(format!("a node pair names a node ≥ {n_nodes}")));
         }
-        let mut nodes: Vec<Pair<usize, usize>> = (0..n_nodes).map(|v| Pair::new(v, v)).collect();
-        nodes.extend(node_pairs.iter().map(|&(a, b)| {
-            let (a, b) = (a.max(b) as usize, a.min(b) as usize);
-            Pair::new(a, b)
-        }));
-        let (node_graph, _) = SymbolicSparseColMat::<usize>::try_new_from_indices(n_nodes, n_nodes, &nodes)
-            .map_err(|e| pattern_error(&e))?;
+        let node_graph = node_graph(n_nodes, node_pairs)?;
         let position = match order {
             Some(order) => positions_of(order, n_nodes)?,
-            None => {
-                let mut node_order = vec![0usize; n_nodes];
-                let mut node_rank = vec![0usize; n_nodes];
-                let mut mem = MemBuffer::new(amd::order_scratch::<usize>(n_nodes, node_graph.compute_nnz()));
-                amd::order(
-                    &mut node_order,
-                    &mut node_rank,
-                    node_graph.as_ref(),
-                    amd::Control::default(),
-                    MemStack::new(&mut mem),
-                )
-                .map_err(|e| pattern_error(&e))?;
-                node_rank.iter().map(|&r| r as u32).collect()
-            }
+            None => minimum_degree(&node_graph)?,
         };
         // Node columns in elimination order: the later node of each pair is a
         // row of the earlier one's column (lower triangle), diagonal first.
@@ -479,6 +460,46 @@ impl SpdPattern {
     pub fn elimination_order(&self) -> Option<Vec<usize>> {
         self.cholesky.perm().map(|p| p.arrays().0.to_vec())
     }
+}
+
+/// The graph of `n_nodes` nodes coupled where `node_pairs` says (either
+/// order), as the lower triangle of a symmetric pattern, diagonal included.
+///
+/// # Errors
+/// A pattern faer rejects.
+pub(crate) fn node_graph(
+    n_nodes: usize,
+    node_pairs: &[(u32, u32)],
+) -> Result<SymbolicSparseColMat<usize>, SparseError> {
+    let mut nodes: Vec<Pair<usize, usize>> = (0..n_nodes).map(|v| Pair::new(v, v)).collect();
+    nodes.extend(node_pairs.iter().map(|&(a, b)| {
+        let (a, b) = (a.max(b) as usize, a.min(b) as usize);
+        Pair::new(a, b)
+    }));
+    SymbolicSparseColMat::<usize>::try_new_from_indices(n_nodes, n_nodes, &nodes)
+        .map(|(graph, _)| graph)
+        .map_err(|e| SparseError::Pattern(format!("{e:?}")))
+}
+
+/// Each node's place in faer's approximate-minimum-degree elimination
+/// order of `graph` (from [`node_graph`]).
+///
+/// # Errors
+/// An ordering faer rejects.
+pub(crate) fn minimum_degree(graph: &SymbolicSparseColMat<usize>) -> Result<Vec<u32>, SparseError> {
+    let n_nodes = graph.ncols();
+    let mut node_order = vec![0usize; n_nodes];
+    let mut node_rank = vec![0usize; n_nodes];
+    let mut mem = MemBuffer::new(amd::order_scratch::<usize>(n_nodes, graph.compute_nnz()));
+    amd::order(
+        &mut node_order,
+        &mut node_rank,
+        graph.as_ref(),
+        amd::Control::default(),
+        MemStack::new(&mut mem),
+    )
+    .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
+    Ok(node_rank.iter().map(|&r| r as u32).collect())
 }
 
 /// Each node's place in `order` (the nodes in elimination order).

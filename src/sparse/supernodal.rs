@@ -13,9 +13,6 @@
 //! kernel call per descendant, then factors its own panel in place.
 
 use super::SparseError;
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::amd;
-use faer::sparse::{Pair, SymbolicSparseColMat};
 
 const NONE: u32 = u32::MAX;
 
@@ -165,7 +162,7 @@ impl SupernodalPattern {
         }
         let mut position = match order {
             Some(order) => super::positions_of(order, n_nodes)?,
-            None => minimum_degree(n_nodes, node_pairs)?,
+            None => super::minimum_degree(&super::node_graph(n_nodes, node_pairs)?)?,
         };
         // Neighbours later in the elimination order, per node (in that order).
         let later_neighbours = |position: &[u32]| {
@@ -553,31 +550,6 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
         }
     }
     sums.iter().sum::<f64>() + tail
-}
-
-/// The elimination order of the node graph by faer's approximate minimum
-/// degree: `position[v]` is node `v`'s place.
-fn minimum_degree(n_nodes: usize, node_pairs: &[(u32, u32)]) -> Result<Vec<u32>, SparseError> {
-    let pattern_error = |e: &dyn std::fmt::Debug| SparseError::Pattern(format!("{e:?}"));
-    let mut nodes: Vec<Pair<usize, usize>> = (0..n_nodes).map(|v| Pair::new(v, v)).collect();
-    nodes.extend(node_pairs.iter().map(|&(a, b)| {
-        let (a, b) = (a.max(b) as usize, a.min(b) as usize);
-        Pair::new(a, b)
-    }));
-    let (node_graph, _) =
-        SymbolicSparseColMat::<usize>::try_new_from_indices(n_nodes, n_nodes, &nodes).map_err(|e| pattern_error(&e))?;
-    let mut node_order = vec![0usize; n_nodes];
-    let mut node_rank = vec![0usize; n_nodes];
-    let mut mem = MemBuffer::new(amd::order_scratch::<usize>(n_nodes, node_graph.compute_nnz()));
-    amd::order(
-        &mut node_order,
-        &mut node_rank,
-        node_graph.as_ref(),
-        amd::Control::default(),
-        MemStack::new(&mut mem),
-    )
-    .map_err(|e| pattern_error(&e))?;
-    Ok(node_rank.iter().map(|&r| r as u32).collect())
 }
 
 /// [`numeric`] compiled for AVX2 and FMA (the dense kernels vectorise).
