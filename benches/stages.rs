@@ -111,6 +111,12 @@ fn print_row(r: &Row) {
 
 /// `k` interior vertices with targets = the step-1 layout through the smooth warp.
 fn warp_constraints(mesh: &TriMesh, k: usize, seed: u64) -> Vec<(u32, DVec2)> {
+    mapped_constraints(mesh, k, seed, |xy| smooth_warp(xy, 0.12))
+}
+
+/// `k` interior vertices with targets = the step-1 layout through `map`
+/// (a bijection of the square in its centred coordinates).
+fn mapped_constraints(mesh: &TriMesh, k: usize, seed: u64, map: impl Fn(DVec2) -> DVec2) -> Vec<(u32, DVec2)> {
     let (_, uvs) = uvpin::solve_mesh(mesh, &[], None, SolverOptions::DEFAULT).expect("step 1");
     let mut rng = Rng::new(seed);
     let mut out: Vec<(u32, DVec2)> = Vec::new();
@@ -121,7 +127,7 @@ fn warp_constraints(mesh: &TriMesh, k: usize, seed: u64) -> Vec<(u32, DVec2)> {
         let uv = DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
         let inside = uv.cmpgt(DVec2::splat(1e-6)).all() && uv.cmplt(DVec2::splat(1.0 - 1e-6)).all();
         if inside && out.iter().all(|(w, _)| *w != v) {
-            out.push((v, xy_to_uv(smooth_warp(uv_to_xy(uv), 0.12))));
+            out.push((v, xy_to_uv(map(uv_to_xy(uv)))));
         }
     }
     out
@@ -201,6 +207,16 @@ fn bench_file(name: &str, constraints: &Path, out: &Path, runs: usize) -> Option
     })
 }
 
+/// The text of a constraint file for `asset` with `constraints`, without
+/// its closing parenthesis (options may follow).
+fn constraint_text(asset: &Path, constraints: &[(u32, DVec2)]) -> String {
+    let mut text = format!("(asset: {:?}, constraints: [\n", asset.display().to_string());
+    for (v, uv) in constraints {
+        text += &format!("  (vertex: {v}, uv: ({}, {})),\n", uv.x, uv.y);
+    }
+    text + "]"
+}
+
 /// A curved, jittered grid patch like a scanned surface.
 fn curved_grid(n: usize, seed: u64) -> TriMesh {
     let mut rng = Rng::new(seed);
@@ -278,14 +294,7 @@ fn main() {
             let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
             let c = warp_constraints(&mesh, 40, 3);
             let ron = tmp.join(format!("{file}.uvpin.ron"));
-            let mut text = format!(
-                "(asset: {:?}, constraints: [\n",
-                shared.join(file).display().to_string()
-            );
-            for (v, uv) in &c {
-                text += &format!("  (vertex: {v}, uv: ({}, {})),\n", uv.x, uv.y);
-            }
-            text += "]";
+            let text = constraint_text(&shared.join(file), &c);
             std::fs::write(&ron, format!("{text})\n")).expect("write");
             if let Some(r) = bench_file(&name, &ron, &tmp.join(file), runs) {
                 show(r, &mut rows);
@@ -297,6 +306,18 @@ fn main() {
                 std::fs::write(&forced, format!("{text}, solver: (completion: Always))\n")).expect("write");
                 let name = format!("{file} (40 constraints, completion: Always)");
                 if let Some(r) = bench_file(&name, &forced, &tmp.join("face.always.glb"), runs) {
+                    show(r, &mut rows);
+                }
+                // A real stall at 26k vertices: the same 40 vertices turned
+                // by a 4 rad swirl (the whole swirled step-1 layout is
+                // fold-free, so it is reachable); the spline path stalls at
+                // once and the completion does all the work.
+                let swirled = mapped_constraints(&mesh, 40, 3, |xy| swirl(xy, 4.0));
+                let ron = tmp.join("face.swirl.uvpin.ron");
+                let text = constraint_text(&shared.join(file), &swirled);
+                std::fs::write(&ron, format!("{text})\n")).expect("write");
+                let name = format!("{file} (40 constraints swirled 4 rad, stalls)");
+                if let Some(r) = bench_file(&name, &ron, &tmp.join("face.swirl.glb"), 3) {
                     show(r, &mut rows);
                 }
             }
