@@ -312,11 +312,25 @@ fn main() {
                 // by a 4 rad swirl (the whole swirled step-1 layout is
                 // fold-free, so it is reachable); the spline path stalls at
                 // once and the completion does all the work.
-                let swirled = mapped_constraints(&mesh, 40, 3, |xy| swirl(xy, 4.0));
+                let turn = |xy: DVec2| swirl(xy, 4.0);
+                let swirled = mapped_constraints(&mesh, 40, 3, turn);
                 let ron = tmp.join("face.swirl.uvpin.ron");
                 let text = constraint_text(&shared.join(file), &swirled);
                 std::fs::write(&ron, format!("{text})\n")).expect("write");
-                let name = format!("{file} (40 constraints swirled 4 rad, stalls)");
+                let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, SolverOptions::DEFAULT).expect("step 1");
+                let witness: Vec<[f32; 2]> = uvs
+                    .iter()
+                    .map(|p| {
+                        let q = xy_to_uv(turn(uv_to_xy(DVec2::new(p[0] as f64, p[1] as f64))));
+                        [q.x as f32, q.y as f32]
+                    })
+                    .collect();
+                let folds = uvpin::guard::count_uv_orientations(&witness, &mesh.triangles);
+                let name = if folds.is_clean() {
+                    format!("{file} (40 constraints swirled 4 rad, stalls)")
+                } else {
+                    format!("{file} (40 constraints swirled 4 rad, stalls; its witness folds: {folds:?})")
+                };
                 if let Some(r) = bench_file(&name, &ron, &tmp.join("face.swirl.glb"), 3) {
                     show(r, &mut rows);
                 }
