@@ -109,21 +109,33 @@ fn print_row(r: &Row) {
     );
 }
 
-/// `k` interior vertices with targets = the step-1 layout through the smooth warp.
-fn warp_constraints(mesh: &TriMesh, k: usize, seed: u64) -> Vec<(u32, DVec2)> {
-    mapped_constraints(mesh, k, seed, |xy| smooth_warp(xy, 0.12))
+/// uvpin's layout of `mesh` without constraints, as stored: the step-1
+/// layout, polished if `options` polish (the defaults do, up to 20k vertices).
+fn unconstrained_uvs(mesh: &TriMesh, options: SolverOptions) -> Vec<[f32; 2]> {
+    uvpin::solve_mesh(mesh, &[], None, options).expect("step 1").1
 }
 
-/// `k` interior vertices with targets = the step-1 layout through `map`
-/// (a bijection of the square in its centred coordinates).
-fn mapped_constraints(mesh: &TriMesh, k: usize, seed: u64, map: impl Fn(DVec2) -> DVec2) -> Vec<(u32, DVec2)> {
-    let (_, uvs) = uvpin::solve_mesh(mesh, &[], None, SolverOptions::DEFAULT).expect("step 1");
+/// The smooth bijective warp of the warped cases.
+fn warp(xy: DVec2) -> DVec2 {
+    smooth_warp(xy, 0.12)
+}
+
+/// `k` interior vertices with targets = uvpin's unconstrained layout
+/// (defaults) through the smooth warp.
+fn warp_constraints(mesh: &TriMesh, k: usize, seed: u64) -> Vec<(u32, DVec2)> {
+    mapped_constraints(&unconstrained_uvs(mesh, SolverOptions::DEFAULT), k, seed, warp)
+}
+
+/// `k` interior vertices of the fold-free layout `uvs` with targets = their
+/// positions through `map` (a bijection of the square in its centred
+/// coordinates).
+fn mapped_constraints(uvs: &[[f32; 2]], k: usize, seed: u64, map: impl Fn(DVec2) -> DVec2) -> Vec<(u32, DVec2)> {
     let mut rng = Rng::new(seed);
     let mut out: Vec<(u32, DVec2)> = Vec::new();
     let mut tries = 0;
     while out.len() < k && tries < 100 * k {
         tries += 1;
-        let v = rng.below(mesh.n_vertices()) as u32;
+        let v = rng.below(uvs.len()) as u32;
         let uv = DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
         let inside = uv.cmpgt(DVec2::splat(1e-6)).all() && uv.cmplt(DVec2::splat(1.0 - 1e-6)).all();
         if inside && out.iter().all(|(w, _)| *w != v) {
@@ -249,21 +261,12 @@ fn main() {
         no_polish.polish = false;
         // The paper's Fig. 8 crossing at the same size: the spline path stalls.
         let (a, b) = (15 + 41 * 20, 25 + 41 * 20);
-        let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, no_polish).expect("step 1");
+        let uvs = unconstrained_uvs(&mesh, no_polish);
         let at = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
         let crossing = vec![(a, at(b)), (b, at(a))];
         // 50 constraints turned by a strong swirl: the spline path stalls and
         // the completion reaches them (its result is the witness).
-        let mut rng = Rng::new(2);
-        let mut swirled: Vec<(u32, DVec2)> = Vec::new();
-        while swirled.len() < 50 {
-            let v = rng.below(mesh.n_vertices()) as u32;
-            let uv = at(v);
-            let inside = uv.cmpgt(DVec2::splat(1e-6)).all() && uv.cmplt(DVec2::splat(1.0 - 1e-6)).all();
-            if inside && swirled.iter().all(|(w, _)| *w != v) {
-                swirled.push((v, xy_to_uv(swirl(uv_to_xy(uv), 4.0))));
-            }
-        }
+        let swirled = mapped_constraints(&uvs, 50, 2, |xy| swirl(xy, 4.0));
         let d = SolverOptions::DEFAULT;
         let cases: Vec<Case> = vec![
             ("paper size: 41² curved grid", &mesh, c.clone(), d),
@@ -292,7 +295,8 @@ fn main() {
             }
             let asset = uvpin::io::load_asset(&shared.join(file), None, 0).expect("shared mesh");
             let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
-            let c = warp_constraints(&mesh, 40, 3);
+            let uvs = unconstrained_uvs(&mesh, SolverOptions::DEFAULT);
+            let c = mapped_constraints(&uvs, 40, 3, warp);
             let ron = tmp.join(format!("{file}.uvpin.ron"));
             let text = constraint_text(&shared.join(file), &c);
             std::fs::write(&ron, format!("{text})\n")).expect("write");
@@ -313,11 +317,10 @@ fn main() {
                 // fold-free, so it is reachable); the spline path stalls at
                 // once and the completion does all the work.
                 let turn = |xy: DVec2| swirl(xy, 4.0);
-                let swirled = mapped_constraints(&mesh, 40, 3, turn);
+                let swirled = mapped_constraints(&uvs, 40, 3, turn);
                 let ron = tmp.join("face.swirl.uvpin.ron");
                 let text = constraint_text(&shared.join(file), &swirled);
                 std::fs::write(&ron, format!("{text})\n")).expect("write");
-                let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, SolverOptions::DEFAULT).expect("step 1");
                 let witness: Vec<[f32; 2]> = uvs
                     .iter()
                     .map(|p| {
