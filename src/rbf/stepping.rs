@@ -176,10 +176,6 @@ pub struct SteppingState {
     pub halvings_this_iteration: u32,
     pub total_halvings: u32,
     heavy_streak: u32,
-    /// The completion takes over after a stall (`completion: Auto` with the
-    /// exact guard), so a stall can be called before its last heavy
-    /// iteration is finished: that step would be thrown away.
-    completion_follows: bool,
 }
 
 impl SteppingState {
@@ -199,8 +195,6 @@ impl SteppingState {
             halvings_this_iteration: 0,
             total_halvings: 0,
             heavy_streak: 0,
-            completion_follows: options.completion == crate::options::Completion::Auto
-                && options.guard == crate::options::Guard::Exact,
         }
     }
 
@@ -223,7 +217,7 @@ impl SteppingState {
                     "no fold-free step found after {} halvings (step < 2^-{})",
                     options.max_halvings, options.max_halvings
                 ));
-            } else if self.completion_follows
+            } else if completion_follows(options)
                 && self.halvings_this_iteration >= options.stall_halvings
                 && self.heavy_streak + 1 >= options.stall_iterations
             {
@@ -254,6 +248,13 @@ impl SteppingState {
     pub fn record_failure(&mut self, error: &TpsError) {
         self.phase = SteppingPhase::Stalled(format!("spline system: {error}"));
     }
+}
+
+/// Whether the completion takes over after a stall (`completion: Auto`
+/// with the exact guard): then a stall can be called before its last heavy
+/// iteration is finished, since that step would be thrown away.
+fn completion_follows(options: &SolverOptions) -> bool {
+    options.completion == crate::options::Completion::Auto && options.guard == crate::options::Guard::Exact
 }
 
 /// Why the spline path stopped: its heavy iterations.
