@@ -342,10 +342,12 @@ pub fn build(s: &SolveSummary) -> Report {
     // Unreached: a proof that no fold-free layout reaches them, if there is
     // one, else where the mesh is squeezed. The soft rounds looked for one
     // when they started (it depends only on the boundary and the targets).
-    let certificate = match s.completion.filter(|c| c.soft) {
-        _ if unreached.is_empty() => None,
-        Some(c) => c.obstruction.clone(),
-        None => crate::complete::find_obstruction(&p.filled, s.layout, s.problem),
+    let certificate = if unreached.is_empty() {
+        None
+    } else if let Some(c) = s.completion.filter(|c| c.soft) {
+        c.obstruction.clone()
+    } else {
+        crate::complete::find_obstruction(&p.filled, s.layout, s.problem)
     };
     let (constraint_of, vertex_name) = (constraint_of(p), vertex_namer(p, &on_outer));
     let hint = (!unreached.is_empty()).then(|| match &certificate {

@@ -247,16 +247,16 @@ impl SpdPattern {
     /// the node graph; either way each node's unknowns stay together: less
     /// fill, and far cheaper to analyse, than minimum degree on the unknowns.
     ///
-    /// # Errors
-    /// A pair naming a node out of range, an `order` that is not a
-    /// permutation of the nodes, or a pattern faer rejects.
-    ///
     /// The pattern is numbered in that elimination order, so factorising
     /// permutes nothing: node `v` is node `position[v]` of the pattern (its
     /// unknowns `block · position[v] + k`), with `position` the second value
     /// returned. The columns are written straight from the node graph (no
     /// sorting of entries). Assemble values in place with
     /// [`SpdPattern::slot`] and factor with [`SpdPattern::factor_into`].
+    ///
+    /// # Errors
+    /// A pair naming a node out of range, an `order` that is not a
+    /// permutation of the nodes, or a pattern faer rejects.
     pub fn new_blocked(
         n_nodes: usize,
         block: usize,
