@@ -66,7 +66,9 @@ pub struct SolverOptions {
     pub polish: bool,
     /// Polish: Newton steps at most (default 20).
     pub polish_iterations: u32,
-    /// Polish only charts up to this many vertices, where it is cheap (default 20000).
+    /// Polish charts up to this many vertices, where it is cheap (default
+    /// 20000). Above it the polish follows only a completion whose snap left
+    /// the layout more distorted than step 1.
     pub polish_max_vertices: usize,
     /// Stop the completion and polish after this many milliseconds of solving
     /// (default none): the best fold-free layout so far is kept.

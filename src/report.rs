@@ -473,7 +473,7 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
                 (None, _) => "could not snap onto the targets (straight and arc paths tried)".into(),
             },
             c.energy_start,
-            c.energy_end,
+            c.energy_snapped.unwrap_or(c.energy_end),
             if c.out_of_time { " (time budget)" } else { "" },
             t.complete_ms
         )),
@@ -494,7 +494,28 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
             last.linf,
             t.polish_ms
         )),
-        _ => out.push("polish: not run".into()),
+        _ => {
+            let o = &s.constraints.solver;
+            let n = s.prepared.filled.n_real_vertices;
+            out.push(if !o.polish {
+                "polish: off".into()
+            } else if o.guard == crate::options::Guard::Paper {
+                "polish: not run (the paper's guard: its spline path alone)".into()
+            } else if s.completion.is_some_and(|c| c.soft && !c.snapped) {
+                "polish: not run (the targets were not reached)".into()
+            } else if n > o.polish_max_vertices {
+                let after = match s.completion {
+                    Some(c) if c.soft => "the completion left the layout less distorted than step 1",
+                    _ => "the spline path reached the targets",
+                };
+                format!(
+                    "polish: not run ({after}, on {n} vertices: above polish_max_vertices {})",
+                    o.polish_max_vertices
+                )
+            } else {
+                "polish: not run".into()
+            });
+        }
     }
     out.push(format!(
         "result: {}, max residual {:.3e}, {:.2} ms in all",

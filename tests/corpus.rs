@@ -295,3 +295,60 @@ fn shared_meshes_solvable_crossing_and_impossible() {
         mirrored_case(&format!("{name} mirrored"), &mesh, 9);
     }
 }
+
+/// Above `polish_max_vertices` the polish follows a completion only when its
+/// snap left the layout more distorted (symmetric Dirichlet) than step 1,
+/// and then it lowers the stretch; at or below the limit it always follows.
+#[test]
+fn large_charts_are_polished_only_after_a_distorting_completion() {
+    let (mut polished, mut skipped) = (0, 0);
+    for seed in 0..6u64 {
+        let mut rng = Rng::new(900 + seed);
+        let (n, holes) = (16 + rng.below(12), rng.below(3));
+        let mesh = random_disk(&mut rng, n, holes);
+        let (layout, interior) = step1(&mesh);
+        for (k, amp) in [(3, 0.05), (12, 0.12), (25, 0.18)] {
+            let constraints: Vec<(u32, DVec2)> = pick(&mut rng, &interior, k)
+                .into_iter()
+                .map(|v| (v, xy_to_uv(smooth_warp(layout[v as usize], amp))))
+                .collect();
+            let name = format!("disk {seed}, {k} constraints, warp {amp}");
+            for max in [mesh.n_vertices(), mesh.n_vertices() - 1] {
+                let options = SolverOptions {
+                    completion: uvpin::options::Completion::Always,
+                    polish_max_vertices: max,
+                    ..SolverOptions::DEFAULT
+                };
+                let (r, uvs) = uvpin::solve_mesh(&mesh, &constraints, None, options).unwrap();
+                assert_reached(&name, &r);
+                assert!(
+                    uvpin::guard::count_uv_orientations(&uvs, &mesh.triangles).is_clean(),
+                    "{name}"
+                );
+                let c = r.completion.as_ref().expect("completion stats");
+                let snapped = c.energy_snapped.expect("snapped");
+                let more_distorted = snapped > c.energy_start;
+                let expected = max >= mesh.n_vertices() || more_distorted;
+                assert_eq!(c.polish, expected, "{name}, polish_max_vertices {max}: {:?}", r.explain);
+                if max < mesh.n_vertices() {
+                    if c.polish {
+                        polished += 1;
+                        let before = r.stretch_before_polish.as_ref().expect("stretch before the polish");
+                        assert!(r.stretch_final.l2 <= before.l2 + 1e-12, "{name}: {:?}", r.explain);
+                        assert!(c.energy_end <= snapped, "{name}");
+                    } else {
+                        skipped += 1;
+                        assert_eq!(c.energy_end, snapped, "{name}");
+                        let line = r.explain.iter().find(|l| l.starts_with("polish")).expect("polish line");
+                        assert!(line.contains("less distorted than step 1"), "{line}");
+                    }
+                }
+            }
+        }
+    }
+    eprintln!("above the limit: {polished} completions polished, {skipped} left as snapped");
+    assert!(
+        polished > 0 && skipped > 0,
+        "both branches: {polished} polished, {skipped} not"
+    );
+}

@@ -91,6 +91,9 @@ pub struct CompletionStats {
     /// Symmetric Dirichlet energy (area-weighted mean, 4 = isometry) at the start and end.
     pub energy_start: f64,
     pub energy_end: f64,
+    /// The same energy right after the snap onto the targets (before any polish).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub energy_snapped: Option<f64>,
     /// The time budget cut the phase short.
     pub out_of_time: bool,
     /// The targets were reached moving along arcs.
@@ -106,6 +109,18 @@ pub struct CompletionStats {
     pub obstruction: Option<obstruction::Obstruction>,
 }
 
+/// Whether the polish follows the soft rounds' snap onto the targets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PolishAfterSnap {
+    /// Only to repair a layout f32 cannot store yet.
+    Off,
+    Always,
+    /// Only if the snapped layout is more distorted (higher symmetric
+    /// Dirichlet energy) than the start: large charts, where the polish is
+    /// not cheap, still never end worse than step 1 for the completion's sake.
+    IfMoreDistorted,
+}
+
 /// The completion and polish of one chart.
 #[derive(Debug, Clone)]
 pub struct CompletionState {
@@ -118,6 +133,8 @@ pub struct CompletionState {
     constrained: Vec<bool>,
     /// Polish for distortion (else only to repair an unstorable layout).
     polish_enabled: bool,
+    /// Polish after the snap only if the layout ended more distorted than it started.
+    polish_if_more_distorted: bool,
     /// The layout the soft rounds started from (each attempt starts there).
     soft_start: Option<Vec<DVec2>>,
     /// Per constraint, where it starts and its target.
@@ -168,6 +185,7 @@ impl CompletionState {
             system: None,
             constrained: Vec::new(),
             polish_enabled: false,
+            polish_if_more_distorted: false,
             soft_start: None,
             paths: Vec::new(),
             attempts: Vec::new(),
@@ -179,19 +197,20 @@ impl CompletionState {
         }
     }
 
-    /// Soft-to-hard completion (then polish, if `polish` or if the layout
-    /// cannot be stored as f32 yet), from `layout`, with the Newton pattern
-    /// of [`newton_pattern`].
+    /// Soft-to-hard completion (then polish, as `polish` says, or if the
+    /// layout cannot be stored as f32 yet), from `layout`, with the Newton
+    /// pattern of [`newton_pattern`].
     pub fn soft(
         filled: &FilledChart,
         problem: &StepProblem,
         pattern: Arc<NewtonPattern>,
         layout: &[DVec2],
         options: &SolverOptions,
-        polish: bool,
+        polish: PolishAfterSnap,
     ) -> Self {
         let mut s = Self::with_system(filled, problem, pattern);
-        s.polish_enabled = polish;
+        s.polish_enabled = polish == PolishAfterSnap::Always;
+        s.polish_if_more_distorted = polish == PolishAfterSnap::IfMoreDistorted;
         s.storable = guard::all_positive_as_stored(layout, &filled.mesh.triangles);
         s.phase = if s.storable {
             CompletionPhase::Soft {
@@ -375,6 +394,11 @@ impl CompletionState {
                     self.stats.arc_retry = side != 0.0;
                     self.stats.snapped_at_round = Some(round);
                     self.note_step(layout, triangles);
+                    let snapped_energy = newton::energy(layout, &self.rest, triangles, None);
+                    self.stats.energy_snapped = Some(snapped_energy);
+                    if self.polish_if_more_distorted {
+                        self.polish_enabled = snapped_energy > self.stats.energy_start;
+                    }
                     let storable = self.storable;
                     self.stats.repair |= !storable;
                     self.phase = if self.polish_enabled || !storable {
