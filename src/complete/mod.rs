@@ -117,7 +117,7 @@ pub enum PolishAfterSnap {
     Always,
     /// Only if the snapped layout is more distorted (higher symmetric
     /// Dirichlet energy) than the start: large charts, where the polish is
-    /// not cheap, still never end worse than step 1 for the completion's sake.
+    /// not cheap, are still not left squeezed against the barrier by the snap.
     IfMoreDistorted,
 }
 
