@@ -131,10 +131,10 @@ pub struct CompletionState {
     system: Option<NewtonSystem>,
     /// The constrained vertices: held where they are while polishing.
     constrained: Vec<bool>,
-    /// Polish for distortion (else only to repair an unstorable layout).
+    /// Polish for distortion (else only to repair an unstorable layout);
+    /// after soft rounds, decided at the snap by `polish_after_snap`.
     polish_enabled: bool,
-    /// Polish after the snap only if the layout ended more distorted than it started.
-    polish_if_more_distorted: bool,
+    polish_after_snap: PolishAfterSnap,
     /// The layout the soft rounds started from (each attempt starts there).
     soft_start: Option<Vec<DVec2>>,
     /// Per constraint, where it starts and its target.
@@ -185,7 +185,7 @@ impl CompletionState {
             system: None,
             constrained: Vec::new(),
             polish_enabled: false,
-            polish_if_more_distorted: false,
+            polish_after_snap: PolishAfterSnap::Off,
             soft_start: None,
             paths: Vec::new(),
             attempts: Vec::new(),
@@ -209,8 +209,7 @@ impl CompletionState {
         polish: PolishAfterSnap,
     ) -> Self {
         let mut s = Self::with_system(filled, problem, pattern);
-        s.polish_enabled = polish == PolishAfterSnap::Always;
-        s.polish_if_more_distorted = polish == PolishAfterSnap::IfMoreDistorted;
+        s.polish_after_snap = polish;
         s.storable = guard::all_positive_as_stored(layout, &filled.mesh.triangles);
         s.phase = if s.storable {
             CompletionPhase::Soft {
@@ -396,9 +395,11 @@ impl CompletionState {
                     self.note_step(layout, triangles);
                     let snapped_energy = newton::energy(layout, &self.rest, triangles, None);
                     self.stats.energy_snapped = Some(snapped_energy);
-                    if self.polish_if_more_distorted {
-                        self.polish_enabled = snapped_energy > self.stats.energy_start;
-                    }
+                    self.polish_enabled = match self.polish_after_snap {
+                        PolishAfterSnap::Off => false,
+                        PolishAfterSnap::Always => true,
+                        PolishAfterSnap::IfMoreDistorted => snapped_energy > self.stats.energy_start,
+                    };
                     let storable = self.storable;
                     self.stats.repair |= !storable;
                     self.phase = if self.polish_enabled || !storable {
