@@ -448,7 +448,7 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
     });
     match s.completion {
         Some(c) if c.soft => out.push(format!(
-            "completion (soft-to-hard symmetric Dirichlet): {}{} rounds, {} Newton steps, {}; energy {:.4} → {:.4}{}; {:.2} ms",
+            "completion (soft-to-hard symmetric Dirichlet): {}{} rounds, {} Newton steps, {}; energy {:.4} → {:.4}{}{}; {:.2} ms",
             if c.repair_steps > 0 {
                 format!("{} steps spreading triangles too small for f32, then ", c.repair_steps)
             } else {
@@ -474,6 +474,14 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
             },
             c.energy_start,
             c.energy_snapped.unwrap_or(c.energy_end),
+            if c.capped_triangles > 0 {
+                format!(
+                    "; up to {} triangles measured against progressive reference shapes",
+                    c.capped_triangles
+                )
+            } else {
+                String::new()
+            },
             if c.out_of_time { " (time budget)" } else { "" },
             t.complete_ms
         )),
@@ -505,7 +513,7 @@ fn explain_lines(s: &SolveSummary, status: Status, step1: &Stretch, last: &Stret
                 "polish: not run (the targets were not reached)".into()
             } else if n > o.polish_max_vertices {
                 let after = match s.completion {
-                    Some(c) if c.soft => "the completion left the layout less distorted than step 1",
+                    Some(c) if c.soft => "the completion left the layout no more distorted than step 1, in all and in its worst triangle",
                     _ => "the spline path reached the targets",
                 };
                 format!(

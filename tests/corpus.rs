@@ -292,13 +292,20 @@ fn shared_meshes_solvable_crossing_and_impossible() {
         let r = crossing_case(&format!("{name} crossing"), &mesh, 5);
         eprintln!("{name} crossing: {}", r.explain.join(" | "));
         assert_reached(&format!("{name} crossing"), &r);
+        if name == "alligator.glb" {
+            // Its step-1 layout is squeezed far past the progressive cap:
+            // the soft rounds measured those triangles against references.
+            let c = r.completion.as_ref().expect("the crossing needs the completion");
+            assert!(c.capped_triangles > 0, "{name}: {:?}", r.explain);
+        }
         mirrored_case(&format!("{name} mirrored"), &mesh, 9);
     }
 }
 
 /// Above `polish_max_vertices` the polish follows a completion only when its
-/// snap left the layout more distorted (symmetric Dirichlet) than step 1,
-/// and then it lowers the stretch; at or below the limit it always follows.
+/// snap left the layout more distorted (symmetric Dirichlet, in all or in
+/// its worst triangle) than step 1, and then it lowers the stretch; at or
+/// below the limit it always follows.
 #[test]
 fn large_charts_are_polished_only_after_a_distorting_completion() {
     let (mut polished, mut skipped) = (0, 0);
@@ -327,7 +334,8 @@ fn large_charts_are_polished_only_after_a_distorting_completion() {
                 );
                 let c = r.completion.as_ref().expect("completion stats");
                 let snapped = c.energy_snapped.expect("snapped");
-                let more_distorted = snapped > c.energy_start;
+                let worst = c.worst_snapped.expect("snapped");
+                let more_distorted = snapped > c.energy_start || worst > c.worst_start;
                 let expected = max >= mesh.n_vertices() || more_distorted;
                 assert_eq!(c.polish, expected, "{name}, polish_max_vertices {max}: {:?}", r.explain);
                 if max < mesh.n_vertices() {
@@ -340,7 +348,7 @@ fn large_charts_are_polished_only_after_a_distorting_completion() {
                         skipped += 1;
                         assert_eq!(c.energy_end, snapped, "{name}");
                         let line = r.explain.iter().find(|l| l.starts_with("polish")).expect("polish line");
-                        assert!(line.contains("less distorted than step 1"), "{line}");
+                        assert!(line.contains("no more distorted than step 1"), "{line}");
                     }
                 }
             }

@@ -179,6 +179,81 @@ pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 
     Some((w * value, grad, hess))
 }
 
+/// Progressive reference shapes (Liu et al. 2018, "Progressive
+/// parameterizations"): each triangle whose energy `ψ(F)` against its rest
+/// shape exceeds `cap` gets, in `out`, a reference shape part-way between
+/// its rest shape and its current one, against which it scores exactly
+/// `cap`; the others keep their rest shape. With `F = U Σ Vᵀ` the reference
+/// makes it `F' = U Σ^(1−t) Vᵀ`: the same rotations, the stretches shrunk in
+/// log space by the `t ∈ (0, 1)` that reaches the cap (`ψ(Σ^u) =
+/// Σᵢ 2 cosh(2u ln σᵢ)` grows with `u = 1 − t`). The weights stay.
+/// Returns how many triangles were given a reference.
+pub fn progressive_rest(
+    rest: &[RestTriangle],
+    layout: &[DVec2],
+    triangles: &[[u32; 3]],
+    cap: f64,
+    out: &mut Vec<RestTriangle>,
+) -> usize {
+    out.clear();
+    out.extend_from_slice(rest);
+    let mut capped = 0;
+    for ((r, t), o) in rest.iter().zip(triangles).zip(out.iter_mut()) {
+        let f = jacobian(r, t.map(|v| layout[v as usize]));
+        if psi(f) <= cap {
+            continue;
+        }
+        let Some((theta, s1, s2)) = right_rotation_and_stretches(f) else {
+            continue;
+        };
+        let (l1, l2) = (s1.ln(), s2.ln());
+        // ψ(Σ^u) − cap is convex and increasing in u ≥ 0, positive at u = 1:
+        // Newton's method from there descends monotonically onto its root.
+        let mut u = 1.0f64;
+        for _ in 0..30 {
+            let (a1, a2) = (2.0 * u * l1, 2.0 * u * l2);
+            let excess = 2.0 * a1.cosh() + 2.0 * a2.cosh() - cap;
+            let slope = 4.0 * (l1 * a1.sinh() + l2 * a2.sinh());
+            if excess <= 1e-12 * cap || slope <= 0.0 {
+                break;
+            }
+            u -= excess / slope;
+        }
+        // Σ^(1−t) = Σ^u: the reference takes Σ^(−t) = Σ^(u−1) off the right.
+        let (k1, k2) = ((u - 1.0) * l1, (u - 1.0) * l2);
+        let (k1, k2) = (k1.exp(), k2.exp());
+        // V = Rot(−θ); M = V diag(k1, k2) Vᵀ (row-major).
+        let (c, s) = (theta.cos(), theta.sin());
+        let m = [
+            c * c * k1 + s * s * k2,
+            (k2 - k1) * c * s,
+            (k2 - k1) * c * s,
+            s * s * k1 + c * c * k2,
+        ];
+        let d = r.inv_rest;
+        o.inv_rest = [
+            d[0] * m[0] + d[1] * m[2],
+            d[0] * m[1] + d[1] * m[3],
+            d[2] * m[0] + d[3] * m[2],
+            d[2] * m[1] + d[3] * m[3],
+        ];
+        capped += 1;
+    }
+    capped
+}
+
+/// For `F` with `det F > 0`: `θ` and `σ₁ ≥ σ₂ > 0` with
+/// `F = Rot(φ) diag(σ₁, σ₂) Rot(θ)` (closed-form 2 × 2 SVD), `Rot(x)` the
+/// counter-clockwise rotation by `x`.
+fn right_rotation_and_stretches(f: [f64; 4]) -> Option<(f64, f64, f64)> {
+    let (a, b, c, d) = (f[0], f[1], f[2], f[3]);
+    let (e, g, h, k) = ((a + d) / 2.0, (a - d) / 2.0, (c + b) / 2.0, (c - b) / 2.0);
+    let q = (e * e + k * k).sqrt();
+    let r = (g * g + h * h).sqrt();
+    let (s1, s2) = (q + r, q - r);
+    (s2 > 0.0).then(|| ((k.atan2(e) - h.atan2(g)) / 2.0, s1, s2))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -244,6 +319,81 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn progressive_references_cap_the_energy_and_keep_the_rotations() {
+        let r = rest();
+        let mut rng = Rng::new(12);
+        let (mut capped, mut kept) = (0, 0);
+        for _ in 0..300 {
+            // From mild to squashed and stretched, turned any way.
+            let x = [
+                DVec2::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1)),
+                DVec2::new(rng.range(0.05, 4.0), rng.range(-0.5, 0.5)),
+                DVec2::new(rng.range(-1.0, 1.0), rng.range(0.001, 1.0)),
+            ];
+            let f = jacobian(&r, x);
+            if f[0] * f[3] - f[1] * f[2] <= 0.0 {
+                continue;
+            }
+            let cap = 40.0;
+            let mut out = Vec::new();
+            let n = progressive_rest(&[r], &x, &[[0, 1, 2]], cap, &mut out);
+            let g = jacobian(&out[0], x);
+            assert_eq!(out[0].weight, r.weight);
+            if psi(f) <= cap {
+                kept += 1;
+                assert_eq!(n, 0);
+                assert_eq!(out[0], r);
+                continue;
+            }
+            capped += 1;
+            assert_eq!(n, 1);
+            assert!((psi(g) - cap).abs() < 1e-6 * cap, "ψ {} against the reference", psi(g));
+            // Same rotations: F' = U Σ^u Vᵀ shares U and V with F = U Σ Vᵀ,
+            // so F F'⁻¹ = U Σ^(1−u) Uᵀ is symmetric.
+            let det_g = g[0] * g[3] - g[1] * g[2];
+            let g_inv = [g[3] / det_g, -g[1] / det_g, -g[2] / det_g, g[0] / det_g];
+            let p = [
+                f[0] * g_inv[0] + f[1] * g_inv[2],
+                f[0] * g_inv[1] + f[1] * g_inv[3],
+                f[2] * g_inv[0] + f[3] * g_inv[2],
+                f[2] * g_inv[1] + f[3] * g_inv[3],
+            ];
+            let scale = p.iter().map(|v| v.abs()).fold(0.0, f64::max);
+            assert!((p[1] - p[2]).abs() < 1e-9 * scale, "F F'⁻¹ not symmetric: {p:?}");
+            // ... and positive definite (the stretch shrinks, never flips).
+            assert!(p[0] > 0.0 && p[0] * p[3] - p[1] * p[2] > 0.0, "{p:?}");
+        }
+        assert!(capped > 30 && kept > 30, "{capped} capped, {kept} kept");
+    }
+
+    #[test]
+    fn the_closed_form_svd_rebuilds_the_matrix() {
+        let mut rng = Rng::new(13);
+        for _ in 0..100 {
+            let f = [
+                rng.range(-2.0, 2.0),
+                rng.range(-2.0, 2.0),
+                rng.range(-2.0, 2.0),
+                rng.range(-2.0, 2.0),
+            ];
+            let Some((theta, s1, s2)) = right_rotation_and_stretches(f) else {
+                assert!(f[0] * f[3] - f[1] * f[2] <= 1e-12);
+                continue;
+            };
+            assert!(s1 >= s2 && s2 > 0.0);
+            // F Rot(θ)ᵀ = Rot(φ) Σ: its columns are orthogonal with lengths σ₁, σ₂.
+            let (c, s) = (theta.cos(), theta.sin());
+            let col0 = DVec2::new(f[0] * c - f[1] * s, f[2] * c - f[3] * s);
+            let col1 = DVec2::new(f[0] * s + f[1] * c, f[2] * s + f[3] * c);
+            assert!(col0.dot(col1).abs() < 1e-9, "{f:?}");
+            assert!(
+                (col0.length() - s1).abs() < 1e-9 && (col1.length() - s2).abs() < 1e-9,
+                "{f:?}"
+            );
         }
     }
 
