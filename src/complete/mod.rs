@@ -52,10 +52,10 @@ pub const REPAIR_STEPS: u32 = 2000;
 /// is measured against a progressive reference instead
 /// ([`energy::progressive_rest`]). Measured on the 26k-vertex face.glb,
 /// whose step-1 layout has triangles at ψ up to ~1e5, with three 4 rad
-/// swirls that stall the spline path: 44, 36 and 38 Newton steps with no
-/// polish needed, against 85 + 20 polish, 66 and 40 + 20 with rest shapes
-/// alone (caps of 40, 100 and 400 took fewer soft steps but left the snap
-/// more squeezed). Small disks have no triangle above it.
+/// swirls that stall the spline path: 44, 36 and 38 soft Newton steps
+/// against 85, 66 and 40 with rest shapes alone (caps of 40, 100 and 400
+/// took fewer but left the snap more squeezed: worse stretch, or more
+/// polish). Small disks have no triangle above it.
 const PROGRESSIVE_CAP: f64 = 1000.0;
 
 /// Where the completion stands.
@@ -107,7 +107,8 @@ pub struct CompletionStats {
     pub energy_snapped: Option<f64>,
     /// The largest energy of one real triangle (ψ, 4 = isometry) at the
     /// start of the soft rounds, and right after the snap.
-    pub worst_start: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub worst_start: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub worst_snapped: Option<f64>,
     /// The most triangles any soft step measured against a progressive
@@ -250,7 +251,11 @@ impl CompletionState {
         s.stats.proven_unreachable = s.stats.obstruction.is_some();
         s.stats.energy_start = newton::energy(layout, &s.rest, &filled.mesh.triangles, None);
         s.stats.energy_end = s.stats.energy_start;
-        s.stats.worst_start = worst_psi(layout, &s.rest, &filled.mesh.triangles[..filled.n_real_triangles]);
+        s.stats.worst_start = Some(worst_psi(
+            layout,
+            &s.rest,
+            &filled.mesh.triangles[..filled.n_real_triangles],
+        ));
         s
     }
 
@@ -425,7 +430,8 @@ impl CompletionState {
                     self.stats.energy_snapped = Some(snapped_energy);
                     let worst = worst_psi(layout, &self.rest, &triangles[..filled.n_real_triangles]);
                     self.stats.worst_snapped = Some(worst);
-                    let worse = snapped_energy > self.stats.energy_start || worst > self.stats.worst_start;
+                    let worse = snapped_energy > self.stats.energy_start
+                        || self.stats.worst_start.is_some_and(|start| worst > start);
                     self.polish_enabled = match self.polish_after_snap {
                         PolishAfterSnap::Off => false,
                         PolishAfterSnap::Always => true,
