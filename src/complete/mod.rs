@@ -4,7 +4,9 @@
 //! Soft-to-hard symmetric Dirichlet (algorithm.md): from the step-1 layout,
 //! minimise `SD(x) + w/2 · Σ |x_c − t_c|²` by projected Newton
 //! ([`newton`]), the weight growing ×10 per round (a round ends at its first
-//! full Newton step, or when a step converges); after every step, if
+//! full Newton step, or when a step converges), triangles the start squeezed
+//! past [`PROGRESSIVE_CAP`] measured against progressive reference shapes
+//! ([`energy::progressive_rest`]); after every step, if
 //! putting the constrained vertices exactly on their targets keeps every
 //! triangle positive (as stored), snap them there. Then polish: minimise SD
 //! with the constraints and the boundary held. Every layout this phase
