@@ -58,7 +58,7 @@ pub const REPAIR_STEPS: u32 = 2000;
 /// against 85, 66 and 40 with rest shapes alone (caps of 40, 100 and 400
 /// took fewer but left the snap more squeezed: worse stretch, or more
 /// polish). Small disks have no triangle above it.
-const PROGRESSIVE_CAP: f64 = 1000.0;
+pub const PROGRESSIVE_CAP: f64 = 1000.0;
 
 /// Where the completion stands.
 #[derive(Debug, Clone, PartialEq)]
