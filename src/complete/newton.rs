@@ -59,9 +59,8 @@ pub struct NewtonSystem {
 }
 
 /// The Hessian values, gradient and factor memory of the last step, kept so
-/// a step allocates nothing (a fresh ~1 MB factor per step is page-faulted
-/// in each time). Behind a mutex so steps can take `&self`; a clone starts
-/// empty.
+/// a step allocates nothing. Behind a mutex so steps can take `&self`; a
+/// clone starts empty.
 #[derive(Debug, Default)]
 struct Workspace(Mutex<Buffers>);
 
@@ -213,14 +212,9 @@ impl NewtonSystem {
         soft: Option<SoftTargets>,
         held: Option<&[bool]>,
     ) -> Option<f64> {
-        let Buffers { values, grad, factor } = buffers;
+        let Buffers { values, grad, .. } = buffers;
         grad.clear();
         grad.resize(2 * self.shape.n_free, 0.0);
-        // The last step's factor has been solved with: its memory takes the
-        // values (one ~1 MB buffer per solve instead of two, each page-faulted in).
-        if values.capacity() == 0 {
-            *values = factor.take_memory();
-        }
         values.clear();
         values.resize(self.shape.pattern.n_values(), 0.0);
         let mut total = 0.0;
@@ -276,9 +270,8 @@ impl NewtonSystem {
     }
 
     /// The Newton direction `H p = −g` for the Hessian and gradient in
-    /// `buffers`, with a growing diagonal shift if `H` is singular. The
-    /// factorisation takes the Hessian values, so each retry has them
-    /// assembled anew by `reassemble`.
+    /// `buffers`, with a growing diagonal shift if `H` is singular (each
+    /// retry has the values assembled anew by `reassemble`).
     fn direction(&self, buffers: &mut Buffers, mut reassemble: impl FnMut(&mut Buffers)) -> Option<Vec<f64>> {
         let mut relative_shift = 1e-12;
         for attempt in 0..6 {
@@ -293,7 +286,7 @@ impl NewtonSystem {
                 .fold(0.0f64, f64::max)
                 .max(1e-300);
             diagonal.for_each(|&slot| values[slot as usize] += relative_shift * max_diag);
-            if self.shape.pattern.factor_taking(values, factor).is_ok() {
+            if self.shape.pattern.factor_into(values, factor).is_ok() {
                 let mut p: Vec<f64> = grad.iter().map(|g| -g).collect();
                 self.shape.pattern.solve_with(factor, &mut p);
                 return Some(p);

@@ -4,11 +4,6 @@
 //! with weights. Always `Par::Seq`: on 2 cores faer's parallel triangular solve
 //! is 20–30× slower (crate-stack.md, F1).
 
-pub mod supernodal;
-
-pub use supernodal::Placement;
-use supernodal::{SupernodalFactor, SupernodalPattern};
-
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::amd;
@@ -20,37 +15,31 @@ use faer::{Mat, Par, Side};
 use std::sync::Arc;
 use thiserror::Error;
 
-/// Up to this many nodes (vertices) a 2 × 2-block system is factored by
-/// [`supernodal`]; above it by faer, whose dense kernels win on the large
-/// supernodes of big meshes (measured on grid Hessians: the supernodal code
-/// is ahead up to ~60² nodes, even at ~80², 2.4× behind at 160²).
-pub const SUPERNODAL_UP_TO: usize = 5_000;
+/// Where the blocks of a 2 × 2-block pattern's input landed. A block's
+/// place is given per column: the slot of its first row (the second row
+/// follows it). On a diagonal block, entry (0, 1) (above the diagonal) is
+/// not the block's: never write it.
+#[derive(Debug, Clone)]
+pub struct Placement {
+    /// Each node's place in the elimination order (its unknowns are
+    /// `2 · position[v]` and the next).
+    pub position: Vec<u32>,
+    /// Per node, its diagonal block.
+    pub diagonal: Vec<[u32; 2]>,
+    /// Per input pair `(a, b)`, the block at row `max`, column `min` of
+    /// their positions.
+    pub pairs: Vec<[u32; 2]>,
+}
 
 /// A symmetric positive definite system of 2 × 2 blocks over a node graph
-/// (the Newton Hessians): its symbolic factorisation, by [`supernodal`] for
-/// small systems and by faer for large ones.
+/// (the Newton Hessians): its symbolic factorisation, numbered in
+/// elimination order so that values are assembled in place.
 #[derive(Debug, Clone)]
-pub enum BlockedPattern {
-    Supernodal(SupernodalPattern),
-    Faer(SpdPattern),
-}
+pub struct BlockedPattern(SpdPattern);
 
 /// The numeric factor and scratch of a [`BlockedPattern`], reused across
 /// factorisations.
-#[derive(Debug, Default)]
-pub struct BlockedWorkspace {
-    supernodal: SupernodalFactor,
-    faer: FactorWorkspace,
-}
-
-impl BlockedWorkspace {
-    /// Memory of the last factor that [`BlockedPattern::factor_taking`]
-    /// took, for the next values to be assembled into (empty if it took
-    /// none); the factor is gone, so solve with it first.
-    pub fn take_memory(&mut self) -> Vec<f64> {
-        self.supernodal.take_memory()
-    }
-}
+pub type BlockedWorkspace = FactorWorkspace;
 
 impl BlockedPattern {
     /// The pattern of `n_nodes` nodes coupled where `node_pairs` says (either
@@ -67,10 +56,6 @@ impl BlockedPattern {
         node_pairs: &[(u32, u32)],
         order: Option<&[u32]>,
     ) -> Result<(Self, Placement), SparseError> {
-        if n_nodes <= SUPERNODAL_UP_TO {
-            let (pattern, placement) = SupernodalPattern::new(n_nodes, node_pairs, order)?;
-            return Ok((BlockedPattern::Supernodal(pattern), placement));
-        }
         let (pattern, position) = SpdPattern::new_blocked(n_nodes, 2, node_pairs, order)?;
         let slot = |r: usize, c: usize| pattern.slot(r, c).expect("entry in the pattern") as u32;
         // Column 2p + 1 of a diagonal block starts at its diagonal.
@@ -94,15 +79,12 @@ impl BlockedPattern {
             diagonal,
             pairs,
         };
-        Ok((BlockedPattern::Faer(pattern), placement))
+        Ok((BlockedPattern(pattern), placement))
     }
 
     /// How many values [`BlockedPattern::factor_into`] takes.
     pub fn n_values(&self) -> usize {
-        match self {
-            BlockedPattern::Supernodal(p) => p.n_values(),
-            BlockedPattern::Faer(p) => p.n_values(),
-        }
+        self.0.n_values()
     }
 
     /// Factors values laid out as the [`Placement`] says.
@@ -110,31 +92,13 @@ impl BlockedPattern {
     /// # Errors
     /// [`SparseError::NotPositiveDefinite`].
     pub fn factor_into(&self, values: &[f64], workspace: &mut BlockedWorkspace) -> Result<(), SparseError> {
-        match self {
-            BlockedPattern::Supernodal(p) => p.factor_into(values, &mut workspace.supernodal),
-            BlockedPattern::Faer(p) => p.factor_into(values, &mut workspace.faer),
-        }
-    }
-
-    /// As [`BlockedPattern::factor_into`], but `values` may be taken rather
-    /// than copied: afterwards their contents are unspecified.
-    ///
-    /// # Errors
-    /// [`SparseError::NotPositiveDefinite`].
-    pub fn factor_taking(&self, values: &mut Vec<f64>, workspace: &mut BlockedWorkspace) -> Result<(), SparseError> {
-        match self {
-            BlockedPattern::Supernodal(p) => p.factor_taking(values, &mut workspace.supernodal),
-            BlockedPattern::Faer(p) => p.factor_into(values, &mut workspace.faer),
-        }
+        self.0.factor_into(values, workspace)
     }
 
     /// Solves `A x = b` in place (in elimination numbering) with the factor
     /// last made by [`BlockedPattern::factor_into`] in `workspace`.
     pub fn solve_with(&self, workspace: &mut BlockedWorkspace, b: &mut [f64]) {
-        match self {
-            BlockedPattern::Supernodal(p) => p.solve_with(&mut workspace.supernodal, b),
-            BlockedPattern::Faer(p) => p.solve_with(&mut workspace.faer, b),
-        }
+        self.0.solve_with(workspace, b);
     }
 }
 
@@ -785,7 +749,6 @@ mod tests {
 
     #[test]
     fn blocked_systems_small_and_large_factor_and_solve() {
-        // Below and above SUPERNODAL_UP_TO nodes: both factorisations.
         for (nx, ny) in [(1, 1), (2, 1), (12, 9), (30, 31), (45, 44), (75, 70)] {
             let (n_nodes, pairs) = grid_system(nx, ny);
             // Ordered by minimum degree, or as numbered (a valid, worse
@@ -833,17 +796,9 @@ mod tests {
                 }
             }
             let mut factor = BlockedWorkspace::default();
-            for round in 0..3 {
-                if round == 0 {
-                    pattern.factor_into(&values, &mut factor).unwrap();
-                } else {
-                    // As Newton steps do: values assembled into the last
-                    // factor's memory, then taken by the factorisation.
-                    let mut taken = factor.take_memory();
-                    taken.clear();
-                    taken.extend_from_slice(&values);
-                    pattern.factor_taking(&mut taken, &mut factor).unwrap();
-                }
+            // As Newton steps do: one workspace, refactored in place.
+            for _ in 0..3 {
+                pattern.factor_into(&values, &mut factor).unwrap();
                 let mut x = rhs.clone();
                 pattern.solve_with(&mut factor, &mut x);
                 for v in 0..n_nodes {
