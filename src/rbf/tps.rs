@@ -1,13 +1,15 @@
 //! The thin-plate-spline displacement field of Eq. 6:
 //! `ΔX = P(X) + Σ_i λ_i φ(‖X − C_i‖)`, `φ(r) = r² ln r`, `P` affine.
 //!
-//! Fitted by the null-space method (algorithm.md): a QR factorisation of
-//! `P = [1 x y]` (m × 3) splits the coefficients into `λ = Q₂ γ`, where the
-//! reduced system `(Q₂ᵀ A Q₂) γ = Q₂ᵀ d` is symmetric positive definite (the
-//! TPS kernel is conditionally positive definite of order 2), solved by
-//! Cholesky; then `R a = Q₁ᵀ (d − A λ)` gives the affine part. This is 3–10×
-//! better conditioned than the bordered system.
+//! Fitted by the null-space method: a QR factorisation of `P = [1 x y]`
+//! (m × 3) splits the coefficients into `λ = Q₂ γ`, where the reduced system
+//! `(Q₂ᵀ A Q₂) γ = Q₂ᵀ d` is definite (the TPS kernel is conditionally
+//! definite of order 2), solved by Cholesky; then `P a = d − A λ` gives the
+//! affine part. It is better conditioned than the bordered system
+//! (docs/decisions.md). Both decompositions are faer's.
 
+use faer::linalg::solvers::{Solve, SolveLstsq};
+use faer::{Mat, MatRef, Side};
 use glam::DVec2;
 use thiserror::Error;
 
@@ -46,7 +48,9 @@ pub struct ThinPlateSpline {
 }
 
 impl ThinPlateSpline {
-    /// Fits the spline that displaces each `centres[i]` by `displacements[i]` exactly.
+    /// Fits the spline that displaces each `centres[i]` by `displacements[i]`
+    /// exactly, by the null-space method: QR of `P`, Cholesky of the reduced
+    /// kernel, then the affine part from `P a = d − A λ`.
     ///
     /// # Errors
     /// Fewer than 3 centres, collinear centres, coincident centres.
@@ -61,156 +65,22 @@ impl ThinPlateSpline {
         if m < 3 {
             return Err(TpsError::TooFewCentres { n: m });
         }
-        // Work relative to the centroid and the spread, for conditioning of P.
-        let scale = {
-            let c = centres.iter().copied().sum::<DVec2>() / m as f64;
-            let s = centres.iter().map(|p| p.distance_squared(c)).sum::<f64>() / m as f64;
-            (c, s.sqrt().max(f64::MIN_POSITIVE))
-        };
-        let (origin, spread) = scale;
-        let mut p = vec![[0.0f64; 3]; m];
-        for (i, c) in centres.iter().enumerate() {
-            let q = (*c - origin) / spread;
-            p[i] = [1.0, q.x, q.y];
-        }
-        // Householder QR of P: reflectors v_k (length m, zero above k) and R.
-        let mut reflectors: Vec<Vec<f64>> = Vec::with_capacity(3);
-        let mut r = [[0.0f64; 3]; 3];
-        for k in 0..3 {
-            let norm = (k..m).map(|i| p[i][k] * p[i][k]).sum::<f64>().sqrt();
-            if norm < 1e-10 * (m as f64).sqrt() {
-                return Err(TpsError::CollinearCentres);
-            }
-            let alpha = if p[k][k] > 0.0 { -norm } else { norm };
-            let mut v = vec![0.0; m];
-            for i in k..m {
-                v[i] = p[i][k];
-            }
-            v[k] -= alpha;
-            let vnorm2: f64 = v.iter().map(|x| x * x).sum();
-            #[allow(clippy::needless_range_loop)] // j picks a column of the rows p[i]
-            for j in k..3 {
-                let dot: f64 = (k..m).map(|i| v[i] * p[i][j]).sum();
-                for i in k..m {
-                    p[i][j] -= 2.0 * v[i] * dot / vnorm2;
-                }
-            }
-            let vn = vnorm2.sqrt();
-            v.iter_mut().for_each(|x| *x /= vn);
-            reflectors.push(v);
-            for j in k..3 {
-                r[k][j] = p[k][j];
-            }
-        }
-        if r[2][2].abs() < 1e-8 * r[0][0].abs() {
-            return Err(TpsError::CollinearCentres);
-        }
-        // Hᵀ = H3 H2 H1 (each reflector symmetric); apply to vectors.
-        let apply_ht = |x: &mut [f64]| {
-            for v in &reflectors {
-                let d: f64 = v.iter().zip(x.iter()).map(|(a, b)| a * b).sum();
-                x.iter_mut().zip(v).for_each(|(xi, vi)| *xi -= 2.0 * d * vi);
-            }
-        };
-        let apply_h = |x: &mut [f64]| {
-            for v in reflectors.iter().rev() {
-                let d: f64 = v.iter().zip(x.iter()).map(|(a, b)| a * b).sum();
-                x.iter_mut().zip(v).for_each(|(xi, vi)| *xi -= 2.0 * d * vi);
-            }
-        };
-        // Kernel matrix A in the normalised coordinates (evaluation uses the same).
-        let mut a = vec![0.0f64; m * m];
-        for i in 0..m {
-            for j in 0..i {
-                let q = (centres[i] - centres[j]) / spread;
-                let v = phi_from_r2(q.length_squared());
-                if q.length_squared() < 1e-24 {
-                    return Err(TpsError::CoincidentCentres { a: j, b: i });
-                }
-                a[i * m + j] = v;
-                a[j * m + i] = v;
-            }
-        }
-        // B = Hᵀ A H: apply Hᵀ to columns, then to rows (A symmetric).
-        let mut b = a.clone();
-        let mut col = vec![0.0; m];
-        for j in 0..m {
-            for i in 0..m {
-                col[i] = b[i * m + j];
-            }
-            apply_ht(&mut col);
-            for i in 0..m {
-                b[i * m + j] = col[i];
-            }
-        }
-        for i in 0..m {
-            apply_ht(&mut b[i * m..(i + 1) * m]);
-        }
-        // Reduced SPD block B[3.., 3..] and right-hand sides (Hᵀ d)[3..].
-        let n = m - 3;
-        let mut dx: Vec<f64> = displacements.iter().map(|d| d.x).collect();
-        let mut dy: Vec<f64> = displacements.iter().map(|d| d.y).collect();
-        apply_ht(&mut dx);
-        apply_ht(&mut dy);
-        let mut gamma_x = vec![0.0; m];
-        let mut gamma_y = vec![0.0; m];
-        if n > 0 {
-            let mut red = vec![0.0; n * n];
-            for i in 0..n {
-                for j in 0..n {
-                    red[i * n + j] = b[(i + 3) * m + (j + 3)];
-                }
-            }
-            // The kernel term is negative definite on this subspace for
-            // φ = r² ln r in some scalings; factor ±red, whichever is SPD.
-            let (sign, l) = match cholesky(&red, n) {
-                Some(l) => (1.0, l),
-                None => {
-                    let neg: Vec<f64> = red.iter().map(|x| -x).collect();
-                    (
-                        -1.0,
-                        cholesky(&neg, n).ok_or(TpsError::CoincidentCentres { a: 0, b: 0 })?,
-                    )
-                }
-            };
-            let gx = cholesky_solve(&l, n, &dx[3..].iter().map(|x| sign * x).collect::<Vec<_>>());
-            let gy = cholesky_solve(&l, n, &dy[3..].iter().map(|x| sign * x).collect::<Vec<_>>());
-            gamma_x[3..].copy_from_slice(&gx);
-            gamma_y[3..].copy_from_slice(&gy);
-        }
-        // λ = H [0; γ].
-        apply_h(&mut gamma_x);
-        apply_h(&mut gamma_y);
-        let (lx, ly) = (gamma_x, gamma_y);
-        // Affine: R a = (Hᵀ (d − A λ))[..3].
-        let mut rx: Vec<f64> = displacements.iter().map(|d| d.x).collect();
-        let mut ry: Vec<f64> = displacements.iter().map(|d| d.y).collect();
-        for i in 0..m {
-            let row = &a[i * m..(i + 1) * m];
-            rx[i] -= row.iter().zip(&lx).map(|(a, l)| a * l).sum::<f64>();
-            ry[i] -= row.iter().zip(&ly).map(|(a, l)| a * l).sum::<f64>();
-        }
-        apply_ht(&mut rx);
-        apply_ht(&mut ry);
-        let solve_r = |y: &[f64]| {
-            let mut x = [0.0; 3];
-            for k in (0..3).rev() {
-                let s: f64 = (k + 1..3).map(|j| r[k][j] * x[j]).sum();
-                x[k] = (y[k] - s) / r[k][k];
-            }
-            x
-        };
-        let (ax, ay) = (solve_r(&rx[..3]), solve_r(&ry[..3]));
-        let lambda: Vec<DVec2> = (0..m).map(|i| DVec2::new(lx[i], ly[i])).collect();
-        let affine = [
-            DVec2::new(ax[0], ay[0]),
-            DVec2::new(ax[1], ay[1]),
-            DVec2::new(ax[2], ay[2]),
-        ];
+        let (origin, spread) = normalisation(centres);
+        let p = Mat::from_fn(m, 3, |i, j| {
+            let q = (centres[i] - origin) / spread;
+            [1.0, q.x, q.y][j]
+        });
+        let qr = p.qr();
+        check_affine_rank(qr.thin_R(), m)?;
+        let q = qr.compute_Q();
+        let a = kernel_matrix(centres, spread)?;
+        let d = Mat::from_fn(m, 2, |i, j| displacements[i][j]);
+        let lambda = kernel_weights(&q, &a, &d)?;
+        let affine = qr.solve_lstsq(&d - &a * &lambda);
         Ok(ThinPlateSpline {
             centres: centres.to_vec(),
-            lambda,
-            affine,
+            lambda: (0..m).map(|i| DVec2::new(lambda[(i, 0)], lambda[(i, 1)])).collect(),
+            affine: [0, 1, 2].map(|k| DVec2::new(affine[(k, 0)], affine[(k, 1)])),
             origin,
             inv_spread: 1.0 / spread,
         })
@@ -458,52 +328,65 @@ pub fn ln_normal(x: f64) -> f64 {
     k * LN2_HI - ((hfsq - (s * (hfsq + r) + k * LN2_LO)) - f)
 }
 
-/// Dense Cholesky of a row-major n × n SPD matrix; `None` if not SPD.
-fn cholesky(a: &[f64], n: usize) -> Option<Vec<f64>> {
-    let mut l = vec![0.0; n * n];
-    for j in 0..n {
-        let row_j = &l[j * n..j * n + j];
-        let d = a[j * n + j] - dot(row_j, row_j);
-        if d <= 0.0 || !d.is_finite() {
-            return None;
-        }
-        let d = d.sqrt();
-        l[j * n + j] = d;
-        for i in j + 1..n {
-            let s = a[i * n + j] - dot(&l[i * n..i * n + j], &l[j * n..j * n + j]);
-            l[i * n + j] = s / d;
-        }
-    }
-    Some(l)
+/// The centroid of `centres` and their RMS distance from it: the spline
+/// works in coordinates `(x − origin) / spread`, for the conditioning of `P`.
+fn normalisation(centres: &[DVec2]) -> (DVec2, f64) {
+    let m = centres.len() as f64;
+    let c = centres.iter().copied().sum::<DVec2>() / m;
+    let s = centres.iter().map(|p| p.distance_squared(c)).sum::<f64>() / m;
+    (c, s.sqrt().max(f64::MIN_POSITIVE))
 }
 
-/// `Σ a_k b_k` over four running sums: the sums are independent, so the
-/// additions overlap instead of waiting on each other (the dense Cholesky
-/// of the spline system is otherwise bound by that wait).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut sums = [0.0f64; 4];
-    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
-    let tail: f64 = a4.remainder().iter().zip(b4.remainder()).map(|(x, y)| x * y).sum();
-    for (x, y) in a4.zip(b4) {
-        for k in 0..4 {
-            sums[k] += x[k] * y[k];
-        }
+/// Whether `P = [1 x y]` has full column rank, from its `R` factor: the
+/// affine part is undetermined when the centres are (nearly) collinear.
+fn check_affine_rank(r: MatRef<'_, f64>, m: usize) -> Result<(), TpsError> {
+    let column_collapses = (0..3).any(|k| r[(k, k)].abs() < 1e-10 * (m as f64).sqrt());
+    if column_collapses || r[(2, 2)].abs() < 1e-8 * r[(0, 0)].abs() {
+        return Err(TpsError::CollinearCentres);
     }
-    (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+    Ok(())
 }
 
-fn cholesky_solve(l: &[f64], n: usize, b: &[f64]) -> Vec<f64> {
-    let mut y = b.to_vec();
-    for i in 0..n {
-        y[i] = (y[i] - dot(&l[i * n..i * n + i], &y[..i])) / l[i * n + i];
-    }
-    for i in (0..n).rev() {
-        for k in i + 1..n {
-            y[i] -= l[k * n + i] * y[k];
+/// The kernel matrix `A_ij = φ(‖q_i − q_j‖)` on normalised coordinates.
+fn kernel_matrix(centres: &[DVec2], spread: f64) -> Result<Mat<f64>, TpsError> {
+    let m = centres.len();
+    let mut a = Mat::<f64>::zeros(m, m);
+    for i in 0..m {
+        for j in 0..i {
+            let r2 = ((centres[i] - centres[j]) / spread).length_squared();
+            if r2 < 1e-24 {
+                return Err(TpsError::CoincidentCentres { a: j, b: i });
+            }
+            a[(i, j)] = phi_from_r2(r2);
+            a[(j, i)] = a[(i, j)];
         }
-        y[i] /= l[i * n + i];
     }
-    y
+    Ok(a)
+}
+
+/// The kernel weights `λ = Q₂ γ` with `(Q₂ᵀ A Q₂) γ = Q₂ᵀ d`, where `Q₂`
+/// spans the null space of `Pᵀ` (the last `m − 3` columns of `Q`). The
+/// reduced kernel is definite (the TPS kernel is conditionally definite of
+/// order 2); which sign depends on the scaling, so both are tried.
+fn kernel_weights(q: &Mat<f64>, a: &Mat<f64>, d: &Mat<f64>) -> Result<Mat<f64>, TpsError> {
+    let m = a.nrows();
+    if m == 3 {
+        return Ok(Mat::zeros(3, 2));
+    }
+    let q2 = q.get(.., 3..);
+    let reduced = q2.transpose() * a * q2;
+    let rhs = q2.transpose() * d;
+    let gamma = match reduced.llt(Side::Lower) {
+        Ok(llt) => llt.solve(&rhs),
+        Err(_) => {
+            let negated = -&reduced;
+            let llt = negated
+                .llt(Side::Lower)
+                .map_err(|_| TpsError::CoincidentCentres { a: 0, b: 0 })?;
+            -llt.solve(&rhs)
+        }
+    };
+    Ok(q2 * gamma)
 }
 
 #[cfg(test)]
