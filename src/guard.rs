@@ -47,21 +47,17 @@ pub fn all_positive_as_stored(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool 
     })
 }
 
-/// Triangle count above which a check is split over two threads.
+/// Triangle count above which a check is split over rayon's threads.
 const PARALLEL_TRIANGLES: usize = 50_000;
 
-/// `check` on all of `triangles`: split in two halves on two threads when
-/// there are many.
+/// `check` on all of `triangles`, split over rayon's pool when there are many.
 fn in_parallel(triangles: &[[u32; 3]], check: impl Fn(&[[u32; 3]]) -> bool + Sync) -> bool {
+    use rayon::prelude::*;
     if triangles.len() < PARALLEL_TRIANGLES {
         return check(triangles);
     }
-    let (a, b) = triangles.split_at(triangles.len() / 2);
-    std::thread::scope(|scope| {
-        let second = scope.spawn(|| check(b));
-        let first = check(a);
-        first && second.join().expect("guard thread")
-    })
+    let chunk = triangles.len().div_ceil(rayon::current_num_threads()).max(1);
+    triangles.par_chunks(chunk).all(|part| check(part))
 }
 
 /// The guard every step applies: a candidate layout is acceptable if it keeps

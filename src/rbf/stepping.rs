@@ -32,17 +32,13 @@ pub struct StepProblem {
 }
 
 impl StepProblem {
-    /// Distance of each constrained vertex from its target.
-    pub fn residuals(&self, layout: &[DVec2]) -> Vec<f64> {
+    /// The largest distance of a constrained vertex from its target.
+    pub fn max_residual(&self, layout: &[DVec2]) -> f64 {
         self.constraint_vertices
             .iter()
             .zip(&self.targets)
             .map(|(&v, t)| layout[v as usize].distance(*t))
-            .collect()
-    }
-
-    pub fn max_residual(&self, layout: &[DVec2]) -> f64 {
-        self.residuals(layout).into_iter().fold(0.0, f64::max)
+            .fold(0.0, f64::max)
     }
 }
 
@@ -133,23 +129,22 @@ pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<V
 }
 
 /// Spline evaluations (vertices × centres) above which the work is split
-/// over two threads; below it a thread costs more than it saves.
+/// over rayon's threads; below it the split costs more than it saves.
 const PARALLEL_EVALUATIONS: usize = 40_000;
 
-/// `layout[v] + ΔX(layout[v])` for every `v` of `vertices` (Eq. 6), on two
-/// threads when there is enough work (the machines here have two cores).
+/// `layout[v] + ΔX(layout[v])` for every `v` of `vertices` (Eq. 6), split
+/// over rayon's pool when there is enough work.
 fn displace_all(spline: &ThinPlateSpline, layout: &[DVec2], vertices: &[u32]) -> Vec<DVec2> {
-    let eval = |vs: &[u32]| -> Vec<DVec2> { spline.displacements(layout, vs) };
-    if vertices.len() * spline.centres.len() < PARALLEL_EVALUATIONS || vertices.len() < 2 {
-        return eval(vertices);
+    use rayon::prelude::*;
+    if vertices.len() * spline.centres.len() < PARALLEL_EVALUATIONS {
+        return spline.displacements(layout, vertices);
     }
-    let (a, b) = vertices.split_at(vertices.len() / 2);
-    std::thread::scope(|scope| {
-        let second = scope.spawn(|| eval(b));
-        let mut out = eval(a);
-        out.extend(second.join().expect("spline evaluation thread"));
-        out
-    })
+    let chunk = vertices.len().div_ceil(rayon::current_num_threads()).max(1);
+    vertices
+        .par_chunks(chunk)
+        .map(|part| spline.displacements(layout, part))
+        .collect::<Vec<_>>()
+        .concat()
 }
 
 /// Where the spline path stands.
