@@ -112,7 +112,9 @@ fn print_row(r: &Row) {
 /// uvpin's layout of `mesh` without constraints, as stored: the step-1
 /// layout, polished if `options` polish (the defaults do, up to 20k vertices).
 fn unconstrained_uvs(mesh: &TriMesh, options: SolverOptions) -> Vec<[f32; 2]> {
-    uvpin::solve_mesh(mesh, &[], None, options).expect("step 1").1
+    uvpin::solve_mesh(mesh, &uvpin::Pins::new(&[]), &options.into())
+        .expect("step 1")
+        .uvs
 }
 
 /// The smooth bijective warp of the warped cases.
@@ -150,7 +152,8 @@ fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: us
     let mut status = String::new();
     let mut last = None;
     for _ in 0..runs {
-        let (report, _) = uvpin::solve_mesh(mesh, constraints, None, SolverOptions::DEFAULT).expect("solve");
+        let uvpin::MeshSolution { report, .. } =
+            uvpin::solve_mesh(mesh, &uvpin::Pins::new(constraints), &SolverOptions::DEFAULT.into()).expect("solve");
         status = format!("{:?}", report.status).to_lowercase();
         times.push(report.times);
         last = Some(report);
@@ -188,7 +191,8 @@ fn bench_interleaved(cases: &[Case], runs: usize) -> Vec<Row> {
         .collect();
     for _ in 0..runs {
         for ((_, mesh, constraints, options), row) in cases.iter().zip(&mut rows) {
-            let (report, _) = uvpin::solve_mesh(mesh, constraints, None, *options).expect("solve");
+            let uvpin::MeshSolution { report, .. } =
+                uvpin::solve_mesh(mesh, &uvpin::Pins::new(constraints), &(*options).into()).expect("solve");
             row.status = format!("{:?}", report.status).to_lowercase();
             row.times.push(report.times);
             row.report = Some(report);
@@ -200,8 +204,12 @@ fn bench_interleaved(cases: &[Case], runs: usize) -> Vec<Row> {
 fn bench_file(name: &str, constraints: &Path, out: &Path, runs: usize) -> Option<Row> {
     let mut times = Vec::new();
     let mut last: Option<Report> = None;
+    let options = uvpin::Options {
+        output: Some(out.to_path_buf()),
+        ..Default::default()
+    };
     for _ in 0..runs {
-        let report = uvpin::solve_file(constraints, Some(out))
+        let report = uvpin::solve_file(constraints, &options)
             .map_err(|e| eprintln!("{name}: {e}"))
             .ok()?;
         times.push(report.times);

@@ -5,11 +5,12 @@
 //!
 //! `cargo run --release --example draw_layout -- assets/face.uvpin.ron docs/face-layout.svg`
 
-use bevy_ecs::prelude::*;
 use glam::DVec2;
 use std::fmt::Write;
 use std::path::Path;
-use uvpin::ecs::{BoundaryLayout, ChartData, Exported, Layout, Step1Layout};
+use std::sync::Arc;
+use uvpin::constraints::ConstraintSource;
+use uvpin::options::SolverOptions;
 
 const SIZE: f64 = 460.0;
 const MARGIN: f64 = 30.0;
@@ -100,16 +101,15 @@ fn panel(
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let (ron, out) = (Path::new(&args[1]), Path::new(&args[2]));
-    let (loaded, asset) = uvpin::solve::load(ron).expect("load");
-    let mut world = World::new();
-    let e = uvpin::solve::spawn_job(&mut world, loaded, asset, None, 0.0).expect("prepare");
-    let mut schedule = uvpin::ecs::solve_schedule();
-    uvpin::ecs::run_to_convergence(&mut world, &mut schedule, uvpin::solve::MAX_TICKS);
-    let report = &world.get::<Exported>(e).expect("solved").0;
-    let data = &world.get::<ChartData>(e).unwrap().0;
-    let step1 = &world.get::<Step1Layout>(e).unwrap().0;
-    let layout = &world.get::<Layout>(e).unwrap().0;
-    let boundary = &world.get::<BoundaryLayout>(e).unwrap().0.loop_vertices;
+    let (loaded, asset) = uvpin::load(ron, &SolverOptions::DEFAULT).expect("load");
+    let options = loaded.solver;
+    let source = ConstraintSource::File(Arc::new(loaded));
+    let solved = uvpin::api::solve_chart(&source, &asset, &options).expect("solve");
+    let report = &solved.report;
+    let data = &solved.prepared;
+    let step1 = &solved.step1.layout;
+    let layout = solved.solver.layout();
+    let boundary = &solved.step1.boundary.loop_vertices;
     let targets: Vec<(DVec2, DVec2, bool)> = report
         .constraints
         .iter()

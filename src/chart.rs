@@ -1,7 +1,7 @@
 //! The solved chart: chosen from the constraints, checked, hole-filled, with
 //! constraints and corners in chart-local ids; and the final per-primitive UVs.
 
-use crate::constraints::{LoadedConstraints, ResolvedConstraint};
+use crate::constraints::{ConstraintSource, ResolvedConstraint};
 use crate::error::Error;
 use crate::guard::{self, OrientationCounts};
 use crate::io::SourceAsset;
@@ -38,11 +38,11 @@ pub struct PreparedChart {
 /// holds them (the largest chart when there are none), and checks its topology.
 ///
 /// # Errors
-/// Constraint-file errors against the asset (with line:column), constraints
-/// in several charts, corners outside the chart, topology errors of the chart
-/// (closed, non-manifold, not a disk).
-pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<PreparedChart, Error> {
-    prepare_reusing(loaded, asset, None)
+/// Constraint errors against the asset (with line:column for a file),
+/// constraints in several charts, corners outside the chart, topology
+/// errors of the chart (closed, non-manifold, not a disk).
+pub fn prepare(source: &ConstraintSource, asset: &SourceAsset) -> Result<PreparedChart, Error> {
+    prepare_reusing(source, asset, None)
 }
 
 /// As [`prepare`], reusing the geometry of `previous`, a chart prepared from
@@ -53,7 +53,7 @@ pub fn prepare(loaded: &LoadedConstraints, asset: &SourceAsset) -> Result<Prepar
 /// # Errors
 /// As [`prepare`].
 pub fn prepare_reusing(
-    loaded: &LoadedConstraints,
+    source: &ConstraintSource,
     asset: &SourceAsset,
     previous: Option<&PreparedChart>,
 ) -> Result<PreparedChart, Error> {
@@ -61,82 +61,106 @@ pub fn prepare_reusing(
         Some(p) => p.welded.clone(),
         None => Arc::new(weld(&asset.primitives)),
     };
-    let constraints = loaded.resolve(&asset.primitives, &welded)?;
-    let chart_of =
-        |c: &ResolvedConstraint| welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used");
-    let chart_id = match constraints.first() {
-        Some(first) => {
-            let id = chart_of(first);
-            if let Some(other) = constraints.iter().find(|c| chart_of(c) != id) {
-                return Err(loaded
-                    .error_at(
-                        other.index,
-                        "vertex",
-                        format!(
-                            "vertex {} is in chart {} but constraints[{}] (vertex {}) is in chart {}: all constraints must be in one chart \
-                             (the mesh has {} charts: connected pieces after welding equal positions{})",
-                            other.vertex,
-                            chart_of(other),
-                            first.index,
-                            first.vertex,
-                            id,
-                            welded.n_charts,
-                            if asset.primitives.iter().any(|p| p.uvs.is_some()) { " and UVs" } else { "" }
-                        ),
-                    )
-                    .into());
-            }
-            id
-        }
-        None => {
-            let sizes = welded.chart_sizes();
-            (0..sizes.len())
-                .max_by_key(|&c| (sizes[c].1, std::cmp::Reverse(c)))
-                .ok_or_else(|| {
-                    Error::Asset(crate::io::AssetError::MeshSelection {
-                        path: asset.path.clone(),
-                        message: "the mesh has no triangles".into(),
-                    })
-                })? as u32
-        }
-    };
-    let (chart, topology, traps, filled) = match previous.filter(|p| p.chart.id == chart_id) {
+    let (constraints, welded_corners) = source.resolve(&asset.primitives, &welded)?;
+    let chart_id = choose_chart(&constraints, &welded, source, asset)?;
+    let geometry = match previous.filter(|p| p.chart.id == chart_id) {
         Some(p) => (p.chart.clone(), p.topology.clone(), p.traps.clone(), p.filled.clone()),
-        None => {
-            let chart = welded.chart(chart_id);
-            let topology = Topology::build(&chart.mesh).map_err(|source| Error::Topology {
-                path: asset.path.clone(),
-                mesh: asset.mesh_index,
-                chart: chart_id,
-                n_vertices: chart.mesh.n_vertices(),
-                n_triangles: chart.mesh.n_triangles(),
-                source,
-            })?;
-            let traps = TrapCandidates::find(&chart.mesh, &topology);
-            let filled = fill_holes(&chart.mesh, &topology);
-            (Arc::new(chart), Arc::new(topology), Arc::new(traps), Arc::new(filled))
-        }
+        None => chart_geometry(&welded, chart_id, asset)?,
     };
+    let (chart, topology, traps, filled) = geometry;
     let constraint_vertices = constraints
         .iter()
         .map(|c| chart.local_of(c.welded).expect("constraint in the chart"))
         .collect();
-    let corners = match loaded.resolve_corners(&asset.primitives, &welded)? {
-        Some(w) => {
-            let mut local = [0u32; 4];
-            for k in 0..4 {
-                local[k] = chart.local_of(w[k]).ok_or_else(|| {
-                    loaded.corners_error(format!(
-                        "{} is not in the solved chart {chart_id}",
-                        crate::param::boundary::CORNER_NAMES[k]
-                    ))
-                })?;
-            }
-            Some(local)
-        }
-        None => None,
+    let corners = welded_corners.map(|w| local_corners(w, &chart, source)).transpose()?;
+    let warnings = missing_uv_warning(asset, &welded, chart_id).into_iter().collect();
+    Ok(PreparedChart {
+        welded,
+        chart,
+        topology,
+        traps,
+        filled,
+        constraints,
+        constraint_vertices,
+        corners,
+        warnings,
+    })
+}
+
+/// The chart holding every constraint, or the largest chart without any.
+fn choose_chart(
+    constraints: &[ResolvedConstraint],
+    welded: &WeldedMesh,
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+) -> Result<u32, Error> {
+    let chart_of =
+        |c: &ResolvedConstraint| welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used");
+    let Some(first) = constraints.first() else {
+        let sizes = welded.chart_sizes();
+        let largest = (0..sizes.len()).max_by_key(|&c| (sizes[c].1, std::cmp::Reverse(c)));
+        return largest.map(|c| c as u32).ok_or_else(|| {
+            Error::Asset(crate::io::AssetError::MeshSelection {
+                path: asset.path.clone(),
+                message: "the mesh has no triangles".into(),
+            })
+        });
     };
-    let mut warnings = Vec::new();
+    let id = chart_of(first);
+    match constraints.iter().find(|c| chart_of(c) != id) {
+        None => Ok(id),
+        Some(other) => Err(source.error_at(
+            other.index,
+            "vertex",
+            format!(
+                "vertex {} is in chart {} but constraints[{}] (vertex {}) is in chart {id}: all constraints must be in one chart \
+                 (the mesh has {} charts: connected pieces after welding equal positions{})",
+                other.vertex,
+                chart_of(other),
+                first.index,
+                first.vertex,
+                welded.n_charts,
+                if asset.primitives.iter().any(|p| p.uvs.is_some()) { " and UVs" } else { "" }
+            ),
+        )),
+    }
+}
+
+/// Chart `chart_id` of `welded`, its checked topology, trap candidates and hole fill.
+type ChartGeometry = (Arc<Chart>, Arc<Topology>, Arc<TrapCandidates>, Arc<FilledChart>);
+
+fn chart_geometry(welded: &WeldedMesh, chart_id: u32, asset: &SourceAsset) -> Result<ChartGeometry, Error> {
+    let chart = welded.chart(chart_id);
+    let topology = Topology::build(&chart.mesh).map_err(|source| Error::Topology {
+        path: asset.path.clone(),
+        mesh: asset.mesh_index,
+        chart: chart_id,
+        n_vertices: chart.mesh.n_vertices(),
+        n_triangles: chart.mesh.n_triangles(),
+        source,
+    })?;
+    let traps = TrapCandidates::find(&chart.mesh, &topology);
+    let filled = fill_holes(&chart.mesh, &topology);
+    Ok((Arc::new(chart), Arc::new(topology), Arc::new(traps), Arc::new(filled)))
+}
+
+/// The corners (welded ids) as chart-local ids.
+fn local_corners(welded: [u32; 4], chart: &Chart, source: &ConstraintSource) -> Result<[u32; 4], Error> {
+    let mut local = [0u32; 4];
+    for k in 0..4 {
+        local[k] = chart.local_of(welded[k]).ok_or_else(|| {
+            source.corners_error(format!(
+                "{} is not in the solved chart {}",
+                crate::param::boundary::CORNER_NAMES[k],
+                chart.id
+            ))
+        })?;
+    }
+    Ok(local)
+}
+
+/// A warning when vertices outside the solved chart have no UVs to keep.
+fn missing_uv_warning(asset: &SourceAsset, welded: &WeldedMesh, chart_id: u32) -> Option<String> {
     let without_uvs: usize = asset
         .primitives
         .iter()
@@ -148,22 +172,11 @@ pub fn prepare_reusing(
                 .count()
         })
         .sum();
-    if without_uvs > 0 {
-        warnings.push(format!(
+    (without_uvs > 0).then(|| {
+        format!(
             "{without_uvs} vertices outside the solved chart had no TEXCOORD_{} and are written as (0, 0)",
             asset.uv_set
-        ));
-    }
-    Ok(PreparedChart {
-        welded,
-        chart,
-        topology,
-        traps,
-        filled,
-        constraints,
-        constraint_vertices,
-        corners,
-        warnings,
+        )
     })
 }
 
@@ -186,7 +199,7 @@ pub const BOUNDARY_TOLERANCE: f64 = 1e-6;
 /// boundary map puts it.
 pub fn step_problem(
     prepared: &PreparedChart,
-    loaded: &LoadedConstraints,
+    source: &ConstraintSource,
     boundary: &BoundaryMap,
     max_boundary_centres: usize,
 ) -> Result<StepProblem, Error> {
@@ -203,17 +216,15 @@ pub fn step_problem(
                 let at = boundary.positions[i];
                 if at.distance(target) > BOUNDARY_TOLERANCE {
                     let uv = xy_to_uv(at);
-                    return Err(loaded
-                        .error_at(
-                            c.index,
-                            if loaded.file.constraints[c.index].uv.is_some() { "uv" } else { "px" },
-                            format!(
-                                "vertex {} is on the outer boundary, which the boundary mapping places at ({:.6}, {:.6}); \
-                                 the target ({}, {}) contradicts it. Constrain an interior vertex, or make this vertex a corner",
-                                c.vertex, uv.x, uv.y, c.target_uv.x, c.target_uv.y
-                            ),
-                        )
-                        .into());
+                    return Err(source.error_at(
+                        c.index,
+                        source.target_field(c.index),
+                        format!(
+                            "vertex {} is on the outer boundary, which the boundary mapping places at ({:.6}, {:.6}); \
+                             the target ({}, {}) contradicts it. Constrain an interior vertex, or make this vertex a corner",
+                            c.vertex, uv.x, uv.y, c.target_uv.x, c.target_uv.y
+                        ),
+                    ));
                 }
             }
             None => {

@@ -13,11 +13,14 @@
 //! ```
 //! Every error names the file, line and column, and the field.
 
+use crate::error::Error;
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use crate::options::SolverOptions;
+use crate::pins::{PinError, Pins};
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use thiserror::Error;
 
 /// Which mesh of the asset: its index or its name.
@@ -455,6 +458,65 @@ impl LoadedConstraints {
             out[k] = welded.vertex_of[p][v as usize];
         }
         Ok(Some(out))
+    }
+}
+
+/// Where a solve's constraints came from. Errors found later, against the
+/// mesh or the boundary mapping, point back into it: a file's line and
+/// column, or an in-memory constraint's index.
+#[derive(Debug, Clone)]
+pub enum ConstraintSource {
+    File(Arc<LoadedConstraints>),
+    Memory(Arc<Pins>),
+}
+
+impl ConstraintSource {
+    /// How reports name the source: the file's path, or `<memory>`.
+    pub fn name(&self) -> String {
+        match self {
+            ConstraintSource::File(l) => l.path.display().to_string(),
+            ConstraintSource::Memory(_) => "<memory>".into(),
+        }
+    }
+
+    /// The constraints resolved against the asset's primitives and their
+    /// welding, and the corners as welded ids.
+    ///
+    /// # Errors
+    /// As [`LoadedConstraints::resolve`] and [`Pins::resolve`].
+    pub fn resolve(
+        &self,
+        primitives: &[PrimitiveGeometry],
+        welded: &WeldedMesh,
+    ) -> Result<(Vec<ResolvedConstraint>, Option<[u32; 4]>), Error> {
+        match self {
+            ConstraintSource::File(l) => Ok((l.resolve(primitives, welded)?, l.resolve_corners(primitives, welded)?)),
+            ConstraintSource::Memory(pins) => Ok(pins.resolve(&primitives[0], welded)?),
+        }
+    }
+
+    /// An error about constraint `index`'s `field`.
+    pub fn error_at(&self, index: usize, field: &str, message: String) -> Error {
+        match self {
+            ConstraintSource::File(l) => l.error_at(index, field, message).into(),
+            ConstraintSource::Memory(_) => PinError::Constraint { index, message }.into(),
+        }
+    }
+
+    /// An error about the corners.
+    pub fn corners_error(&self, message: String) -> Error {
+        match self {
+            ConstraintSource::File(l) => l.corners_error(message).into(),
+            ConstraintSource::Memory(_) => PinError::Corners { message }.into(),
+        }
+    }
+
+    /// The field constraint `index`'s target is written in (`uv` or `px`).
+    pub fn target_field(&self, index: usize) -> &'static str {
+        match self {
+            ConstraintSource::File(l) if l.file.constraints.get(index).is_some_and(|c| c.uv.is_none()) => "px",
+            _ => "uv",
+        }
     }
 }
 

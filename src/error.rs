@@ -13,6 +13,8 @@ pub enum Error {
     #[error(transparent)]
     Constraints(#[from] ConstraintFileError),
     #[error(transparent)]
+    Pins(#[from] crate::pins::PinError),
+    #[error(transparent)]
     Asset(#[from] AssetError),
     #[error(transparent)]
     Config(#[from] crate::config::ConfigError),

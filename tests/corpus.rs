@@ -7,12 +7,7 @@
 //! zero flipped and zero-area triangles.
 
 mod common;
-use bevy_ecs::prelude::*;
 use glam::DVec2;
-use std::path::Path;
-use uvpin::constraints::LoadedConstraints;
-use uvpin::ecs::{ChartData, Step1Layout};
-use uvpin::io::SourceAsset;
 use uvpin::mesh::TriMesh;
 use uvpin::options::SolverOptions;
 use uvpin::param::xy_to_uv;
@@ -26,7 +21,8 @@ use uvpin::testing::{Rng, random_disk, smooth_warp, swirl};
 /// layout; any fold-free layout with the same boundary is as good a base for
 /// the warp witness.
 fn step1(mesh: &TriMesh) -> (Vec<DVec2>, Vec<u32>) {
-    let (report, uvs) = uvpin::solve_mesh(mesh, &[], None, SolverOptions::DEFAULT).expect("no-constraint solve");
+    let uvpin::MeshSolution { report, uvs } =
+        uvpin::solve_mesh(mesh, &uvpin::Pins::new(&[]), &SolverOptions::DEFAULT.into()).expect("no-constraint solve");
     assert!(report.orientation.is_clean());
     let written: Vec<DVec2> = uvs
         .iter()
@@ -38,31 +34,13 @@ fn step1(mesh: &TriMesh) -> (Vec<DVec2>, Vec<u32>) {
 
 /// The raw step-1 layout (double precision) per mesh vertex, and the interior vertices.
 fn raw_step1(mesh: &TriMesh) -> (Vec<DVec2>, Vec<u32>) {
-    let mut world = World::new();
-    let loaded = LoadedConstraints::parse(
-        Path::new("mem"),
-        "(asset: \"m\", constraints: [], solver: (polish: false))",
-    )
-    .unwrap();
-    let e = uvpin::solve::spawn_job(&mut world, loaded, SourceAsset::from_mesh(mesh), None, 0.0).unwrap();
-    let mut schedule = uvpin::ecs::solve_schedule();
-    schedule.run(&mut world);
-    let data = &world.get::<ChartData>(e).unwrap().0;
-    let layout = &world.get::<Step1Layout>(e).unwrap().0;
-    let mut out = vec![DVec2::ZERO; mesh.n_vertices()];
-    for (local, &w) in data.chart.welded_ids.iter().enumerate() {
-        out[w as usize] = layout[local];
-    }
-    let outer = data.topology.outer_loop();
-    let interior = data
-        .chart
-        .welded_ids
-        .iter()
-        .enumerate()
-        .filter(|(local, _)| !outer.contains(&(*local as u32)))
-        .map(|(_, &w)| w)
+    let s = uvpin::step1(mesh, None).expect("step 1");
+    let layout = s
+        .vertex_layout()
+        .into_iter()
+        .map(|p| p.unwrap_or(DVec2::ZERO))
         .collect();
-    (out, interior)
+    (layout, s.interior_vertices())
 }
 
 fn pick(rng: &mut Rng, interior: &[u32], k: usize) -> Vec<u32> {
@@ -77,8 +55,9 @@ fn pick(rng: &mut Rng, interior: &[u32], k: usize) -> Vec<u32> {
 }
 
 fn solve(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)]) -> Report {
-    let (report, uvs) =
-        uvpin::solve_mesh(mesh, constraints, None, SolverOptions::DEFAULT).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let uvpin::MeshSolution { report, uvs } =
+        uvpin::solve_mesh(mesh, &uvpin::Pins::new(constraints), &SolverOptions::DEFAULT.into())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
     assert!(report.orientation.is_clean(), "{name}: {:?}", report.orientation);
     assert!(
         uvpin::guard::count_uv_orientations(&uvs, &mesh.triangles).is_clean(),
@@ -110,7 +89,7 @@ fn warp_case(name: &str, mesh: &TriMesh, k: usize, amp: f64, seed: u64) -> Repor
     let r = solve(name, mesh, &constraints);
     assert_reached(name, &r);
     assert_eq!(
-        uvpin::unreachable_proof(mesh, &constraints, None).unwrap(),
+        uvpin::unreachable_proof(mesh, &uvpin::Pins::new(&constraints)).unwrap(),
         None,
         "{name}"
     );
@@ -139,7 +118,7 @@ fn swirl_case(name: &str, mesh: &TriMesh, k: usize, angle: f64, seed: u64) -> Op
     let r = solve(name, mesh, &constraints);
     assert_reached(name, &r);
     assert_eq!(
-        uvpin::unreachable_proof(mesh, &constraints, None).unwrap(),
+        uvpin::unreachable_proof(mesh, &uvpin::Pins::new(&constraints)).unwrap(),
         None,
         "{name}"
     );
@@ -160,7 +139,7 @@ fn crossing_case(name: &str, mesh: &TriMesh, seed: u64) -> Report {
     };
     let constraints = [(a, xy_to_uv(layout[b as usize])), (b, xy_to_uv(layout[a as usize]))];
     let r = solve(name, mesh, &constraints);
-    let proof = uvpin::unreachable_proof(mesh, &constraints, None).unwrap();
+    let proof = uvpin::unreachable_proof(mesh, &uvpin::Pins::new(&constraints)).unwrap();
     match r.status {
         // Soundness: a proof of impossibility for targets that were reached is a bug.
         Status::Reached => assert_eq!(proof, None, "{name}"),
@@ -197,7 +176,9 @@ fn mirrored_case(name: &str, mesh: &TriMesh, seed: u64) -> Report {
     assert!(proof.contains("would be flipped or flat"), "{name}: {proof}");
     assert!(hint.contains(proof), "{name}: {hint}");
     assert_eq!(
-        uvpin::unreachable_proof(mesh, &constraints, None).unwrap().as_deref(),
+        uvpin::unreachable_proof(mesh, &uvpin::Pins::new(&constraints))
+            .unwrap()
+            .as_deref(),
         Some(proof)
     );
     r
@@ -326,7 +307,8 @@ fn large_charts_are_polished_only_after_a_distorting_completion() {
                     polish_max_vertices: max,
                     ..SolverOptions::DEFAULT
                 };
-                let (r, uvs) = uvpin::solve_mesh(&mesh, &constraints, None, options).unwrap();
+                let uvpin::MeshSolution { report: r, uvs } =
+                    uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&constraints), &options.into()).unwrap();
                 assert_reached(&name, &r);
                 assert!(
                     uvpin::guard::count_uv_orientations(&uvs, &mesh.triangles).is_clean(),

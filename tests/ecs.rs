@@ -21,7 +21,8 @@ fn spawn_mesh(world: &mut World, ron: &str, curved: bool) -> Entity {
         }
     }
     let loaded = LoadedConstraints::parse(Path::new("mem.uvpin.ron"), ron).unwrap();
-    uvpin::solve::spawn_job(world, loaded, SourceAsset::from_mesh(&mesh), None, 0.0).unwrap()
+    let job = SolveJob::from_file(loaded, Arc::new(SourceAsset::from_mesh(&mesh)), None);
+    spawn_job(world, job, 0.0).unwrap()
 }
 
 #[test]
@@ -38,13 +39,13 @@ fn a_tick_advances_each_stage_in_order() {
     assert!(world.get::<BoundaryLayout>(e).is_some());
     assert!(world.get::<BarNetFactor>(e).is_some());
     assert!(world.get::<Step1Layout>(e).is_some());
-    assert!(world.get::<Stepping>(e).is_some());
+    assert!(world.get::<Solver>(e).is_some());
     let ticks = run_to_convergence(&mut world, &mut schedule, 1000);
     assert!(ticks < 1000);
     let report = &world.get::<Exported>(e).expect("exported").0;
     assert_eq!(report.status, uvpin::Status::Reached);
     assert!(uvpin::guard::all_positive(
-        &world.get::<Layout>(e).unwrap().0,
+        world.get::<Solver>(e).unwrap().0.layout(),
         &world.get::<ChartData>(e).unwrap().0.filled.mesh.triangles
     ));
 }

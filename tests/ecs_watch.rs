@@ -8,6 +8,7 @@ use bevy_ecs::prelude::*;
 use common::{TempDir, write_constraints, write_mesh_glb};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use uvpin::complete::pattern::PendingNewtonPattern;
 use uvpin::config::{LogFormat, OutputMode};
 use uvpin::ecs::watch::*;
 use uvpin::ecs::*;

@@ -32,7 +32,8 @@ fn random_disks_and_random_constraints_never_fold() {
         let n = 8 + rng.below(14);
         let holes = rng.below(4);
         let mesh = random_disk(&mut rng, n, holes);
-        let (step1, uvs) = uvpin::solve_mesh(&mesh, &[], None, SolverOptions::DEFAULT).expect("step 1");
+        let uvpin::MeshSolution { report: step1, uvs } =
+            uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&[]), &SolverOptions::DEFAULT.into()).expect("step 1");
         assert_eq!(step1.status, Status::Reached);
         assert!(step1.orientation.is_clean(), "case {case}: step 1 folds");
         if step1.boundary.as_ref().unwrap().shape != uvpin::param::boundary::BoundaryShape::Square {
@@ -56,15 +57,16 @@ fn random_disks_and_random_constraints_never_fold() {
             };
             constraints.push((v, target));
         }
-        let (report, uvs) = uvpin::solve_mesh(&mesh, &constraints, None, SolverOptions::DEFAULT)
-            .unwrap_or_else(|e| panic!("case {case}: {e}"));
+        let uvpin::MeshSolution { report, uvs } =
+            uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&constraints), &SolverOptions::DEFAULT.into())
+                .unwrap_or_else(|e| panic!("case {case}: {e}"));
         // The report counts virtual hole triangles too; check the real ones independently.
         assert!(report.orientation.is_clean(), "case {case}: {:?}", report.orientation);
         let counts = uvpin::guard::count_uv_orientations(&uvs, &mesh.triangles);
         assert!(counts.is_clean(), "case {case}: {counts:?}");
         // Soundness of the certificates: never for targets that were
         // reached; the report carries the same one when they were not.
-        let proof = uvpin::unreachable_proof(&mesh, &constraints, None).unwrap();
+        let proof = uvpin::unreachable_proof(&mesh, &uvpin::Pins::new(&constraints)).unwrap();
         match report.status {
             Status::Reached => assert_eq!(proof, None, "case {case}: reached, yet 'proven' unreachable"),
             _ => assert_eq!(report.unreachable_proof, proof, "case {case}"),
@@ -105,7 +107,8 @@ fn fewer_than_three_constraints_are_handled() {
     // boundary anchors make it well posed.
     let mut rng = Rng::new(9);
     let mesh = random_disk(&mut rng, 15, 1);
-    let (_, uvs) = uvpin::solve_mesh(&mesh, &[], None, SolverOptions::DEFAULT).unwrap();
+    let uvpin::MeshSolution { uvs, .. } =
+        uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&[]), &SolverOptions::DEFAULT.into()).unwrap();
     let interior = interior_vertices(&mesh);
     for k in 1..=2 {
         let constraints: Vec<(u32, DVec2)> = interior
@@ -121,7 +124,8 @@ fn fewer_than_three_constraints_are_handled() {
                 )
             })
             .collect();
-        let (report, _) = uvpin::solve_mesh(&mesh, &constraints, None, SolverOptions::DEFAULT).unwrap();
+        let uvpin::MeshSolution { report, .. } =
+            uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&constraints), &SolverOptions::DEFAULT.into()).unwrap();
         assert_eq!(report.status, Status::Reached, "{k} constraints: {:?}", report.message);
     }
 }

@@ -134,8 +134,7 @@ pub enum LogArg {
 
 /// Runs the command line; returns the process exit code.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
-    match cli.command {
+    match Cli::parse().command {
         Command::Solve {
             constraints,
             output,
@@ -146,19 +145,22 @@ pub fn main() -> ExitCode {
             preview,
             render,
             preview_size,
-        } => solve(
-            &constraints,
-            output.as_deref(),
-            report.as_deref(),
-            quiet,
-            config.as_deref(),
-            explain,
-            crate::ecs::PreviewRequest {
+        } => {
+            let pictures = crate::preview::Pictures {
                 layout: preview,
                 render,
                 size: preview_size,
-            },
-        ),
+            };
+            let print = Printing { quiet, explain };
+            solve(
+                &constraints,
+                output,
+                report.as_deref(),
+                config.as_deref(),
+                pictures,
+                print,
+            )
+        }
         Command::Check {
             asset,
             uv_set,
@@ -167,46 +169,14 @@ pub fn main() -> ExitCode {
             json,
         } => match check::run(&asset, uv_set, mesh.as_deref(), constraints.as_deref(), json) {
             Ok(code) => ExitCode::from(code),
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::from(1)
-            }
+            Err(e) => fail(&e),
         },
         Command::Sweep {
             sweep,
             force,
             jobs,
             quiet,
-        } => {
-            let options = crate::sweep::SweepOptions {
-                force,
-                jobs,
-                progress: if quiet {
-                    crate::sweep::Progress::Quiet
-                } else {
-                    crate::sweep::Progress::Auto
-                },
-            };
-            match crate::sweep::run_sweep(&sweep, &options) {
-                Ok(outcome) => {
-                    print!("{}", outcome.summary);
-                    if !quiet {
-                        eprintln!(
-                            "{} runs ({} solved now, {} already done) -> {}",
-                            outcome.rows.len(),
-                            outcome.ran,
-                            outcome.rows.len() - outcome.ran,
-                            outcome.output.display()
-                        );
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::from(1)
-                }
-            }
-        }
+        } => run_sweep(&sweep, force, jobs, quiet),
         Command::Watch {
             paths,
             config,
@@ -218,50 +188,111 @@ pub fn main() -> ExitCode {
             no_previews,
             once,
         } => {
-            let config = match config.as_deref().map(crate::config::Config::load).transpose() {
-                Ok(c) => c.unwrap_or_default(),
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(1);
-                }
-            };
-            let mut watch = config.watch;
-            if !paths.is_empty() {
-                watch.paths = paths;
-            }
-            if let Some(out) = out {
-                watch.output = crate::config::OutputMode::Folder(out);
-            }
-            if in_place {
-                watch.output = crate::config::OutputMode::InPlace;
-            }
-            if status.is_some() {
-                watch.status_file = status;
-            }
-            if no_previews {
-                watch.previews = false;
-            }
-            if let Some(ms) = debounce_ms {
-                watch.debounce_ms = ms;
-            }
-            match log {
-                Some(LogArg::Human) => watch.log = crate::config::LogFormat::Human,
-                Some(LogArg::Json) => watch.log = crate::config::LogFormat::Json,
-                None => {}
-            }
-            let options = crate::watch::daemon::WatchOptions {
-                config: watch,
-                solver: config.solver,
+            let flags = WatchFlags {
+                paths,
+                out,
+                in_place,
+                status,
+                debounce_ms,
+                log,
+                no_previews,
                 once,
             };
-            match crate::watch::daemon::run(options) {
-                Ok(outcome) => ExitCode::from(outcome.exit_code()),
-                Err(e) => {
-                    eprintln!("error: {e:#}");
-                    ExitCode::from(1)
-                }
-            }
+            watch(config.as_deref(), flags)
         }
+    }
+}
+
+/// Prints `error: …` and returns exit code 1.
+fn fail(e: &dyn std::fmt::Display) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(1)
+}
+
+fn run_sweep(sweep: &std::path::Path, force: bool, jobs: Option<usize>, quiet: bool) -> ExitCode {
+    let options = crate::sweep::SweepOptions {
+        force,
+        jobs,
+        progress: if quiet {
+            crate::sweep::Progress::Quiet
+        } else {
+            crate::sweep::Progress::Auto
+        },
+    };
+    match crate::sweep::run_sweep(sweep, &options) {
+        Ok(outcome) => {
+            print!("{}", outcome.summary);
+            if !quiet {
+                eprintln!(
+                    "{} runs ({} solved now, {} already done) -> {}",
+                    outcome.rows.len(),
+                    outcome.ran,
+                    outcome.rows.len() - outcome.ran,
+                    outcome.output.display()
+                );
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(&e),
+    }
+}
+
+/// `uvpin watch`'s flags, which override the configuration file.
+struct WatchFlags {
+    paths: Vec<PathBuf>,
+    out: Option<PathBuf>,
+    in_place: bool,
+    status: Option<PathBuf>,
+    debounce_ms: Option<u64>,
+    log: Option<LogArg>,
+    no_previews: bool,
+    once: bool,
+}
+
+impl WatchFlags {
+    /// The `watch` section with these flags applied.
+    fn apply(self, mut watch: crate::config::WatchConfig) -> crate::config::WatchConfig {
+        if !self.paths.is_empty() {
+            watch.paths = self.paths;
+        }
+        if let Some(out) = self.out {
+            watch.output = crate::config::OutputMode::Folder(out);
+        }
+        if self.in_place {
+            watch.output = crate::config::OutputMode::InPlace;
+        }
+        if self.status.is_some() {
+            watch.status_file = self.status;
+        }
+        if self.no_previews {
+            watch.previews = false;
+        }
+        if let Some(ms) = self.debounce_ms {
+            watch.debounce_ms = ms;
+        }
+        match self.log {
+            Some(LogArg::Human) => watch.log = crate::config::LogFormat::Human,
+            Some(LogArg::Json) => watch.log = crate::config::LogFormat::Json,
+            None => {}
+        }
+        watch
+    }
+}
+
+fn watch(config: Option<&std::path::Path>, flags: WatchFlags) -> ExitCode {
+    let config = match config.map(crate::config::Config::load).transpose() {
+        Ok(c) => c.unwrap_or_default(),
+        Err(e) => return fail(&e),
+    };
+    let once = flags.once;
+    let options = crate::watch::daemon::WatchOptions {
+        config: flags.apply(config.watch),
+        solver: config.solver,
+        once,
+    };
+    match crate::watch::daemon::run(options) {
+        Ok(outcome) => ExitCode::from(outcome.exit_code()),
+        Err(e) => fail(&format!("{e:#}")),
     }
 }
 
@@ -275,25 +306,39 @@ fn write_report(path: &std::path::Path, json: &str) -> std::io::Result<()> {
     }
 }
 
+/// What `uvpin solve` prints on standard error.
+#[derive(Debug, Clone, Copy)]
+struct Printing {
+    quiet: bool,
+    explain: bool,
+}
+
 fn solve(
     constraints: &std::path::Path,
-    output: Option<&std::path::Path>,
+    output: Option<PathBuf>,
     report_path: Option<&std::path::Path>,
-    quiet: bool,
     config: Option<&std::path::Path>,
-    explain: bool,
-    previews: crate::ecs::PreviewRequest,
+    pictures: crate::preview::Pictures,
+    print: Printing,
 ) -> ExitCode {
-    let result = match config.map(crate::config::Config::load).transpose() {
-        Ok(c) => crate::solve::solve_file_with_previews(constraints, output, &c.unwrap_or_default().solver, previews),
-        Err(e) => Err(e.into()),
-    };
+    let result = config
+        .map(crate::config::Config::load)
+        .transpose()
+        .map_err(crate::Error::from)
+        .and_then(|c| {
+            let options = crate::api::Options {
+                solver: c.unwrap_or_default().solver,
+                output,
+                pictures,
+            };
+            crate::api::solve_file(constraints, &options)
+        });
     match result {
         Ok(report) => {
-            if !quiet {
+            if !print.quiet {
                 eprint!("{}", report.summary());
             }
-            if explain {
+            if print.explain {
                 for line in &report.explain {
                     eprintln!("{line}");
                 }
@@ -301,8 +346,7 @@ fn solve(
             if let Some(p) = report_path {
                 let json = serde_json::to_string_pretty(&report).expect("report serialises");
                 if let Err(e) = write_report(p, &json) {
-                    eprintln!("error: cannot write the report {}: {e}", p.display());
-                    return ExitCode::from(1);
+                    return fail(&format!("cannot write the report {}: {e}", p.display()));
                 }
             }
             ExitCode::from(report.status.exit_code() as u8)

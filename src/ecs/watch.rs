@@ -52,19 +52,6 @@ pub struct WatchSettings {
     pub previews: Option<u32>,
 }
 
-/// The pictures drawn beside `output`: `<stem>.uv.png` and `<stem>.render.png`.
-pub fn preview_paths(output: &Path, size: u32) -> PreviewRequest {
-    let stem = output
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    PreviewRequest {
-        layout: Some(output.with_file_name(format!("{stem}.uv.png"))),
-        render: Some(output.with_file_name(format!("{stem}.render.png"))),
-        size,
-    }
-}
-
 /// Counts of what the incremental rules decided (for tests and the log).
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
 pub struct WatchCounters {
@@ -359,37 +346,84 @@ fn constraint_removed(world: &mut World, settings: &WatchSettings, entity: Entit
 /// Reads one constraint file and (re)starts its solve if its content changed
 /// (or `force`), reusing whatever the previous solve of the same asset left.
 fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path, force: bool) {
-    if !settings.rules.is_constraint_file(path) || registry::root_of(&settings.roots, path).is_none() {
+    let Some(root) = registry::root_of(&settings.roots, path).filter(|_| settings.rules.is_constraint_file(path))
+    else {
         return;
-    }
-    let root = registry::root_of(&settings.roots, path).expect("checked").clone();
-    let name = display(path, &settings.cwd);
-    let entity = match world.resource::<WatchRegistry>().files.get(path) {
-        Some(&e) => e,
-        None => {
-            if !path.is_file() {
-                return;
-            }
-            let e = world
-                .spawn(WatchedFile {
-                    path: path.to_path_buf(),
-                    hash: None,
-                    asset_path: None,
-                    removed: false,
-                })
-                .id();
-            world
-                .resource_mut::<WatchRegistry>()
-                .files
-                .insert(path.to_path_buf(), e);
-            e
-        }
     };
+    let root = root.clone();
+    let Some(entity) = watched_entity(world, path) else {
+        return;
+    };
+    let Some(text) = read_if_changed(world, settings, entity, path, force) else {
+        return;
+    };
+    let t0 = Instant::now();
+    let loaded = match LoadedConstraints::parse_with_defaults(path, &text, &settings.defaults) {
+        Ok(l) => l,
+        Err(e) => return fail(world, entity, e.into()),
+    };
+    let asset_path = normalize(&loaded.asset_path(), &settings.cwd);
+    note_asset(world, settings, entity, &asset_path);
+    let asset = match load_asset(world, settings, &loaded, &asset_path) {
+        Ok(a) => a,
+        Err(e) => return fail(world, entity, e),
+    };
+    let output = registry::output_path(
+        &settings.output,
+        &root,
+        path,
+        &settings.rules.constraint_suffix,
+        &asset_path,
+        &settings.cwd,
+    );
+    if let Err(e) = check_single_writer(world, settings, entity, &loaded, &output) {
+        return fail(world, entity, e);
+    }
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let job = SolveJob::from_file(loaded, asset, Some(output));
+    if let Err(e) = restart_solve(world, settings, entity, job, load_ms) {
+        fail(world, entity, e);
+    }
+}
+
+/// The entity of a constraint file, spawned when first seen (if it is a file).
+fn watched_entity(world: &mut World, path: &Path) -> Option<Entity> {
+    if let Some(&e) = world.resource::<WatchRegistry>().files.get(path) {
+        return Some(e);
+    }
+    if !path.is_file() {
+        return None;
+    }
+    let e = world
+        .spawn(WatchedFile {
+            path: path.to_path_buf(),
+            hash: None,
+            asset_path: None,
+            removed: false,
+        })
+        .id();
+    world
+        .resource_mut::<WatchRegistry>()
+        .files
+        .insert(path.to_path_buf(), e);
+    Some(e)
+}
+
+/// The file's text when its content changed since it was last acted on (or
+/// `force`); `None` when there is nothing to do (unchanged, removed, or
+/// unreadable: then the entity is marked).
+fn read_if_changed(
+    world: &mut World,
+    settings: &WatchSettings,
+    entity: Entity,
+    path: &Path,
+    force: bool,
+) -> Option<String> {
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound || path.is_dir() => {
             constraint_removed(world, settings, entity);
-            return;
+            return None;
         }
         Err(source) => {
             let err = crate::constraints::ConstraintFileError::Read {
@@ -398,54 +432,53 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
             };
             world.get_mut::<WatchedFile>(entity).expect("watched").hash = None;
             fail(world, entity, err.into());
-            return;
+            return None;
         }
     };
     let hash = content_hash(&bytes);
     let watched = world.get::<WatchedFile>(entity).expect("watched").clone();
-    if watched.hash == Some(hash) && !force {
-        let cancelled = world.get::<Failed>(entity).is_some() && watched.removed;
-        if !cancelled {
-            world.get_mut::<WatchedFile>(entity).expect("watched").removed = false;
-            if watched.removed {
-                // Back with the same content (an editor's delete + recreate).
-                let state = match world.get::<Exported>(entity).map(|e| e.0.status) {
-                    Some(Status::Reached) => FileState::Reached,
-                    Some(Status::Partial) => FileState::Partial,
-                    Some(Status::Error) | None => FileState::Error,
-                };
-                world.resource_mut::<DaemonLog>().status.entry(&name).state = state;
-            }
-            world.resource_mut::<WatchRegistry>().counters.unchanged += 1;
-            return;
-        }
+    if watched.hash == Some(hash) && !force && !(world.get::<Failed>(entity).is_some() && watched.removed) {
+        unchanged(world, settings, entity, &watched);
+        return None;
     }
     {
         let mut w = world.get_mut::<WatchedFile>(entity).expect("watched");
         w.hash = Some(hash);
         w.removed = false;
     }
-    let t0 = Instant::now();
-    let text = match String::from_utf8(bytes) {
-        Ok(t) => t,
+    match String::from_utf8(bytes) {
+        Ok(t) => Some(t),
         Err(e) => {
             let err = crate::constraints::ConstraintFileError::Read {
                 path: path.to_path_buf(),
                 source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()),
             };
             fail(world, entity, err.into());
-            return;
+            None
         }
-    };
-    let loaded = match LoadedConstraints::parse_with_defaults(path, &text, &settings.defaults) {
-        Ok(l) => l,
-        Err(e) => {
-            fail(world, entity, e.into());
-            return;
-        }
-    };
-    let asset_path = normalize(&loaded.asset_path(), &settings.cwd);
-    world.get_mut::<WatchedFile>(entity).expect("watched").asset_path = Some(asset_path.clone());
+    }
+}
+
+/// The same content again: nothing to solve. A file back with the content
+/// it had before it was removed (an editor's delete + recreate) gets its
+/// last state back.
+fn unchanged(world: &mut World, settings: &WatchSettings, entity: Entity, watched: &WatchedFile) {
+    world.get_mut::<WatchedFile>(entity).expect("watched").removed = false;
+    if watched.removed {
+        let state = match world.get::<Exported>(entity).map(|e| e.0.status) {
+            Some(Status::Reached) => FileState::Reached,
+            Some(Status::Partial) => FileState::Partial,
+            Some(Status::Error) | None => FileState::Error,
+        };
+        let name = display(&watched.path, &settings.cwd);
+        world.resource_mut::<DaemonLog>().status.entry(&name).state = state;
+    }
+    world.resource_mut::<WatchRegistry>().counters.unchanged += 1;
+}
+
+/// Remembers the asset the file names, and its folder when no watched root covers it.
+fn note_asset(world: &mut World, settings: &WatchSettings, entity: Entity, asset_path: &Path) {
+    world.get_mut::<WatchedFile>(entity).expect("watched").asset_path = Some(asset_path.to_path_buf());
     if let Some(folder) = asset_path.parent()
         && !settings
             .roots
@@ -457,121 +490,156 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
             .asset_folders
             .insert(folder.to_path_buf());
     }
+}
+
+/// The asset, from the cache when its content is unchanged.
+fn load_asset(
+    world: &mut World,
+    settings: &WatchSettings,
+    loaded: &LoadedConstraints,
+    asset_path: &Path,
+) -> Result<Arc<crate::io::SourceAsset>, Error> {
     let selection = AssetSelection {
         mesh: loaded.file.mesh.clone(),
         uv_set: loaded.file.uv_set,
     };
-    let asset = match world
-        .resource_mut::<WatchRegistry>()
-        .assets
-        .load(&asset_path, &selection)
-    {
-        Ok(a) => a,
-        Err(crate::io::AssetError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
-            let err = loaded.asset_error(
+    let mut registry = world.resource_mut::<WatchRegistry>();
+    match registry.assets.load(asset_path, &selection) {
+        Ok(a) => Ok(a),
+        Err(crate::io::AssetError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => Err(loaded
+            .asset_error(
                 "asset",
-                format!("{} does not exist", display(&asset_path, &settings.cwd)),
-            );
-            fail(world, entity, err.into());
-            return;
-        }
-        Err(e) => {
-            fail(world, entity, e.into());
-            return;
-        }
-    };
-    let output = registry::output_path(
-        &settings.output,
-        &root,
-        path,
-        &settings.rules.constraint_suffix,
-        &asset_path,
-        &settings.cwd,
-    );
-    if settings.output == OutputMode::InPlace {
-        let mut q = world.query::<(Entity, &WatchedFile, &SolveJob)>();
-        let other = q
-            .iter(world)
-            .find(|(e, w, j)| *e != entity && !w.removed && j.output.as_deref() == Some(output.as_path()))
-            .map(|(_, w, _)| display(&w.path, &settings.cwd));
-        if let Some(other) = other {
-            let err = loaded.asset_error(
+                format!("{} does not exist", display(asset_path, &settings.cwd)),
+            )
+            .into()),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// In place, one constraint file per asset: another file writing `output` is an error.
+fn check_single_writer(
+    world: &mut World,
+    settings: &WatchSettings,
+    entity: Entity,
+    loaded: &LoadedConstraints,
+    output: &Path,
+) -> Result<(), Error> {
+    if settings.output != OutputMode::InPlace {
+        return Ok(());
+    }
+    let mut q = world.query::<(Entity, &WatchedFile, &SolveJob)>();
+    let other = q
+        .iter(world)
+        .find(|(e, w, j)| *e != entity && !w.removed && j.output.as_deref() == Some(output))
+        .map(|(_, w, _)| display(&w.path, &settings.cwd));
+    match other {
+        None => Ok(()),
+        Some(other) => Err(loaded
+            .asset_error(
                 "asset",
                 format!(
                     "in-place mode: {} is already written by {other}; one constraint file per asset",
-                    display(&asset_path, &settings.cwd)
+                    display(output, &settings.cwd)
                 ),
-            );
-            fail(world, entity, err.into());
-            return;
+            )
+            .into()),
+    }
+}
+
+/// How much of the previous solve a new job keeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Reuse {
+    /// Nothing: another asset, or another chart of it.
+    FromScratch,
+    /// The chart, its topology and the bar-net factorisation (new corners).
+    Geometry,
+    /// All that and the step-1 layout: only the spline path and completion run.
+    Step1,
+}
+
+impl Reuse {
+    fn words(self) -> &'static str {
+        match self {
+            Reuse::FromScratch => "from scratch",
+            Reuse::Geometry => "reusing the chart and its factorisation",
+            Reuse::Step1 => "reusing the step-1 layout",
         }
     }
-    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+}
+
+/// Replaces the entity's solve with `job`, keeping what the previous solve
+/// of the same geometry left; logs the start.
+fn restart_solve(
+    world: &mut World,
+    settings: &WatchSettings,
+    entity: Entity,
+    job: SolveJob,
+    load_ms: f64,
+) -> Result<(), Error> {
     let t1 = Instant::now();
     let previous = world
         .get::<SolveJob>(entity)
-        .filter(|j| Arc::ptr_eq(&j.asset, &asset))
+        .filter(|j| Arc::ptr_eq(&j.asset, &job.asset))
         .and_then(|_| world.get::<ChartData>(entity))
         .map(|d| d.0.clone());
-    let prepared = match chart::prepare_reusing(&loaded, &asset, previous.as_deref()) {
-        Ok(p) => p,
-        Err(e) => {
-            fail(world, entity, e);
-            return;
-        }
+    let prepared = chart::prepare_reusing(&job.source, &job.asset, previous.as_deref())?;
+    let reuse = match &previous {
+        Some(p) if prepared.same_geometry(p) && p.corners == prepared.corners => Reuse::Step1,
+        Some(p) if prepared.same_geometry(p) => Reuse::Geometry,
+        _ => Reuse::FromScratch,
     };
-    let keep_geometry = previous.as_ref().is_some_and(|p| prepared.same_geometry(p));
-    let keep_step1 = keep_geometry && previous.as_ref().is_some_and(|p| p.corners == prepared.corners);
     let superseded = world.get::<SolveJob>(entity).is_some()
         && world.get::<Exported>(entity).is_none()
         && world.get::<Failed>(entity).is_none();
-    let n_constraints = prepared.constraints.len();
-    let mut times = crate::report::StageTimes {
+    let times = crate::report::StageTimes {
         load_ms,
+        topology_ms: t1.elapsed().as_secs_f64() * 1e3,
         ..Default::default()
     };
-    times.topology_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let n_constraints = prepared.constraints.len();
+    let asset_name = display(&job.asset.path, &settings.cwd);
     let mut e = world.entity_mut(entity);
-    e.remove::<(Stepping, Completing, Candidate, Finished, Exported, Failed)>();
-    if !keep_geometry {
-        e.remove::<(BoundaryLayout, BarNetFactor, Step1Layout, Layout, NewtonPatternSlot)>();
-    } else if !keep_step1 {
-        e.remove::<(BoundaryLayout, Step1Layout, Layout)>();
-    } else if let Some(step1) = e.get::<Step1Layout>() {
-        let layout = Layout(step1.0.clone());
-        e.insert(layout);
-    }
-    match settings.previews {
-        Some(size) => {
-            e.insert(preview_paths(&output, size));
+    e.remove::<(Solver, Candidate, Finished, Exported, Failed)>();
+    match reuse {
+        Reuse::FromScratch => {
+            e.remove::<(BoundaryLayout, BarNetFactor, Step1Layout, NewtonPatternSlot)>();
         }
-        None => {
+        Reuse::Geometry => {
+            e.remove::<(BoundaryLayout, Step1Layout)>();
+        }
+        Reuse::Step1 => {}
+    }
+    #[cfg(feature = "pictures")]
+    match (settings.previews, &job.output) {
+        (Some(size), Some(output)) => {
+            e.insert(PreviewRequest(crate::preview::Pictures::beside(output, size)));
+        }
+        _ => {
             e.remove::<PreviewRequest>();
         }
     }
-    e.insert((
-        SolveJob {
-            constraints: Arc::new(loaded),
-            asset,
-            output: Some(output),
-        },
-        ChartData(Arc::new(prepared)),
-        Timings(times),
-    ));
+    e.insert((job, ChartData(Arc::new(prepared)), Timings(times)));
+    log_start(world, settings, entity, (n_constraints, reuse, superseded), &asset_name);
+    Ok(())
+}
+
+/// Counts and logs a solve's start; the status board says it is solving.
+fn log_start(
+    world: &mut World,
+    settings: &WatchSettings,
+    entity: Entity,
+    (n_constraints, reuse, superseded): (usize, Reuse, bool),
+    asset_name: &str,
+) {
+    let name = display(&world.get::<WatchedFile>(entity).expect("watched").path, &settings.cwd);
     let mut registry = world.resource_mut::<WatchRegistry>();
     registry.counters.solves_started += 1;
-    registry.counters.geometry_reused += u64::from(keep_geometry);
-    registry.counters.step1_reused += u64::from(keep_step1);
+    registry.counters.geometry_reused += u64::from(reuse != Reuse::FromScratch);
+    registry.counters.step1_reused += u64::from(reuse == Reuse::Step1);
     let mut log = world.resource_mut::<DaemonLog>();
-    let reuse = if keep_step1 {
-        "reusing the step-1 layout"
-    } else if keep_geometry {
-        "reusing the chart and its factorisation"
-    } else {
-        "from scratch"
-    };
     let message = format!(
-        "solving {n_constraints} constraints, {reuse}{}",
+        "solving {n_constraints} constraints, {}{}",
+        reuse.words(),
         if superseded {
             " (supersedes the running solve)"
         } else {
@@ -582,11 +650,11 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
         "solving",
         Some(&name),
         &message,
-        json!({ "constraints": n_constraints, "reuse_geometry": keep_geometry, "reuse_step1": keep_step1, "superseded": superseded }),
+        json!({ "constraints": n_constraints, "reuse_geometry": reuse != Reuse::FromScratch, "reuse_step1": reuse == Reuse::Step1, "superseded": superseded }),
     );
     let entry = log.status.entry(&name);
     entry.state = FileState::Solving;
-    entry.asset = Some(display(&asset_path, &settings.cwd));
+    entry.asset = Some(asset_name.to_string());
     entry.last_error = None;
 }
 

@@ -8,6 +8,38 @@ pub mod render;
 pub mod texture;
 
 use glam::DVec2;
+use std::path::PathBuf;
+
+/// Which pictures to draw of a solved chart, and their size.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Pictures {
+    /// The UV layout picture (PNG).
+    pub layout: Option<PathBuf>,
+    /// The 3D render with a checker or the texture (PNG).
+    pub render: Option<PathBuf>,
+    /// Width and height in pixels.
+    pub size: u32,
+}
+
+impl Pictures {
+    /// Whether any picture is asked for.
+    pub fn any(&self) -> bool {
+        self.layout.is_some() || self.render.is_some()
+    }
+
+    /// The pictures drawn beside `output`: `<stem>.uv.png` and `<stem>.render.png`.
+    pub fn beside(output: &std::path::Path, size: u32) -> Self {
+        let stem = output
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        Pictures {
+            layout: Some(output.with_file_name(format!("{stem}.uv.png"))),
+            render: Some(output.with_file_name(format!("{stem}.render.png"))),
+            size,
+        }
+    }
+}
 
 /// One constraint as drawn: glTF texture coordinates (u right, v down).
 #[derive(Debug, Clone, Copy)]
@@ -20,27 +52,25 @@ pub struct Marker {
     pub reached: bool,
 }
 
-/// Draws the pictures of a solved chart: the layout (`layout_png`) and the
-/// 3D render (`render_png`), `size` pixels square, from the chart, its outer
-/// loop, its final layout (layout coordinates) and the report's constraints.
+/// Draws the pictures of a solved chart that `pictures` asks for: the
+/// layout and the 3D render, from the chart, its outer loop, its final
+/// layout (layout coordinates) and the report's constraints.
 ///
 /// # Errors
 /// A picture that cannot be encoded or written (message).
-#[allow(clippy::too_many_arguments)]
 pub fn draw_chart(
     asset: &crate::io::SourceAsset,
     prepared: &crate::chart::PreparedChart,
     outer_loop: &[u32],
     layout: &[DVec2],
     report: &crate::report::Report,
-    layout_png: Option<&std::path::Path>,
-    render_png: Option<&std::path::Path>,
-    size: u32,
+    pictures: &Pictures,
 ) -> Result<(), String> {
-    if layout_png.is_none() && render_png.is_none() {
+    if !pictures.any() {
         return Ok(());
     }
-    let size = size.max(16);
+    let (layout_png, render_png) = (pictures.layout.as_deref(), pictures.render.as_deref());
+    let size = pictures.size.max(16);
     let filled = &prepared.filled;
     let uvs: Vec<DVec2> = layout.iter().map(|&p| crate::param::xy_to_uv(p)).collect();
     let texture = texture::base_colour_texture(asset);

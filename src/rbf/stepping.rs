@@ -8,8 +8,8 @@
 //! halves `t`; an accepted step resets `t = 1`. The path **stalls** when
 //! `stall_iterations` iterations in a row (default one) need ≥
 //! `stall_halvings` halvings, when no step survives `max_halvings` halvings,
-//! or at `max_iterations` (algorithm.md: halving never rescued a stalled run,
-//! so stop early and report). When the completion takes over after a stall,
+//! or at `max_iterations` (halving rarely rescues a stalled run, so it stops
+//! early: docs/algorithm.md). When the completion takes over after a stall,
 //! the last heavy iteration is not finished: the stall is called at its
 //! `stall_halvings`-th halving, since the completion starts from the step-1
 //! layout anyway.
@@ -171,11 +171,17 @@ pub struct SteppingState {
     pub halvings_this_iteration: u32,
     pub total_halvings: u32,
     heavy_streak: u32,
+    /// The completion takes over after a stall: the iteration that completes
+    /// a streak of heavy ones is a stall at its `stall_halvings`-th halving.
+    #[serde(skip)]
+    completion_follows: bool,
 }
 
 impl SteppingState {
-    /// Starts stepping, or is already `Reached` when every residual is within tolerance.
-    pub fn start(problem: &StepProblem, layout: &[DVec2], options: &SolverOptions) -> Self {
+    /// Starts stepping, or is already `Reached` when every residual is
+    /// within tolerance. `completion_follows`: a stall hands over to the
+    /// completion (see [`crate::solver::policy::Policy::completion_follows_stall`]).
+    pub fn start(problem: &StepProblem, layout: &[DVec2], options: &SolverOptions, completion_follows: bool) -> Self {
         let phase = if problem.max_residual(layout) <= options.tolerance {
             SteppingPhase::Reached
         } else if options.completion == crate::options::Completion::Always {
@@ -190,6 +196,7 @@ impl SteppingState {
             halvings_this_iteration: 0,
             total_halvings: 0,
             heavy_streak: 0,
+            completion_follows,
         }
     }
 
@@ -212,7 +219,7 @@ impl SteppingState {
                     "no fold-free step found after {} halvings (step < 2^-{})",
                     options.max_halvings, options.max_halvings
                 ));
-            } else if completion_follows(options)
+            } else if self.completion_follows
                 && self.halvings_this_iteration >= options.stall_halvings
                 && self.heavy_streak + 1 >= options.stall_iterations
             {
@@ -245,13 +252,6 @@ impl SteppingState {
     }
 }
 
-/// Whether the completion takes over after a stall (`completion: Auto`
-/// with the exact guard): then a stall can be called before its last heavy
-/// iteration is finished, since that step would be thrown away.
-fn completion_follows(options: &SolverOptions) -> bool {
-    options.completion == crate::options::Completion::Auto && options.guard == crate::options::Guard::Exact
-}
-
 /// Why the spline path stopped: its heavy iterations.
 fn stall_reason(options: &SolverOptions) -> String {
     match options.stall_iterations {
@@ -264,6 +264,10 @@ fn stall_reason(options: &SolverOptions) -> String {
 mod tests {
     use super::*;
 
+    fn follows(o: &SolverOptions) -> bool {
+        crate::solver::policy::Policy::new(o, 1).completion_follows_stall()
+    }
+
     #[test]
     fn halving_then_acceptance_then_reached() {
         let o = SolverOptions::DEFAULT;
@@ -272,7 +276,7 @@ mod tests {
             targets: vec![DVec2::ONE],
             ..Default::default()
         };
-        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
+        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o, follows(&o));
         assert!(s.is_stepping());
         s.record_guard(false, 0.0, &o);
         assert_eq!((s.t, s.total_halvings), (0.5, 1));
@@ -294,7 +298,7 @@ mod tests {
         let mut o = SolverOptions::DEFAULT;
         o.stall_iterations = 2;
         o.completion = crate::options::Completion::Never;
-        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
+        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o, follows(&o));
         for _ in 0..2 {
             for _ in 0..o.stall_halvings {
                 s.record_guard(false, 0.0, &o);
@@ -308,7 +312,7 @@ mod tests {
         // With the completion to follow, the heavy iteration that completes
         // the streak stops at its `stall_halvings`-th halving.
         o.completion = crate::options::Completion::Auto;
-        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
+        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o, follows(&o));
         for _ in 0..o.stall_halvings {
             s.record_guard(false, 0.0, &o);
         }
@@ -322,7 +326,7 @@ mod tests {
 
         // The defaults: the first heavy iteration is a stall.
         let o = SolverOptions::DEFAULT;
-        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o);
+        let mut s = SteppingState::start(&problem, &[DVec2::ZERO], &o, follows(&o));
         s.record_guard(false, 0.0, &o);
         s.record_guard(true, 0.5, &o);
         for _ in 0..o.stall_halvings {

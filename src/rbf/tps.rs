@@ -8,8 +8,9 @@
 //! affine part. It is better conditioned than the bordered system
 //! (docs/decisions.md). Both decompositions are faer's.
 
-use faer::linalg::solvers::{Solve, SolveLstsq};
-use faer::{Mat, MatRef, Side};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::solvers::{Qr, Solve, SolveLstsq};
+use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
 use glam::DVec2;
 use thiserror::Error;
 
@@ -71,12 +72,13 @@ impl ThinPlateSpline {
             [1.0, q.x, q.y][j]
         });
         let qr = p.qr();
+        crate::simd::after_faer();
         check_affine_rank(qr.thin_R(), m)?;
-        let q = qr.compute_Q();
         let a = kernel_matrix(centres, spread)?;
         let d = Mat::from_fn(m, 2, |i, j| displacements[i][j]);
-        let lambda = kernel_weights(&q, &a, &d)?;
+        let lambda = kernel_weights(&qr, &a, &d)?;
         let affine = qr.solve_lstsq(&d - &a * &lambda);
+        crate::simd::after_faer();
         Ok(ThinPlateSpline {
             centres: centres.to_vec(),
             lambda: (0..m).map(|i| DVec2::new(lambda[(i, 0)], lambda[(i, 1)])).collect(),
@@ -350,43 +352,79 @@ fn check_affine_rank(r: MatRef<'_, f64>, m: usize) -> Result<(), TpsError> {
 /// The kernel matrix `A_ij = φ(‖q_i − q_j‖)` on normalised coordinates.
 fn kernel_matrix(centres: &[DVec2], spread: f64) -> Result<Mat<f64>, TpsError> {
     let m = centres.len();
-    let mut a = Mat::<f64>::zeros(m, m);
+    // Filled as a plain column-major buffer (symmetric, so either order).
+    let mut values = vec![0.0f64; m * m];
     for i in 0..m {
         for j in 0..i {
             let r2 = ((centres[i] - centres[j]) / spread).length_squared();
             if r2 < 1e-24 {
                 return Err(TpsError::CoincidentCentres { a: j, b: i });
             }
-            a[(i, j)] = phi_from_r2(r2);
-            a[(j, i)] = a[(i, j)];
+            let phi = phi_from_r2(r2);
+            values[i * m + j] = phi;
+            values[j * m + i] = phi;
         }
     }
-    Ok(a)
+    Ok(MatRef::from_column_major_slice(&values, m, m).to_owned())
+}
+
+/// `x ← Qᵀ x` (`transpose`) or `x ← Q x`, with `Q` of `qr` applied as its
+/// three Householder reflectors (O(m) per column, no m × m product).
+fn apply_q(qr: &Qr<f64>, mut x: MatMut<'_, f64>, transpose: bool) {
+    use faer::linalg::householder::{
+        apply_block_householder_sequence_on_the_left_in_place_scratch as scratch,
+        apply_block_householder_sequence_on_the_left_in_place_with_conj as apply,
+        apply_block_householder_sequence_transpose_on_the_left_in_place_scratch as scratch_t,
+        apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj as apply_t,
+    };
+    let (basis, coeff) = (qr.Q_basis(), qr.Q_coeff());
+    let (rows, block, cols) = (basis.nrows(), coeff.nrows(), x.ncols());
+    let need = if transpose {
+        scratch_t::<f64>(rows, block, cols)
+    } else {
+        scratch::<f64>(rows, block, cols)
+    };
+    let mut memory = MemBuffer::new(need);
+    let stack = MemStack::new(&mut memory);
+    if transpose {
+        apply_t(basis, coeff, Conj::No, x.as_mut(), Par::Seq, stack);
+    } else {
+        apply(basis, coeff, Conj::No, x.as_mut(), Par::Seq, stack);
+    }
 }
 
 /// The kernel weights `λ = Q₂ γ` with `(Q₂ᵀ A Q₂) γ = Q₂ᵀ d`, where `Q₂`
 /// spans the null space of `Pᵀ` (the last `m − 3` columns of `Q`). The
 /// reduced kernel is definite (the TPS kernel is conditionally definite of
 /// order 2); which sign depends on the scaling, so both are tried.
-fn kernel_weights(q: &Mat<f64>, a: &Mat<f64>, d: &Mat<f64>) -> Result<Mat<f64>, TpsError> {
+fn kernel_weights(qr: &Qr<f64>, a: &Mat<f64>, d: &Mat<f64>) -> Result<Mat<f64>, TpsError> {
     let m = a.nrows();
     if m == 3 {
         return Ok(Mat::zeros(3, 2));
     }
-    let q2 = q.get(.., 3..);
-    let reduced = q2.transpose() * a * q2;
-    let rhs = q2.transpose() * d;
+    // Qᵀ A Q = Qᵀ (Qᵀ A)ᵀ, A being symmetric.
+    let mut qt_a = a.clone();
+    apply_q(qr, qt_a.as_mut(), true);
+    let mut both = qt_a.transpose().to_owned();
+    apply_q(qr, both.as_mut(), true);
+    let reduced = both.get(3.., 3..);
+    let mut qt_d = d.clone();
+    apply_q(qr, qt_d.as_mut(), true);
+    let rhs = qt_d.get(3.., ..);
     let gamma = match reduced.llt(Side::Lower) {
-        Ok(llt) => llt.solve(&rhs),
+        Ok(llt) => llt.solve(rhs),
         Err(_) => {
-            let negated = -&reduced;
+            let negated = -reduced;
             let llt = negated
                 .llt(Side::Lower)
                 .map_err(|_| TpsError::CoincidentCentres { a: 0, b: 0 })?;
-            -llt.solve(&rhs)
+            -llt.solve(rhs)
         }
     };
-    Ok(q2 * gamma)
+    let mut lambda = Mat::<f64>::zeros(m, 2);
+    lambda.get_mut(3.., ..).copy_from(&gamma);
+    apply_q(qr, lambda.as_mut(), false);
+    Ok(lambda)
 }
 
 #[cfg(test)]

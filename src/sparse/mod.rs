@@ -195,7 +195,9 @@ impl SpdPattern {
             _ => SymmetricOrdering::Amd,
         };
         let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Lower, ordering, params)
-            .map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
+            .map_err(|e| SparseError::Pattern(format!("{e:?}")));
+        crate::simd::after_faer();
+        let cholesky = cholesky?;
         Ok(SpdPattern {
             n,
             symbolic: Arc::new(symbolic),
@@ -284,7 +286,9 @@ impl SpdPattern {
             ..Default::default()
         };
         let cholesky = factorize_symbolic_cholesky(upper.as_ref(), Side::Upper, SymmetricOrdering::Identity, params)
-            .map_err(|e| pattern_error(&e))?;
+            .map_err(|e| pattern_error(&e));
+        crate::simd::after_faer();
+        let cholesky = cholesky?;
         let pattern = SpdPattern {
             n,
             symbolic: Arc::new(symbolic),
@@ -325,7 +329,8 @@ impl SpdPattern {
                     .or(self.cholesky.solve_in_place_scratch::<f64>(1, Par::Seq)),
             )
         });
-        self.cholesky
+        let result = self
+            .cholesky
             .factorize_numeric_llt::<f64>(
                 &mut workspace.l_values,
                 a,
@@ -335,7 +340,9 @@ impl SpdPattern {
                 MemStack::new(scratch),
                 Default::default(),
             )
-            .map_err(|_| SparseError::NotPositiveDefinite)?;
+            .map_err(|_| SparseError::NotPositiveDefinite);
+        crate::simd::after_faer();
+        result?;
         workspace.factored = true;
         Ok(())
     }
@@ -358,6 +365,7 @@ impl SpdPattern {
             Par::Seq,
             MemStack::new(scratch),
         );
+        crate::simd::after_faer();
     }
 
     pub fn n(&self) -> usize {
@@ -381,17 +389,17 @@ impl SpdPattern {
             self.cholesky
                 .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
         );
-        self.cholesky
-            .factorize_numeric_llt::<f64>(
-                &mut l_values,
-                a,
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|_| SparseError::NotPositiveDefinite)?;
+        let result = self.cholesky.factorize_numeric_llt::<f64>(
+            &mut l_values,
+            a,
+            Side::Lower,
+            Default::default(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+        crate::simd::after_faer();
+        result.map_err(|_| SparseError::NotPositiveDefinite)?;
         Ok(SpdFactor {
             pattern: self.clone(),
             l_values,
@@ -411,6 +419,7 @@ impl SpdFactor {
             Par::Seq,
             MemStack::new(&mut mem),
         );
+        crate::simd::after_faer();
     }
 
     pub fn pattern(&self) -> &SpdPattern {

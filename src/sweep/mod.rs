@@ -6,10 +6,9 @@
 
 pub mod file;
 
-use crate::constraints::LoadedConstraints;
-use crate::ecs::PreviewRequest;
+use crate::constraints::{ConstraintSource, LoadedConstraints};
 use crate::io::SourceAsset;
-use crate::options::{Completion, SolverOptions};
+use crate::options::SolverOptions;
 use crate::report::{Report, Status};
 use file::{CornerChoice, Setting, SweepFile};
 use glam::DVec2;
@@ -222,26 +221,26 @@ fn with_setting(loaded: &LoadedConstraints, setting: &Setting) -> LoadedConstrai
     l
 }
 
-/// Step 1 only (the probe): where the bar-net puts each constraint.
+/// Step 1 only (the probe): where the bar-net puts each constraint, and
+/// whether it is on the outer boundary.
 fn probe_step1(loaded: &LoadedConstraints, asset: &Arc<SourceAsset>, corners: CornerChoice) -> Step1 {
     let setting = Setting {
         name: String::new(),
         solver: None,
         corners,
     };
-    let mut l = with_setting(loaded, &setting);
-    l.solver = SolverOptions {
-        completion: Completion::Never,
-        polish: false,
-        max_iterations: 1,
-        max_halvings: 0,
-        ..l.solver
-    };
-    let report = crate::solve::solve_loaded_shared(l, asset.clone(), None, PreviewRequest::default())
-        .map_err(|e| e.to_string())?;
+    let source = ConstraintSource::File(Arc::new(with_setting(loaded, &setting)));
+    let prepared = crate::chart::prepare(&source, asset).map_err(|e| e.to_string())?;
+    let step1 = crate::solver::step1::step1(&prepared, &source, &asset.path).map_err(|e| e.to_string())?;
+    let mut on_outer = vec![false; prepared.filled.mesh.n_vertices()];
+    step1
+        .boundary
+        .loop_vertices
+        .iter()
+        .for_each(|&v| on_outer[v as usize] = true);
     let mut out = vec![(DVec2::ZERO, false); loaded.file.constraints.len()];
-    for c in &report.constraints {
-        out[c.index] = (c.step1, c.on_boundary);
+    for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
+        out[c.index] = (crate::param::xy_to_uv(step1.layout[v as usize]), on_outer[v as usize]);
     }
     Ok(out)
 }
@@ -335,12 +334,15 @@ fn solve_run(run: &Run, input: &Input, step1: &Step1, sweep: &SweepFile, thumbs:
         spec.px = None;
     }
     let thumbnail = thumbs.map(|dir| dir.join(thumbnail_name(run)));
-    let previews = PreviewRequest {
-        layout: thumbnail.clone(),
-        render: None,
-        size: sweep.thumbnail_size,
+    let options = crate::api::Options {
+        pictures: crate::preview::Pictures {
+            layout: thumbnail.clone(),
+            render: None,
+            size: sweep.thumbnail_size,
+        },
+        ..Default::default()
     };
-    match crate::solve::solve_loaded_shared(l, asset.clone(), None, previews) {
+    match crate::api::solve_loaded(l, asset, &options) {
         Ok(report) => fill_row(&mut row, &report),
         Err(e) => row.message = e.to_string(),
     }
@@ -522,7 +524,7 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepOutco
         needed
             .par_iter()
             .map(|&i| {
-                let loaded = crate::solve::load(&files[i])
+                let loaded = crate::api::load(&files[i], &SolverOptions::DEFAULT)
                     .map(|(l, a)| (l, Arc::new(a)))
                     .map_err(|e| e.to_string());
                 (

@@ -147,7 +147,7 @@ fn run_once(world: &mut World, schedule: &mut Schedule, roots: &[WatchRoot], log
             logger.error("error", Some(&display(&root.path, cwd)), "does not exist", json!({}));
         }
     }
-    crate::ecs::run_to_convergence(world, schedule, crate::solve::MAX_TICKS);
+    crate::ecs::run_to_convergence(world, schedule, crate::ecs::MAX_TICKS);
     let log = world.resource::<DaemonLog>();
     let count = |s: FileState| log.status.files.values().filter(|f| f.state == s).count();
     let (reached, partial, errors) = (

@@ -1,0 +1,328 @@
+//! The library API: solve a constraint file, or a mesh held in memory; step
+//! 1 alone; the check that targets are provably unreachable. One options
+//! struct, [`Options`], serves them all. No ECS World is involved: these
+//! run the chart solver ([`crate::solver`]) directly.
+//!
+//! ```
+//! use glam::DVec2;
+//! use uvpin::{Options, Pins};
+//!
+//! // A 20 × 20 grid patch; vertex 210 (inside) goes to (0.4, 0.5).
+//! let mesh = uvpin::testing::grid_mesh(20, 20);
+//! let pins = Pins::new(&[(210, DVec2::new(0.4, 0.5))]);
+//! let solved = uvpin::solve_mesh(&mesh, &pins, &Options::default())?;
+//! assert_eq!(solved.report.status, uvpin::Status::Reached);
+//! assert!(solved.report.orientation.is_clean());
+//! assert_eq!(solved.uvs.len(), mesh.n_vertices());
+//!
+//! // Targets no fold-free layout can reach are found without solving (None proves nothing).
+//! assert_eq!(uvpin::unreachable_proof(&mesh, &pins)?, None);
+//! # Ok::<(), uvpin::Error>(())
+//! ```
+
+use crate::chart::{self, PreparedChart, PrimitiveUvs};
+use crate::constraints::{ConstraintSource, LoadedConstraints};
+use crate::error::Error;
+use crate::io::{self, SourceAsset};
+use crate::mesh::TriMesh;
+use crate::options::SolverOptions;
+use crate::pins::Pins;
+use crate::report::{self, Report, StageTimes};
+use crate::solver::step1::{self, Step1};
+use crate::solver::{ChartSolver, SolveStart};
+use glam::DVec2;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// How to solve.
+#[derive(Debug, Clone, Default)]
+pub struct Options {
+    /// Solver settings. For a constraint file these are the defaults; the
+    /// file's own `solver` section replaces them.
+    pub solver: SolverOptions,
+    /// Where [`solve_file`] writes the asset with the new UVs (`None`:
+    /// nothing is written).
+    pub output: Option<PathBuf>,
+    /// Pictures to draw once the solve is over.
+    #[cfg(feature = "pictures")]
+    pub pictures: crate::preview::Pictures,
+}
+
+impl From<SolverOptions> for Options {
+    /// Options with these solver settings, writing nothing.
+    fn from(solver: SolverOptions) -> Self {
+        Options {
+            solver,
+            ..Options::default()
+        }
+    }
+}
+
+/// A solved in-memory mesh: the report and one UV per vertex of the mesh
+/// (glTF texture coordinates, f32 as a file would store them; vertices
+/// outside the solved chart get (0, 0)).
+#[derive(Debug, Clone)]
+pub struct MeshSolution {
+    pub report: Report,
+    pub uvs: Vec<[f32; 2]>,
+}
+
+/// Reads a constraint file and the asset it names; `defaults` apply when
+/// the file has no `solver` section.
+///
+/// # Errors
+/// Constraint-file and asset errors.
+pub fn load(constraints_path: &Path, defaults: &SolverOptions) -> Result<(LoadedConstraints, SourceAsset), Error> {
+    let loaded = LoadedConstraints::load_with_defaults(constraints_path, defaults)?;
+    let asset_path = loaded.asset_path();
+    let asset = io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set).map_err(|e| match e {
+        io::AssetError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => loaded
+            .asset_error("asset", format!("{} does not exist", asset_path.display()))
+            .into(),
+        e => Error::from(e),
+    })?;
+    Ok((loaded, asset))
+}
+
+/// Solves `constraints_path` and writes `options.output` (if given). Returns
+/// the report: `Reached` or `Partial` (written, fold-free), or `Error` when
+/// the final write failed. Input errors come back as `Err` with nothing
+/// written.
+///
+/// # Errors
+/// Any input error: constraint file, asset, topology.
+pub fn solve_file(constraints_path: &Path, options: &Options) -> Result<Report, Error> {
+    let t0 = Instant::now();
+    let (loaded, asset) = load(constraints_path, &options.solver)?;
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    solve_loaded_timed(loaded, &Arc::new(asset), options, load_ms)
+}
+
+/// Solves an already loaded constraint file and asset (e.g. with edited
+/// targets, as a sweep does); `options.solver` is not used (the loaded
+/// file's options are in force).
+///
+/// # Errors
+/// Topology and constraint errors against the asset.
+pub fn solve_loaded(loaded: LoadedConstraints, asset: &Arc<SourceAsset>, options: &Options) -> Result<Report, Error> {
+    solve_loaded_timed(loaded, asset, options, 0.0)
+}
+
+fn solve_loaded_timed(
+    loaded: LoadedConstraints,
+    asset: &Arc<SourceAsset>,
+    options: &Options,
+    load_ms: f64,
+) -> Result<Report, Error> {
+    let solver_options = loaded.solver;
+    let source = ConstraintSource::File(Arc::new(loaded));
+    let solved = solve_chart_timed(&source, asset, &solver_options, load_ms)?;
+    Ok(solved.export(asset, options))
+}
+
+/// Solves a mesh held in memory with `pins` and `options.solver`; nothing
+/// is written.
+///
+/// # Errors
+/// Invalid pins (out of range, outside the square, conflicting duplicates)
+/// and topology errors.
+pub fn solve_mesh(mesh: &TriMesh, pins: &Pins, options: &Options) -> Result<MeshSolution, Error> {
+    let asset = SourceAsset::from_mesh(mesh);
+    let source = ConstraintSource::Memory(Arc::new(pins.clone()));
+    let solved = solve_chart(&source, &asset, &options.solver)?;
+    let mut uvs = solved.uvs(&asset);
+    Ok(MeshSolution {
+        report: solved.report,
+        uvs: uvs.swap_remove(0),
+    })
+}
+
+/// Step 1 of a mesh held in memory: the chart, the boundary on the square,
+/// the bar-net factor and the layout.
+#[derive(Debug, Clone)]
+pub struct MeshStep1 {
+    pub prepared: PreparedChart,
+    pub step1: Step1,
+}
+
+impl MeshStep1 {
+    /// The step-1 position (layout coordinates, y up) of every vertex of
+    /// the mesh; `None` outside the chart.
+    pub fn vertex_layout(&self) -> Vec<Option<DVec2>> {
+        let p = &self.prepared;
+        p.welded.vertex_of[0]
+            .iter()
+            .map(|&w| p.chart.local_of(w).map(|local| self.step1.layout[local as usize]))
+            .collect()
+    }
+
+    /// The mesh's vertices in the chart but not on its outer boundary.
+    pub fn interior_vertices(&self) -> Vec<u32> {
+        let p = &self.prepared;
+        let outer = p.topology.outer_loop();
+        (0..p.welded.vertex_of[0].len() as u32)
+            .filter(|&v| {
+                let w = p.welded.vertex_of[0][v as usize];
+                p.chart.local_of(w).is_some_and(|local| !outer.contains(&local))
+            })
+            .collect()
+    }
+}
+
+/// Step 1 alone (§III) on a mesh held in memory, with `corners` (top_left,
+/// bottom_left, bottom_right, top_right) or automatic ones.
+///
+/// # Errors
+/// Corners out of range or not on the outer loop; topology errors.
+pub fn step1(mesh: &TriMesh, corners: Option<[u32; 4]>) -> Result<MeshStep1, Error> {
+    let asset = SourceAsset::from_mesh(mesh);
+    let pins = Pins {
+        targets: Vec::new(),
+        corners,
+    };
+    let source = ConstraintSource::Memory(Arc::new(pins));
+    let prepared = chart::prepare(&source, &asset)?;
+    let step1 = step1::step1(&prepared, &source, &asset.path)?;
+    Ok(MeshStep1 { prepared, step1 })
+}
+
+/// Whether `pins` are provably unreachable on `mesh`, without solving them:
+/// step 1 puts the boundary on the square, then
+/// [`crate::complete::obstruction`] looks for pieces pinned in place (by the
+/// boundary and the targets) that already fold or overlap. `Some(reason)`
+/// says what would have to happen for every target to be reached; `None`
+/// proves nothing either way.
+///
+/// # Errors
+/// As [`solve_mesh`].
+pub fn unreachable_proof(mesh: &TriMesh, pins: &Pins) -> Result<Option<String>, Error> {
+    let asset = SourceAsset::from_mesh(mesh);
+    let source = ConstraintSource::Memory(Arc::new(pins.clone()));
+    let prepared = chart::prepare(&source, &asset)?;
+    let step1 = step1::step1(&prepared, &source, &asset.path)?;
+    let problem = chart::step_problem(
+        &prepared,
+        &source,
+        &step1.boundary,
+        SolverOptions::DEFAULT.max_boundary_centres,
+    )?;
+    let mut on_outer = vec![false; prepared.filled.mesh.n_vertices()];
+    step1
+        .boundary
+        .loop_vertices
+        .iter()
+        .for_each(|&v| on_outer[v as usize] = true);
+    let certificate = crate::complete::find_obstruction(&prepared.filled, &step1.layout, &problem);
+    Ok(certificate.map(|c| c.describe(report::vertex_namer(&prepared, &on_outer))))
+}
+
+/// A finished chart solve and its report, with everything it went
+/// through: the chart, step 1, the solver (its final layout and record).
+/// Nothing is written.
+#[derive(Debug, Clone)]
+pub struct SolvedChart {
+    pub prepared: PreparedChart,
+    pub step1: Step1,
+    pub solver: ChartSolver,
+    pub report: Report,
+}
+
+/// Solves the chart that `source`'s constraints pick in `asset` with
+/// `options`, writing nothing: for callers who want the intermediate
+/// results (step 1's layout, the final layout of the filled chart).
+///
+/// # Errors
+/// Constraint and topology errors against the asset.
+pub fn solve_chart(
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+    options: &SolverOptions,
+) -> Result<SolvedChart, Error> {
+    solve_chart_timed(source, asset, options, 0.0)
+}
+
+/// As [`solve_chart`], `load_ms` already spent on loading.
+fn solve_chart_timed(
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+    options: &SolverOptions,
+    load_ms: f64,
+) -> Result<SolvedChart, Error> {
+    let t0 = Instant::now();
+    let prepared = chart::prepare(source, asset)?;
+    let topology_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let step1 = step1::step1(&prepared, source, &asset.path)?;
+    let t = step1.times;
+    let times = StageTimes {
+        load_ms,
+        topology_ms,
+        boundary_ms: t.boundary_ms,
+        factor_ms: t.factor_ms,
+        solve_ms: t.solve_ms,
+        ..StageTimes::default()
+    };
+    let mut solver = ChartSolver::start(SolveStart {
+        prepared: &prepared,
+        source,
+        options,
+        boundary: &step1.boundary,
+        step1: &step1.layout,
+        bar_net: Some(&step1.bar_net),
+        pattern: None,
+        elapsed_ms: times.total_ms(),
+    })?;
+    solver.run()?;
+    let report = report::build(&report::SolveSummary {
+        constraint_file: source.name(),
+        asset,
+        prepared: &prepared,
+        boundary: &step1.boundary,
+        step1: &step1.layout,
+        solver: &solver,
+        times: times.with_solver(solver.times()),
+    });
+    Ok(SolvedChart {
+        prepared,
+        step1,
+        solver,
+        report,
+    })
+}
+
+impl SolvedChart {
+    /// The final UVs per primitive of `asset`.
+    pub fn uvs(&self, asset: &SourceAsset) -> PrimitiveUvs {
+        chart::assemble_uvs(asset, &self.prepared, self.solver.layout())
+    }
+
+    /// Checks the layout as stored, writes `options.output` and the
+    /// pictures; the final report.
+    pub fn export(self, asset: &SourceAsset, options: &Options) -> Report {
+        let t0 = Instant::now();
+        let output = options.output.as_deref();
+        let guard = self.solver.options().guard;
+        let mut report = crate::export::export_chart(
+            asset,
+            &self.prepared,
+            self.solver.layout(),
+            self.report.clone(),
+            output,
+            guard,
+        );
+        report.times.export_ms = t0.elapsed().as_secs_f64() * 1e3;
+        report.total_ms = report.times.total_ms();
+        #[cfg(feature = "pictures")]
+        if let Err(e) = crate::preview::draw_chart(
+            asset,
+            &self.prepared,
+            &self.step1.boundary.loop_vertices,
+            self.solver.layout(),
+            &report,
+            &options.pictures,
+        ) {
+            report.warnings.push(format!("preview: {e}"));
+        }
+        report
+    }
+}

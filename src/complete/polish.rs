@@ -1,0 +1,103 @@
+//! The polish: with the targets reached, Newton steps on the symmetric
+//! Dirichlet energy with the constrained vertices (and the boundary) held.
+//! It also spreads a layout whose triangles are too small for f32 until it
+//! can be stored.
+
+use super::context::{NewtonContext, StepRequest};
+use super::{POLISH_TOLERANCE, REPAIR_STEPS};
+use crate::options::SolverOptions;
+use crate::rbf::stepping::StepProblem;
+use glam::DVec2;
+
+/// Why the polish runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PolishGoal {
+    /// Lower the distortion (and make the layout storable on the way).
+    Distortion,
+    /// Only make a layout that f32 cannot store yet storable.
+    Storable,
+}
+
+/// What the polish did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PolishStats {
+    pub goal: PolishGoal,
+    pub steps: u32,
+    /// Steps taken while the layout was not yet storable (not counted
+    /// against `polish_iterations`).
+    pub repair_steps: u32,
+    /// The start could not be stored as f32.
+    pub started_unstorable: bool,
+    /// Energy when the polish started.
+    pub energy_start: f64,
+}
+
+/// The polish of one chart, one Newton step per call.
+#[derive(Debug, Clone)]
+pub struct Polish {
+    newton: NewtonContext,
+    /// The constrained vertices, held where they are.
+    held: Vec<bool>,
+    energy_now: f64,
+    pub stats: PolishStats,
+}
+
+impl Polish {
+    /// The polish of `layout` toward `goal`, holding `problem`'s constrained vertices.
+    pub fn new(
+        newton: NewtonContext,
+        problem: &StepProblem,
+        layout: &[DVec2],
+        triangles: &[[u32; 3]],
+        goal: PolishGoal,
+    ) -> Self {
+        let mut held = vec![false; layout.len()];
+        problem
+            .constraint_vertices
+            .iter()
+            .for_each(|&v| held[v as usize] = true);
+        let energy_start = newton.energy(layout, triangles);
+        Polish {
+            stats: PolishStats {
+                goal,
+                steps: 0,
+                repair_steps: 0,
+                started_unstorable: !newton.is_storable(),
+                energy_start,
+            },
+            newton,
+            held,
+            energy_now: energy_start,
+        }
+    }
+
+    /// The layout's energy after the last step.
+    pub fn energy(&self) -> f64 {
+        self.energy_now
+    }
+
+    /// One Newton step on `layout`; `true` when the polish is over (it
+    /// stopped gaining, or ran out of steps, with the layout storable; or it
+    /// is stuck).
+    pub fn step(&mut self, layout: &mut [DVec2], triangles: &[[u32; 3]], options: &SolverOptions) -> bool {
+        let repairing = !self.newton.is_storable();
+        let request = StepRequest {
+            reference: None,
+            soft: None,
+            held: Some(&self.held),
+            tolerance: POLISH_TOLERANCE,
+        };
+        let step = self.newton.step(layout, triangles, request);
+        self.energy_now = self.newton.energy(layout, triangles);
+        let steps = self.stats.steps;
+        self.stats.steps += 1;
+        self.stats.repair_steps += u32::from(repairing);
+        let gain = (step.energy_before - step.energy_after) / step.energy_before.max(1e-300);
+        let finished = self.stats.goal == PolishGoal::Storable
+            || step.converged
+            || gain < POLISH_TOLERANCE
+            || steps + 1 - self.stats.repair_steps >= options.polish_iterations;
+        let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
+        (finished && self.newton.is_storable()) || stuck
+    }
+}

@@ -1,0 +1,159 @@
+//! Constraints on a mesh held in memory (the library API): vertex ids and
+//! targets, checked as a constraint file's are, with errors naming the
+//! constraint's index instead of a line and column.
+
+use crate::constraints::ResolvedConstraint;
+use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
+use glam::DVec2;
+use thiserror::Error;
+
+/// Constraints on an in-memory mesh: each `(vertex, target)` puts a vertex
+/// of the mesh on a target in glTF texture coordinates ((0, 0) top-left,
+/// v down), and `corners` optionally names the outer-boundary vertices that
+/// go to the texture's corners (top_left, bottom_left, bottom_right,
+/// top_right).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Pins {
+    pub targets: Vec<(u32, DVec2)>,
+    pub corners: Option<[u32; 4]>,
+}
+
+impl Pins {
+    /// Pins with automatic corners.
+    pub fn new(targets: &[(u32, DVec2)]) -> Self {
+        Pins {
+            targets: targets.to_vec(),
+            corners: None,
+        }
+    }
+
+    /// The same pins with these corner vertices.
+    #[must_use]
+    pub fn with_corners(mut self, corners: [u32; 4]) -> Self {
+        self.corners = Some(corners);
+        self
+    }
+}
+
+/// A mistake in [`Pins`]: which constraint (or the corners) and what is wrong.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum PinError {
+    #[error("constraints[{index}]: {message}")]
+    Constraint { index: usize, message: String },
+    #[error("corners: {message}")]
+    Corners { message: String },
+}
+
+impl Pins {
+    /// The pins resolved against the mesh (one primitive) and its welding:
+    /// the constraints, and the corners as welded ids. Duplicates naming the
+    /// same welded vertex with the same target are merged.
+    ///
+    /// # Errors
+    /// A vertex out of range or used by no triangle, a target outside the
+    /// unit square, one vertex given two different targets, a corner out of
+    /// range.
+    pub fn resolve(
+        &self,
+        primitive: &PrimitiveGeometry,
+        welded: &WeldedMesh,
+    ) -> Result<(Vec<ResolvedConstraint>, Option<[u32; 4]>), PinError> {
+        let n = primitive.positions.len();
+        let mut out: Vec<ResolvedConstraint> = Vec::new();
+        for (index, &(vertex, target)) in self.targets.iter().enumerate() {
+            let fail = |message: String| PinError::Constraint { index, message };
+            check_target(target).map_err(fail)?;
+            if vertex as usize >= n {
+                return Err(fail(format!(
+                    "vertex {vertex} is out of range: the mesh has vertices 0..{n}"
+                )));
+            }
+            let w = welded.vertex_of[0][vertex as usize];
+            if welded.chart_of_vertex[w as usize].is_none() {
+                return Err(fail(format!("vertex {vertex} is used by no triangle")));
+            }
+            if let Some(prev) = out.iter().find(|r| r.welded == w) {
+                if prev.target_uv == target {
+                    continue;
+                }
+                return Err(fail(format!(
+                    "vertex {vertex} is already constrained by constraints[{}] to ({}, {}); a vertex can have only one target",
+                    prev.index, prev.target_uv.x, prev.target_uv.y
+                )));
+            }
+            out.push(ResolvedConstraint {
+                index,
+                label: None,
+                primitive: 0,
+                vertex,
+                welded: w,
+                target_uv: target,
+                snapped_distance: None,
+            });
+        }
+        let corners = self.corners.map(|c| resolve_corners(c, welded, n)).transpose()?;
+        Ok((out, corners))
+    }
+}
+
+/// A target must be a point of the unit square.
+fn check_target(t: DVec2) -> Result<(), String> {
+    if t.is_finite() && t.x >= 0.0 && t.x <= 1.0 && t.y >= 0.0 && t.y <= 1.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "target ({}, {}) in texture coordinates is outside the unit square [0, 1] × [0, 1]",
+            t.x, t.y
+        ))
+    }
+}
+
+fn resolve_corners(corners: [u32; 4], welded: &WeldedMesh, n: usize) -> Result<[u32; 4], PinError> {
+    let mut out = [0u32; 4];
+    for (k, v) in corners.into_iter().enumerate() {
+        if v as usize >= n {
+            return Err(PinError::Corners {
+                message: format!(
+                    "{}: vertex {v} is out of range: the mesh has vertices 0..{n}",
+                    crate::param::boundary::CORNER_NAMES[k]
+                ),
+            });
+        }
+        out[k] = welded.vertex_of[0][v as usize];
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn triangle() -> (PrimitiveGeometry, WeldedMesh) {
+        let prim = PrimitiveGeometry {
+            index: 0,
+            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [5.0, 5.0, 5.0]],
+            indices: vec![0, 1, 2],
+            uvs: None,
+        };
+        let welded = crate::mesh::weld::weld(std::slice::from_ref(&prim));
+        (prim, welded)
+    }
+
+    #[test]
+    fn mistakes_name_the_constraint() {
+        let (prim, welded) = triangle();
+        let err = |pins: Pins| pins.resolve(&prim, &welded).unwrap_err().to_string();
+        let half = DVec2::splat(0.5);
+        assert_eq!(
+            err(Pins::new(&[(0, half), (9, half)])),
+            "constraints[1]: vertex 9 is out of range: the mesh has vertices 0..4"
+        );
+        assert!(err(Pins::new(&[(3, half)])).contains("used by no triangle"));
+        assert!(err(Pins::new(&[(1, DVec2::new(1.5, 0.0))])).contains("outside the unit square"));
+        assert!(err(Pins::new(&[(1, DVec2::NAN)])).contains("outside the unit square"));
+        assert!(err(Pins::new(&[(1, half), (1, DVec2::ZERO)])).starts_with("constraints[1]: vertex 1 is already"));
+        assert!(err(Pins::new(&[]).with_corners([0, 1, 2, 7])).starts_with("corners: top_right: vertex 7"));
+        let merged = Pins::new(&[(1, half), (1, half)]).resolve(&prim, &welded).unwrap();
+        assert_eq!(merged.0.len(), 1);
+    }
+}

@@ -1,0 +1,230 @@
+//! The report of a finished chart solve.
+
+use super::explain::explain_lines;
+use super::{BoundaryReport, CompletionStats, ConstraintReport, Counts, Report, StageTimes, Status};
+use crate::chart::PreparedChart;
+use crate::complete::obstruction::Obstruction;
+use crate::metrics::{Stretch, sander_stretch};
+use crate::param::boundary::{BoundaryMap, BoundaryShape};
+use crate::param::xy_to_uv;
+use crate::rbf::stepping::SteppingPhase;
+use crate::solver::ChartSolver;
+use glam::DVec2;
+
+/// Everything [`build`] needs about a finished solve.
+pub struct SolveSummary<'a> {
+    /// How the report names the constraints' source (a path or `<memory>`).
+    pub constraint_file: String,
+    pub asset: &'a crate::io::SourceAsset,
+    pub prepared: &'a PreparedChart,
+    pub boundary: &'a BoundaryMap,
+    pub step1: &'a [DVec2],
+    pub solver: &'a ChartSolver,
+    /// Every stage's time so far (the solver's own included).
+    pub times: StageTimes,
+}
+
+/// A chart vertex's id in the asset (the first primitive that has it).
+fn gltf_id(p: &PreparedChart, local: u32) -> Option<u32> {
+    let w = *p.chart.welded_ids.get(local as usize)?;
+    p.welded
+        .vertex_of
+        .iter()
+        .find_map(|map| map.iter().position(|&x| x == w).map(|i| i as u32))
+}
+
+/// Which constraint (its index in the file) pins a chart vertex, if any.
+fn constraint_of(p: &PreparedChart) -> impl Fn(u32) -> Option<usize> + '_ {
+    |v| {
+        p.constraints
+            .iter()
+            .zip(&p.constraint_vertices)
+            .find_map(|(c, &w)| (w == v).then_some(c.index))
+    }
+}
+
+/// How a message names a chart vertex: `constraints[i]`, `boundary vertex N`
+/// or `vertex N` (N its id in the asset).
+pub(crate) fn vertex_namer<'a>(p: &'a PreparedChart, on_outer: &'a [bool]) -> impl Fn(u32) -> String + 'a {
+    move |v| match (constraint_of(p)(v), gltf_id(p, v)) {
+        (Some(i), _) => format!("constraints[{i}]"),
+        (None, Some(id)) if on_outer[v as usize] => format!("boundary vertex {id}"),
+        (None, Some(id)) => format!("vertex {id}"),
+        (None, None) => "a hole's centre".into(),
+    }
+}
+
+/// Per chart vertex, whether it is on the outer loop.
+fn outer_mask(p: &PreparedChart, boundary: &BoundaryMap) -> Vec<bool> {
+    let mut on_outer = vec![false; p.filled.mesh.n_vertices()];
+    for &v in &boundary.loop_vertices {
+        on_outer[v as usize] = true;
+    }
+    on_outer
+}
+
+/// Each constraint's target, result, step-1 position and residual.
+fn constraint_reports(s: &SolveSummary, on_outer: &[bool]) -> Vec<ConstraintReport> {
+    let tolerance = s.solver.options().tolerance;
+    let layout = s.solver.layout();
+    s.prepared
+        .constraints
+        .iter()
+        .zip(&s.prepared.constraint_vertices)
+        .map(|(c, &v)| {
+            let result = xy_to_uv(layout[v as usize]);
+            let residual = result.distance(c.target_uv);
+            ConstraintReport {
+                index: c.index,
+                label: c.label.clone(),
+                primitive: c.primitive,
+                vertex: c.vertex,
+                target: c.target_uv,
+                result,
+                step1: xy_to_uv(s.step1[v as usize]),
+                residual,
+                reached: residual <= tolerance,
+                on_boundary: on_outer[v as usize],
+                snapped_distance: c.snapped_distance,
+            }
+        })
+        .collect()
+}
+
+/// The status, and why stepping stopped short.
+fn status_and_message(s: &SolveSummary, all_reached: bool) -> (Status, Option<String>) {
+    let record = s.solver.record();
+    if all_reached {
+        return (Status::Reached, None);
+    }
+    let message = if record.soft.is_some() {
+        if record.out_of_time {
+            "the time budget ran out before every constraint was placed; the layout is the best fold-free one so far"
+                .into()
+        } else {
+            "no fold-free layout with every constraint on its target was found; the layout is the best fold-free one"
+                .into()
+        }
+    } else if let SteppingPhase::Stalled(reason) = &s.solver.spline().phase {
+        format!("the spline path stalled ({reason}); the layout is the last fold-free step (completion: Never)")
+    } else {
+        "some constraints are outside tolerance".into()
+    };
+    (Status::Partial, Some(message))
+}
+
+/// For unreached constraints: a proof that no fold-free layout reaches
+/// them, if there is one (the soft rounds looked for it when they started;
+/// it depends only on the boundary and the targets), else none.
+fn certificate(s: &SolveSummary, any_unreached: bool) -> Option<Obstruction> {
+    if !any_unreached {
+        return None;
+    }
+    match &s.solver.record().soft {
+        Some(soft) => soft.obstruction.clone(),
+        None => crate::complete::find_obstruction(&s.prepared.filled, s.solver.layout(), s.solver.problem()),
+    }
+}
+
+/// The hint for unreached constraints and the proof, if any.
+fn hint_and_proof(
+    s: &SolveSummary,
+    constraints: &[ConstraintReport],
+    on_outer: &[bool],
+) -> (Option<String>, Option<String>) {
+    let p = s.prepared;
+    let unreached: Vec<(usize, u32)> = constraints
+        .iter()
+        .zip(&p.constraint_vertices)
+        .filter(|(c, _)| !c.reached)
+        .map(|(c, &v)| (c.index, v))
+        .collect();
+    let certificate = certificate(s, !unreached.is_empty());
+    let name = vertex_namer(p, on_outer);
+    let hint = (!unreached.is_empty()).then(|| match &certificate {
+        Some(c) => crate::complete::obstruction_hint(c, constraint_of(p), &name),
+        None => crate::complete::partial_hint(&p.filled, s.solver.layout(), s.solver.problem(), &unreached),
+    });
+    (hint, certificate.as_ref().map(|c| c.describe(&name)))
+}
+
+/// The chart's warnings, and one for a bulged boundary.
+fn warnings(s: &SolveSummary) -> Vec<String> {
+    let mut warnings = s.prepared.warnings.clone();
+    if s.boundary.shape == BoundaryShape::BulgedSquare {
+        warnings.push(format!(
+            "{} triangles or interior edges would lie flat on one side of the square with these corners; \
+             the sides were bowed outward (strictly convex) instead, so the corners sit slightly inside the texture's corners",
+            s.boundary.trapped_on_square
+        ));
+    }
+    warnings
+}
+
+fn counts(s: &SolveSummary) -> Counts {
+    let p = s.prepared;
+    Counts {
+        charts: p.welded.n_charts,
+        chart: p.chart.id,
+        vertices: p.chart.mesh.n_vertices(),
+        triangles: p.chart.mesh.n_triangles(),
+        holes: p.filled.n_holes(),
+        boundary_vertices: s.boundary.loop_vertices.len(),
+    }
+}
+
+/// Sander stretch of `layout` over the real triangles.
+fn stretch_of(p: &PreparedChart, layout: &[DVec2]) -> Stretch {
+    let real = &p.chart.mesh;
+    sander_stretch(&real.positions, &layout[..p.filled.n_real_vertices], &real.triangles)
+}
+
+/// The report of a finished solve (before the file is written).
+pub fn build(s: &SolveSummary) -> Report {
+    let p = s.prepared;
+    let on_outer = outer_mask(p, s.boundary);
+    let constraints = constraint_reports(s, &on_outer);
+    let max_residual = constraints.iter().map(|c| c.residual).fold(0.0, f64::max);
+    let mean_residual = if constraints.is_empty() {
+        0.0
+    } else {
+        constraints.iter().map(|c| c.residual).sum::<f64>() / constraints.len() as f64
+    };
+    let (status, message) = status_and_message(s, constraints.iter().all(|c| c.reached));
+    let (hint, unreachable_proof) = hint_and_proof(s, &constraints, &on_outer);
+    let stretch_step1 = stretch_of(p, s.step1);
+    let stretch_final = stretch_of(p, s.solver.layout());
+    let completion = CompletionStats::from_record(s.solver.record());
+    let explain = explain_lines(s, &completion, status, (&stretch_step1, &stretch_final), max_residual);
+    let spline = s.solver.spline();
+    Report {
+        status,
+        message,
+        constraint_file: s.constraint_file.clone(),
+        asset: s.asset.path.display().to_string(),
+        output: None,
+        uv_set: s.asset.uv_set,
+        constraints,
+        max_residual,
+        mean_residual,
+        orientation: crate::chart::written_orientation(p, s.solver.layout()),
+        stretch_step1,
+        stretch_before_polish: s.solver.record().stretch_before_polish,
+        stretch_final,
+        completion: Some(completion),
+        hint,
+        unreachable_proof,
+        explain,
+        iterations: spline.iterations,
+        halvings: spline.total_halvings,
+        times: s.times,
+        total_ms: s.times.total_ms(),
+        counts: counts(s),
+        boundary: Some(BoundaryReport {
+            shape: s.boundary.shape,
+            corner_source: s.boundary.corner_source,
+            corners: s.boundary.corner_vertices().map(|v| gltf_id(p, v)),
+        }),
+        warnings: warnings(s),
+    }
+}

@@ -1,0 +1,169 @@
+//! `uvpin solve --explain`: one line per phase.
+
+use super::build::SolveSummary;
+use super::{CompletionStats, Status};
+use crate::metrics::Stretch;
+use crate::param::boundary::{BoundaryShape, CornerSource};
+use crate::rbf::stepping::SteppingPhase;
+use crate::solver::policy::{PolishOutcome, Reached};
+
+/// One line per phase: step 1, spline path, completion, polish, result.
+pub(super) fn explain_lines(
+    s: &SolveSummary,
+    c: &CompletionStats,
+    status: Status,
+    (step1, last): (&Stretch, &Stretch),
+    max_residual: f64,
+) -> Vec<String> {
+    vec![
+        step1_line(s, step1),
+        spline_line(s),
+        completion_line(s, c),
+        polish_line(s, c, last),
+        format!(
+            "result: {}, max residual {max_residual:.3e}, {:.2} ms in all",
+            status_word(status),
+            s.times.total_ms()
+        ),
+    ]
+}
+
+fn status_word(status: Status) -> &'static str {
+    match status {
+        Status::Reached => "reached",
+        Status::Partial => "partial",
+        Status::Error => "error",
+    }
+}
+
+fn step1_line(s: &SolveSummary, step1: &Stretch) -> String {
+    let t = &s.times;
+    format!(
+        "step 1 (bar-net, Eq. 1-2): outer loop of {} vertices on the {} (corners {}); {} holes fan-filled; \
+         {} free vertices solved; stretch L2 {:.4}, L∞ {:.4}; {:.2} ms",
+        s.boundary.loop_vertices.len(),
+        if s.boundary.shape == BoundaryShape::Square {
+            "square"
+        } else {
+            "bulged square (zero-area trap)"
+        },
+        match s.boundary.corner_source {
+            CornerSource::Given => "given".to_string(),
+            CornerSource::Automatic { shift } => format!("automatic, {shift} shifts"),
+        },
+        s.prepared.filled.n_holes(),
+        s.solver.problem().movable.len(),
+        step1.l2,
+        step1.linf,
+        t.boundary_ms + t.factor_ms + t.solve_ms
+    )
+}
+
+fn spline_line(s: &SolveSummary) -> String {
+    let st = s.solver.spline();
+    let ms = s.times.stepping_ms + s.times.guard_ms;
+    match &st.phase {
+        SteppingPhase::Skipped => "spline path (Eq. 6): skipped (completion: Always)".into(),
+        SteppingPhase::Reached if st.iterations == 0 => "spline path (Eq. 6): nothing to move".into(),
+        SteppingPhase::Reached => format!(
+            "spline path (Eq. 6): reached in {} steps, {} halvings; {ms:.2} ms",
+            st.iterations, st.total_halvings
+        ),
+        SteppingPhase::Stalled(reason) => format!(
+            "spline path (Eq. 6): stalled after {} steps, {} halvings ({reason}); {ms:.2} ms",
+            st.iterations, st.total_halvings
+        ),
+        SteppingPhase::Stepping => "spline path (Eq. 6): unfinished".into(),
+    }
+}
+
+/// How the soft rounds ended.
+fn snap_words(c: &CompletionStats) -> String {
+    match (c.snapped_at_round, c.arc_retry) {
+        (Some(r), false) => format!("snapped onto the targets in round {}", r + 1),
+        (Some(r), true) => format!(
+            "snapped onto the targets in round {} moving along arc paths{}",
+            r + 1,
+            if c.paths_cross {
+                " (tried first: two constraints' straight paths meet head-on)"
+            } else {
+                ""
+            }
+        ),
+        (None, _) if c.proven_unreachable => {
+            "could not snap onto the targets (proven unreachable, see the hint: one straight attempt, no arc retries)"
+                .into()
+        }
+        (None, _) => "could not snap onto the targets (straight and arc paths tried)".into(),
+    }
+}
+
+fn completion_line(s: &SolveSummary, c: &CompletionStats) -> String {
+    if !c.soft {
+        return "completion: not needed".into();
+    }
+    format!(
+        "completion (soft-to-hard symmetric Dirichlet): {}{} rounds, {} Newton steps, {}; energy {:.4} → {:.4}{}{}; {:.2} ms",
+        if c.repair_steps > 0 {
+            format!("{} steps spreading triangles too small for f32, then ", c.repair_steps)
+        } else {
+            String::new()
+        },
+        c.rounds,
+        c.newton_steps,
+        snap_words(c),
+        c.energy_start,
+        c.energy_snapped.unwrap_or(c.energy_end),
+        if c.capped_triangles > 0 {
+            format!(
+                "; up to {} triangles measured against progressive reference shapes",
+                c.capped_triangles
+            )
+        } else {
+            String::new()
+        },
+        if c.out_of_time { " (time budget)" } else { "" },
+        s.times.complete_ms
+    )
+}
+
+fn polish_line(s: &SolveSummary, c: &CompletionStats, last: &Stretch) -> String {
+    let record = s.solver.record();
+    let outcome = record.polish_outcome.unwrap_or(PolishOutcome::NothingToMove);
+    match (outcome, record.stretch_before_polish) {
+        (PolishOutcome::Ran, Some(before)) => format!(
+            "polish (constraints and boundary held): {} Newton steps{}; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}; {:.2} ms",
+            c.polish_steps,
+            if c.polish_repair_steps > 0 {
+                format!(
+                    " ({} of them spreading triangles too small for f32)",
+                    c.polish_repair_steps
+                )
+            } else {
+                String::new()
+            },
+            before.l2,
+            last.l2,
+            before.linf,
+            last.linf,
+            s.times.polish_ms
+        ),
+        (PolishOutcome::Off, _) => "polish: off".into(),
+        (PolishOutcome::PaperGuard, _) => "polish: not run (the paper's guard: its spline path alone)".into(),
+        (PolishOutcome::TargetsNotReached, _) => "polish: not run (the targets were not reached)".into(),
+        (PolishOutcome::AboveLimit { after }, _) => {
+            let after = match after {
+                Reached::Completion => {
+                    "the completion left the layout no more distorted than step 1, in all and in its worst triangle"
+                }
+                Reached::SplinePath => "the spline path reached the targets",
+            };
+            format!(
+                "polish: not run ({after}, on {} vertices: above polish_max_vertices {})",
+                s.prepared.filled.n_real_vertices,
+                s.solver.options().polish_max_vertices
+            )
+        }
+        (PolishOutcome::NothingToMove | PolishOutcome::Ran, _) => "polish: not run".into(),
+    }
+}

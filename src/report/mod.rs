@@ -1,0 +1,325 @@
+//! The solve report: status, per-constraint results, fold counts, stretch,
+//! iterations, time per stage, sizes. Written as JSON; summarised on stderr.
+
+mod build;
+mod explain;
+
+pub(crate) use build::vertex_namer;
+pub use build::{SolveSummary, build};
+
+use crate::guard::OrientationCounts;
+use crate::metrics::Stretch;
+use crate::param::boundary::{BoundaryShape, CornerSource};
+use glam::DVec2;
+use serde::Serialize;
+
+/// How a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Every constraint on its target, no fold. Exit code 0.
+    Reached,
+    /// Written, fold-free, but some constraints are short of their targets. Exit code 2.
+    Partial,
+    /// Nothing written. Exit code 1.
+    Error,
+}
+
+impl Status {
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Status::Reached => 0,
+            Status::Partial => 2,
+            Status::Error => 1,
+        }
+    }
+}
+
+/// One constraint's outcome.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConstraintReport {
+    /// Index in the constraint file's list.
+    pub index: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
+    pub primitive: usize,
+    pub vertex: u32,
+    /// Target, glTF texture coordinates.
+    pub target: DVec2,
+    /// Where the vertex ended, glTF texture coordinates.
+    pub result: DVec2,
+    /// Where step 1 (the bar-net) put it.
+    pub step1: DVec2,
+    /// Distance from result to target, texture units.
+    pub residual: f64,
+    pub reached: bool,
+    /// On the outer boundary (placed by the boundary map, not moved).
+    pub on_boundary: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub snapped_distance: Option<f64>,
+}
+
+/// Wall-clock milliseconds per stage.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct StageTimes {
+    /// Reading the constraint file and the asset.
+    pub load_ms: f64,
+    /// Welding, chart choice, topology checks, hole filling.
+    pub topology_ms: f64,
+    /// Outer boundary onto the square (§III.B).
+    pub boundary_ms: f64,
+    /// Building and factoring D (Eq. 1–2).
+    pub factor_ms: f64,
+    /// Solving for the free nodes (Eq. 1).
+    pub solve_ms: f64,
+    /// Spline fits and evaluations (Eq. 6).
+    pub stepping_ms: f64,
+    /// Completion phase (soft-to-hard Newton steps).
+    pub complete_ms: f64,
+    /// Distortion polish.
+    pub polish_ms: f64,
+    /// Orientation checks of candidate layouts.
+    pub guard_ms: f64,
+    /// Metrics, final checks, writing the file.
+    pub export_ms: f64,
+}
+
+impl StageTimes {
+    /// These times with the solver's stages (spline path, guard,
+    /// completion, polish) taken from `solver`.
+    #[must_use]
+    pub fn with_solver(mut self, solver: crate::solver::SolverTimes) -> Self {
+        self.stepping_ms = solver.stepping_ms;
+        self.guard_ms = solver.guard_ms;
+        self.complete_ms = solver.complete_ms;
+        self.polish_ms = solver.polish_ms;
+        self
+    }
+
+    pub fn total_ms(&self) -> f64 {
+        self.load_ms
+            + self.topology_ms
+            + self.boundary_ms
+            + self.factor_ms
+            + self.solve_ms
+            + self.stepping_ms
+            + self.complete_ms
+            + self.polish_ms
+            + self.guard_ms
+            + self.export_ms
+    }
+}
+
+/// Sizes of what was solved.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Counts {
+    /// Charts in the mesh (after welding).
+    pub charts: usize,
+    /// The solved chart's id.
+    pub chart: u32,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub holes: usize,
+    pub boundary_vertices: usize,
+}
+
+/// How the outer boundary was placed.
+#[derive(Debug, Clone, Serialize)]
+pub struct BoundaryReport {
+    pub shape: BoundaryShape,
+    pub corner_source: CornerSource,
+    /// glTF vertex ids (in the first primitive that has them) of the corners,
+    /// top_left, bottom_left, bottom_right, top_right.
+    pub corners: [Option<u32>; 4],
+}
+
+/// What the completion and polish did (the report's `completion` section).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct CompletionStats {
+    /// The soft-to-hard phase ran.
+    pub soft: bool,
+    pub rounds: u32,
+    pub newton_steps: u32,
+    /// Constrained vertices were put exactly on their targets.
+    pub snapped: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub snapped_at_round: Option<u32>,
+    /// The distortion polish ran.
+    pub polish: bool,
+    /// A layout too squeezed to store as f32 was spread first (before the
+    /// soft rounds, or by the polish).
+    pub repair: bool,
+    pub polish_steps: u32,
+    /// Steps spent spreading a start too squeezed for f32, before the soft rounds.
+    pub repair_steps: u32,
+    /// Polish steps spent on the same repair (not counted against `polish_iterations`).
+    pub polish_repair_steps: u32,
+    /// Symmetric Dirichlet energy (area-weighted, 4 per unit area = isometry) at the start and end.
+    pub energy_start: f64,
+    pub energy_end: f64,
+    /// The same energy right after the snap onto the targets (before any polish).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub energy_snapped: Option<f64>,
+    /// The largest energy of one real triangle (ψ, 4 = isometry) at the
+    /// start of the soft rounds, and right after the snap.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub worst_start: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub worst_snapped: Option<f64>,
+    /// The most triangles any soft step measured against a progressive
+    /// reference shape instead of their rest shape.
+    pub capped_triangles: usize,
+    /// The time budget cut the phase short.
+    pub out_of_time: bool,
+    /// The targets were reached moving along arcs.
+    pub arc_retry: bool,
+    /// Some constraints' straight paths cross, so arcs were tried first.
+    pub paths_cross: bool,
+    /// The targets are provably unreachable: one straight attempt for the
+    /// closest layout, no retries along arcs.
+    pub proven_unreachable: bool,
+}
+
+impl CompletionStats {
+    /// The section for a solve's record.
+    pub fn from_record(r: &crate::solver::SolveRecord) -> Self {
+        use crate::complete::attempts::Path;
+        use crate::complete::polish::PolishGoal;
+        let mut c = CompletionStats {
+            energy_end: r.energy_end,
+            out_of_time: r.out_of_time,
+            ..Default::default()
+        };
+        if let Some(p) = &r.polish {
+            c.polish = p.goal == PolishGoal::Distortion;
+            c.repair = p.started_unstorable;
+            c.polish_steps = p.steps;
+            c.polish_repair_steps = p.repair_steps;
+            c.energy_start = p.energy_start;
+        }
+        if let Some(s) = &r.soft {
+            c.soft = true;
+            c.rounds = s.rounds;
+            c.newton_steps = s.newton_steps;
+            c.snapped = s.snapped_at_round.is_some();
+            c.snapped_at_round = s.snapped_at_round;
+            c.repair |= s.started_unstorable;
+            c.repair_steps = s.repair_steps;
+            c.energy_start = s.energy_start;
+            c.energy_snapped = s.energy_snapped;
+            c.worst_start = Some(s.worst_start);
+            c.worst_snapped = s.worst_snapped;
+            c.capped_triangles = s.capped_triangles;
+            c.arc_retry = matches!(s.snapped_path, Some(Path::Arc { .. }));
+            c.paths_cross = s.paths_cross;
+            c.proven_unreachable = s.obstruction.is_some();
+        }
+        c
+    }
+}
+
+/// The full report of one solve.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub status: Status,
+    /// Why stepping stopped short, or the error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub message: Option<String>,
+    pub constraint_file: String,
+    pub asset: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+    pub uv_set: u32,
+    pub constraints: Vec<ConstraintReport>,
+    pub max_residual: f64,
+    pub mean_residual: f64,
+    /// Orientation of the solved chart as written (f32), virtual hole triangles included.
+    pub orientation: OrientationCounts,
+    /// Stretch of the step-1 (bar-net) layout.
+    pub stretch_step1: Stretch,
+    /// Stretch once the targets were reached, before the polish.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stretch_before_polish: Option<Stretch>,
+    /// Stretch of the final layout.
+    pub stretch_final: Stretch,
+    /// What the completion phase and polish did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub completion: Option<CompletionStats>,
+    /// For a partial result: which constraints conflict and where the mesh is squeezed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hint: Option<String>,
+    /// For a partial result that no fold-free layout of this mesh could
+    /// improve on: what would have to happen for every target to be reached
+    /// (a crossing, a flipped or overlapped piece pinned in place).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unreachable_proof: Option<String>,
+    /// What each phase did, one line each (`uvpin solve --explain`).
+    pub explain: Vec<String>,
+    pub iterations: u32,
+    pub halvings: u32,
+    pub times: StageTimes,
+    pub total_ms: f64,
+    pub counts: Counts,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub boundary: Option<BoundaryReport>,
+    pub warnings: Vec<String>,
+}
+
+impl Report {
+    /// A short human summary (a few lines).
+    pub fn summary(&self) -> String {
+        let mut s = format!(
+            "{}: {} — {} of {} constraints reached (max residual {:.3e}), {} flipped / {} zero-area triangles\n",
+            match self.status {
+                Status::Reached => "reached",
+                Status::Partial => "partial",
+                Status::Error => "error",
+            },
+            self.output.as_deref().unwrap_or(&self.asset),
+            self.constraints.iter().filter(|c| c.reached).count(),
+            self.constraints.len(),
+            self.max_residual,
+            self.orientation.flipped,
+            self.orientation.zero_area,
+        );
+        s += &format!(
+            "  chart {} of {}: {} vertices, {} triangles, {} holes; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}\n",
+            self.counts.chart,
+            self.counts.charts,
+            self.counts.vertices,
+            self.counts.triangles,
+            self.counts.holes,
+            self.stretch_step1.l2,
+            self.stretch_final.l2,
+            self.stretch_step1.linf,
+            self.stretch_final.linf
+        );
+        s += &format!(
+            "  {} iterations, {} halvings, {:.1} ms\n",
+            self.iterations, self.halvings, self.total_ms
+        );
+        if let Some(m) = &self.message {
+            s += &format!("  {m}\n");
+        }
+        if let Some(h) = &self.hint {
+            s += &format!("  hint: {h}\n");
+        }
+        for c in self.constraints.iter().filter(|c| !c.reached) {
+            s += &format!(
+                "  unreached: constraints[{}]{} vertex {}: target ({:.4}, {:.4}), at ({:.4}, {:.4}), residual {:.4}\n",
+                c.index,
+                c.label.as_ref().map(|l| format!(" \"{l}\"")).unwrap_or_default(),
+                c.vertex,
+                c.target.x,
+                c.target.y,
+                c.result.x,
+                c.result.y,
+                c.residual
+            );
+        }
+        for w in &self.warnings {
+            s += &format!("  warning: {w}\n");
+        }
+        s
+    }
+}

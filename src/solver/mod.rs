@@ -1,0 +1,455 @@
+//! The chart solver: the algorithm's one home. From step 1's results it
+//! runs the spline path (Eq. 6) with the exact foldover guard and step
+//! halving, then, as [`policy`] decides, the completion (soft-to-hard
+//! Newton, snap onto the targets) and the polish, falling back to the
+//! closest fold-free layout when the targets cannot be reached.
+//!
+//! [`ChartSolver::tick`] does one spline proposal and its guard, or one
+//! Newton step, so the ECS can run every chart a tick at a time (a newer
+//! edit drops a running solve between ticks); [`ChartSolver::run`] runs to
+//! the end. The ECS systems call [`ChartSolver::propose`],
+//! [`ChartSolver::judge`] and [`ChartSolver::newton_tick`], the three parts
+//! of a tick, in that order.
+
+pub mod policy;
+pub mod step1;
+
+use crate::chart::{self, PreparedChart};
+use crate::complete::context::NewtonContext;
+use crate::complete::pattern::PendingNewtonPattern;
+use crate::complete::polish::{Polish, PolishGoal, PolishStats};
+use crate::complete::soft::{SoftCompletion, SoftProgress, SoftStats};
+use crate::constraints::ConstraintSource;
+use crate::error::Error;
+use crate::guard;
+use crate::metrics::{Stretch, sander_stretch};
+use crate::options::SolverOptions;
+use crate::param::bar_net::{BarNet, FilledChart};
+use crate::param::boundary::BoundaryMap;
+use crate::rbf::stepping::{FullStep, StepProblem, SteppingPhase, SteppingState, apply_step, full_step};
+use glam::DVec2;
+use policy::{AfterSpline, Policy, PolishOutcome};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Where a chart's solve stands.
+#[derive(Debug, Clone)]
+pub enum Phase {
+    /// The spline path: the full step's field is kept while its step is halved.
+    SplineStepping {
+        full_step: Option<FullStep>,
+    },
+    /// The soft-to-hard completion.
+    Completion(Box<SoftCompletion>),
+    Polish(Box<Polish>),
+    Done,
+}
+
+/// Milliseconds the solver spent per stage.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SolverTimes {
+    /// Setting up and running the spline path (fits and evaluations, Eq. 6).
+    pub stepping_ms: f64,
+    /// Orientation checks of the spline's candidates.
+    pub guard_ms: f64,
+    pub complete_ms: f64,
+    pub polish_ms: f64,
+}
+
+impl SolverTimes {
+    pub fn total_ms(&self) -> f64 {
+        self.stepping_ms + self.guard_ms + self.complete_ms + self.polish_ms
+    }
+}
+
+/// What the solve did, phase by phase.
+#[derive(Debug, Clone, Default)]
+pub struct SolveRecord {
+    pub soft: Option<SoftStats>,
+    pub polish: Option<PolishStats>,
+    /// The layout's symmetric Dirichlet energy after the last Newton step
+    /// (0 when no Newton step ran).
+    pub energy_end: f64,
+    /// The time budget stopped the completion or polish.
+    pub out_of_time: bool,
+    /// Sander stretch when the targets were reached, before any polish.
+    pub stretch_before_polish: Option<Stretch>,
+    /// Whether the distortion polish ran, or why not (set when decided).
+    pub polish_outcome: Option<PolishOutcome>,
+}
+
+/// Everything a chart's solve starts from.
+#[derive(Debug, Clone, Copy)]
+pub struct SolveStart<'a> {
+    pub prepared: &'a PreparedChart,
+    /// Where the constraints came from: errors found here point into it.
+    pub source: &'a ConstraintSource,
+    pub options: &'a SolverOptions,
+    pub boundary: &'a BoundaryMap,
+    /// The step-1 layout of the filled chart.
+    pub step1: &'a [DVec2],
+    /// Step 1's factor: its elimination order serves the Newton pattern.
+    pub bar_net: Option<&'a BarNet>,
+    /// A Newton pattern kept from an earlier solve of the same geometry.
+    pub pattern: Option<&'a Arc<PendingNewtonPattern>>,
+    /// Milliseconds already spent on this solve (loading to step 1),
+    /// counted against the time budget.
+    pub elapsed_ms: f64,
+}
+
+/// The solve of one chart, from step 1's results to the final layout.
+#[derive(Debug, Clone)]
+pub struct ChartSolver {
+    filled: Arc<FilledChart>,
+    problem: StepProblem,
+    options: SolverOptions,
+    policy: Policy,
+    step1: Vec<DVec2>,
+    /// The current layout: fold-free at all times (in double precision, and
+    /// as stored once it is storable).
+    layout: Vec<DVec2>,
+    /// The spline path's progress; kept when it is over, for the report.
+    spline: SteppingState,
+    /// Whether the layout is fold-free as stored (f32) on the spline path;
+    /// carried from step to step instead of recounted.
+    spline_storable: bool,
+    /// The spline path's last layout when it stalled: kept if the
+    /// completion ends further from the targets.
+    spline_layout: Option<Vec<DVec2>>,
+    phase: Phase,
+    pattern: Arc<PendingNewtonPattern>,
+    record: SolveRecord,
+    times: SolverTimes,
+    elapsed_before_ms: f64,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+impl ChartSolver {
+    /// The solve of `start.prepared` from its step-1 layout: the
+    /// constraints split into the spline's and those on the outer boundary,
+    /// the spline path set up, the Newton pattern shared or started.
+    ///
+    /// # Errors
+    /// A constraint on the outer boundary whose target contradicts the
+    /// boundary map; a step-1 layout that folds (a bug).
+    pub fn start(start: SolveStart) -> Result<Self, Error> {
+        let t0 = Instant::now();
+        let filled = &start.prepared.filled;
+        let triangles = &filled.mesh.triangles;
+        // One pass when storable (which implies positive in f64); the f64
+        // check only for a squeezed start.
+        let storable = guard::all_positive_as_stored(start.step1, triangles);
+        if let Some(t) = (!storable)
+            .then(|| guard::first_non_positive(start.step1, triangles))
+            .flatten()
+        {
+            return Err(Error::Internal(format!(
+                "the step-1 layout has a flipped or zero-area triangle ({t})"
+            )));
+        }
+        let options = *start.options;
+        let problem = chart::step_problem(
+            start.prepared,
+            start.source,
+            start.boundary,
+            options.max_boundary_centres,
+        )?;
+        let policy = Policy::new(&options, filled.n_real_vertices);
+        let spline = SteppingState::start(&problem, start.step1, &options, policy.completion_follows_stall());
+        let pattern = match start.pattern {
+            Some(p) if p.serves(&problem.movable) => p.clone(),
+            _ => {
+                // Step 1 ordered the same vertex graph: no second ordering.
+                let order = start.bar_net.and_then(BarNet::elimination_order).map(Arc::new);
+                let build = policy.pattern_build();
+                Arc::new(PendingNewtonPattern::new(
+                    filled.clone(),
+                    problem.movable.clone(),
+                    order,
+                    build,
+                ))
+            }
+        };
+        Ok(ChartSolver {
+            filled: filled.clone(),
+            problem,
+            options,
+            policy,
+            step1: start.step1.to_vec(),
+            layout: start.step1.to_vec(),
+            spline,
+            spline_storable: storable,
+            spline_layout: None,
+            phase: Phase::SplineStepping { full_step: None },
+            pattern,
+            record: SolveRecord::default(),
+            times: SolverTimes {
+                stepping_ms: ms(t0),
+                ..SolverTimes::default()
+            },
+            elapsed_before_ms: start.elapsed_ms,
+        })
+    }
+
+    pub fn phase(&self) -> &Phase {
+        &self.phase
+    }
+
+    pub fn is_done(&self) -> bool {
+        matches!(self.phase, Phase::Done)
+    }
+
+    /// The current layout of the filled chart (layout coordinates, y up).
+    pub fn layout(&self) -> &[DVec2] {
+        &self.layout
+    }
+
+    pub fn problem(&self) -> &StepProblem {
+        &self.problem
+    }
+
+    pub fn spline(&self) -> &SteppingState {
+        &self.spline
+    }
+
+    pub fn record(&self) -> &SolveRecord {
+        &self.record
+    }
+
+    pub fn times(&self) -> SolverTimes {
+        self.times
+    }
+
+    pub fn options(&self) -> &SolverOptions {
+        &self.options
+    }
+
+    /// The Newton pattern this solve uses (for a daemon to keep).
+    pub fn pattern(&self) -> &Arc<PendingNewtonPattern> {
+        &self.pattern
+    }
+
+    /// One tick: a spline proposal and its guard, then the completion's or
+    /// polish's Newton step (or the decision of what follows the spline path).
+    ///
+    /// # Errors
+    /// As [`ChartSolver::newton_tick`].
+    pub fn tick(&mut self) -> Result<(), Error> {
+        if let Some(candidate) = self.propose() {
+            self.judge(&candidate);
+        }
+        self.newton_tick()
+    }
+
+    /// Ticks until the solve is done.
+    ///
+    /// # Errors
+    /// As [`ChartSolver::newton_tick`].
+    pub fn run(&mut self) -> Result<(), Error> {
+        while !self.is_done() {
+            self.tick()?;
+        }
+        Ok(())
+    }
+
+    /// The spline path's next candidate (Eq. 6): every constrained vertex
+    /// moved the current fraction `t` of its remaining way, every free
+    /// vertex by `t` times the spline field. `None` when the path is over
+    /// (a singular spline system ends it, as a stall).
+    pub fn propose(&mut self) -> Option<Vec<DVec2>> {
+        let Phase::SplineStepping { full_step: step } = &mut self.phase else {
+            return None;
+        };
+        if !self.spline.is_stepping() {
+            return None;
+        }
+        let t0 = Instant::now();
+        if step.is_none() {
+            match full_step(&self.layout, &self.problem) {
+                Ok(field) => *step = Some(field),
+                Err(e) => self.spline.record_failure(&e),
+            }
+        }
+        let candidate = step
+            .as_ref()
+            .map(|s| apply_step(&self.layout, &self.problem, &s.field, self.spline.t));
+        self.times.stepping_ms += ms(t0);
+        candidate
+    }
+
+    /// The foldover guard: accepts `candidate` only if every triangle,
+    /// virtual ones included, keeps its orientation (Eq. 3, exactly) in
+    /// double precision and as stored in f32; otherwise the step is halved.
+    /// (The paper's pointwise guard, Eq. 5/7, when asked for comparison.)
+    pub fn judge(&mut self, candidate: &[DVec2]) {
+        let Phase::SplineStepping { full_step } = &mut self.phase else {
+            return;
+        };
+        let t0 = Instant::now();
+        let triangles = &self.filled.mesh.triangles;
+        let accepted = match (self.policy.paper_guard, full_step.as_ref()) {
+            (true, Some(step)) => step.paper_guard_accepts(&self.layout, &self.problem, self.spline.t),
+            _ => guard::acceptable(candidate, triangles, self.spline_storable),
+        };
+        if accepted {
+            let residual = self.problem.max_residual(candidate);
+            self.layout.copy_from_slice(candidate);
+            if !self.spline_storable {
+                self.spline_storable = guard::all_positive_as_stored(&self.layout, triangles);
+            }
+            *full_step = None;
+            self.spline.record_guard(true, residual, &self.options);
+        } else {
+            self.spline.record_guard(false, f64::INFINITY, &self.options);
+        }
+        self.times.guard_ms += ms(t0);
+    }
+
+    /// Once the spline path is over: decides what follows it, then advances
+    /// the completion or polish by one Newton step per call, within the
+    /// time budget.
+    ///
+    /// # Errors
+    /// The Newton pattern could not be built (never for a valid mesh).
+    pub fn newton_tick(&mut self) -> Result<(), Error> {
+        let t0 = Instant::now();
+        match &mut self.phase {
+            Phase::SplineStepping { .. } if self.spline.is_stepping() => return Ok(()),
+            Phase::SplineStepping { .. } => {
+                let result = self.after_spline();
+                self.times.complete_ms += ms(t0);
+                return result;
+            }
+            Phase::Completion(soft) => {
+                let progress = soft.step(&mut self.layout, &self.filled, &self.problem, &self.options);
+                self.record.energy_end = soft.energy();
+                self.times.complete_ms += ms(t0);
+                self.after_soft_step(progress);
+            }
+            Phase::Polish(polish) => {
+                let over = polish.step(&mut self.layout, &self.filled.mesh.triangles, &self.options);
+                self.record.energy_end = polish.energy();
+                self.record.polish = Some(polish.stats);
+                self.times.polish_ms += ms(t0);
+                if over {
+                    self.phase = Phase::Done;
+                }
+            }
+            Phase::Done => return Ok(()),
+        }
+        self.check_budget();
+        Ok(())
+    }
+
+    /// The Sander stretch of the current layout (real triangles).
+    fn stretch(&self) -> Stretch {
+        let f = &self.filled;
+        sander_stretch(
+            &f.mesh.positions[..f.n_real_vertices],
+            &self.layout[..f.n_real_vertices],
+            &f.mesh.triangles[..f.n_real_triangles],
+        )
+    }
+
+    fn newton_context(&self) -> Result<NewtonContext, Error> {
+        let pattern = self
+            .pattern
+            .get()
+            .map_err(|e| Error::Internal(format!("completion system: {e}")))?;
+        Ok(NewtonContext::new(&self.filled, &self.problem, pattern, &self.layout))
+    }
+
+    /// What follows the spline path ([`Policy::after_spline`]).
+    fn after_spline(&mut self) -> Result<(), Error> {
+        let reached = self.spline.phase == SteppingPhase::Reached;
+        let storable = if self.policy.paper_guard {
+            guard::all_positive_as_stored(&self.layout, &self.filled.mesh.triangles)
+        } else {
+            self.spline_storable
+        };
+        let has_free = !self.problem.movable.is_empty();
+        match self.policy.after_spline(reached, has_free, storable) {
+            AfterSpline::Done(outcome) => {
+                self.record.polish_outcome = Some(outcome);
+                self.phase = Phase::Done;
+            }
+            AfterSpline::Polish(goal) => {
+                self.record.stretch_before_polish = Some(self.stretch());
+                let context = self.newton_context()?;
+                self.start_polish(context, goal);
+            }
+            AfterSpline::Complete => {
+                let spline = std::mem::replace(&mut self.layout, self.step1.clone());
+                self.spline_layout = Some(spline);
+                let context = self.newton_context()?;
+                let soft = SoftCompletion::new(context, &self.filled, &self.problem, &self.layout, &self.options);
+                self.record.energy_end = soft.energy();
+                self.phase = Phase::Completion(Box::new(soft));
+            }
+        }
+        Ok(())
+    }
+
+    fn start_polish(&mut self, context: NewtonContext, goal: PolishGoal) {
+        let polish = Polish::new(context, &self.problem, &self.layout, &self.filled.mesh.triangles, goal);
+        self.record.energy_end = polish.energy();
+        self.record.polish = Some(polish.stats);
+        self.record.polish_outcome = Some(PolishOutcome::Ran);
+        self.phase = Phase::Polish(Box::new(polish));
+    }
+
+    /// After a completion step: on to the polish after a snap
+    /// ([`Policy::after_snap`]), or the end.
+    fn after_soft_step(&mut self, progress: SoftProgress) {
+        if progress == SoftProgress::Working {
+            return;
+        }
+        let Phase::Completion(soft) = std::mem::replace(&mut self.phase, Phase::Done) else {
+            unreachable!("called in the completion phase")
+        };
+        self.record.soft = Some(soft.stats.clone());
+        if progress == SoftProgress::Exhausted {
+            self.keep_closest();
+            return;
+        }
+        self.record.stretch_before_polish = Some(self.stretch());
+        match self.policy.after_snap(soft.snap_distorted(), soft.is_storable()) {
+            Ok(goal) => self.start_polish(soft.into_newton(), goal),
+            Err(outcome) => self.record.polish_outcome = Some(outcome),
+        }
+    }
+
+    /// The completion ended short of the targets: keep whichever fold-free
+    /// layout is closer to them, its own or the spline path's.
+    fn keep_closest(&mut self) {
+        self.record.polish_outcome = Some(self.policy.after_unreached());
+        if let Some(spline) = &self.spline_layout
+            && self.problem.max_residual(spline) < self.problem.max_residual(&self.layout)
+        {
+            self.layout.clone_from(spline);
+        }
+    }
+
+    /// Stops the completion or polish once the time budget is spent; the
+    /// layout stays the last accepted one.
+    fn check_budget(&mut self) {
+        let Some(budget) = self.options.time_budget_ms else {
+            return;
+        };
+        if self.is_done() || self.elapsed_before_ms + self.times.total_ms() <= budget {
+            return;
+        }
+        self.record.out_of_time = true;
+        match std::mem::replace(&mut self.phase, Phase::Done) {
+            Phase::Completion(soft) => {
+                self.record.soft = Some(soft.stats.clone());
+                self.keep_closest();
+            }
+            Phase::Polish(polish) => self.record.polish = Some(polish.stats),
+            Phase::SplineStepping { .. } | Phase::Done => {}
+        }
+    }
+}
