@@ -152,7 +152,7 @@ pub(super) fn load(
         uv_set,
         container: Container::Gltf { json, bin },
         n_meshes,
-        decoded_texture: std::sync::OnceLock::new(),
+        decoded_texture: super::TextureCache::default(),
     })
 }
 

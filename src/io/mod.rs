@@ -98,6 +98,13 @@ pub enum Container {
     },
 }
 
+/// The decoded base-colour texture, shared by every picture of an asset
+/// (nothing without the `pictures` feature).
+#[cfg(feature = "pictures")]
+pub type TextureCache = std::sync::OnceLock<Option<std::sync::Arc<image::RgbaImage>>>;
+#[cfg(not(feature = "pictures"))]
+pub type TextureCache = ();
+
 /// One mesh of an asset file, ready for welding.
 #[derive(Debug, Clone)]
 pub struct SourceAsset {
@@ -114,7 +121,7 @@ pub struct SourceAsset {
     /// The base-colour texture, decoded on first use by
     /// [`crate::preview::texture::base_colour_texture`] and then shared by
     /// every picture of this asset (a sweep draws one per run).
-    pub decoded_texture: std::sync::OnceLock<Option<std::sync::Arc<image::RgbaImage>>>,
+    pub decoded_texture: TextureCache,
 }
 
 /// Reads mesh `mesh` of the asset at `path` with the existing UVs of TEXCOORD_`uv_set`.
@@ -152,7 +159,7 @@ pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Resu
                 uv_set,
                 container: Container::Obj { text },
                 n_meshes: 1,
-                decoded_texture: std::sync::OnceLock::new(),
+                decoded_texture: TextureCache::default(),
             })
         }
         AssetFormat::Glb | AssetFormat::Gltf => gltf_file::load(path, format, &bytes, mesh, uv_set),
@@ -191,7 +198,7 @@ impl SourceAsset {
                 bin: None,
             },
             n_meshes: 1,
-            decoded_texture: std::sync::OnceLock::new(),
+            decoded_texture: TextureCache::default(),
         }
     }
 }
