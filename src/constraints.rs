@@ -537,132 +537,181 @@ struct ScannedPositions {
     corners: Option<(usize, usize)>,
 }
 
+/// A position in RON text, moved one character at a time (1-based line and column).
+struct Cursor {
+    chars: Vec<char>,
+    i: usize,
+    line: usize,
+    col: usize,
+}
+
+impl Cursor {
+    fn peek(&self, k: usize) -> Option<char> {
+        self.chars.get(self.i + k).copied()
+    }
+
+    fn bump(&mut self) {
+        if self.peek(0) == Some('\n') {
+            self.line += 1;
+            self.col = 1;
+        } else {
+            self.col += 1;
+        }
+        self.i += 1;
+    }
+
+    /// Skips a comment (`//` to the end of the line, or a nestable `/* */`)
+    /// if one starts here; whether it did.
+    fn skip_comment(&mut self) -> bool {
+        match (self.peek(0), self.peek(1)) {
+            (Some('/'), Some('/')) => {
+                while self.peek(0).is_some_and(|c| c != '\n') {
+                    self.bump();
+                }
+                true
+            }
+            (Some('/'), Some('*')) => {
+                let mut nest = 0;
+                while self.peek(0).is_some() {
+                    match (self.peek(0), self.peek(1)) {
+                        (Some('/'), Some('*')) => {
+                            nest += 1;
+                            self.bump();
+                        }
+                        (Some('*'), Some('/')) => {
+                            nest -= 1;
+                            self.bump();
+                            if nest == 0 {
+                                self.bump();
+                                return true;
+                            }
+                        }
+                        _ => {}
+                    }
+                    self.bump();
+                }
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Skips a string literal starting here (escapes included).
+    fn skip_string(&mut self) {
+        self.bump();
+        while self.peek(0).is_some_and(|c| c != '"') {
+            if self.peek(0) == Some('\\') {
+                self.bump();
+            }
+            if self.peek(0).is_some() {
+                self.bump();
+            }
+        }
+        if self.peek(0).is_some() {
+            self.bump();
+        }
+    }
+
+    /// Whether the next character after whitespace is `:` (an identifier
+    /// followed by whitespace then `:` is still a field name).
+    fn colon_follows(&self) -> bool {
+        let mut j = self.i;
+        while self.chars.get(j).is_some_and(|c| c.is_whitespace()) {
+            j += 1;
+        }
+        self.chars.get(j) == Some(&':')
+    }
+}
+
+/// The scanner's state between characters.
+#[derive(Default)]
+struct Scan {
+    out: ScannedPositions,
+    depth: usize,
+    ident: String,
+    /// The top-level field whose value comes next.
+    pending: Option<String>,
+    /// Inside the `constraints` list, at this bracket depth.
+    list_depth: Option<usize>,
+}
+
+impl Scan {
+    /// A top-level field's value starts at `here` with `c`.
+    fn value_starts(&mut self, field: &str, c: char, here: (usize, usize)) {
+        match field {
+            "asset" => self.out.asset = Some(here),
+            "corners" => self.out.corners = Some(here),
+            "constraints" => {
+                self.out.constraints = Some(here);
+                if c == '[' {
+                    self.list_depth = Some(self.depth + 1);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Punctuation `c` at `here`: field names, brackets, list items.
+    fn punctuation(&mut self, c: char, here: (usize, usize)) {
+        if c == ':' && self.depth == 1 && !self.ident.is_empty() {
+            self.pending = Some(std::mem::take(&mut self.ident));
+        } else if !c.is_whitespace() {
+            self.ident.clear();
+        }
+        match c {
+            '(' | '[' | '{' => {
+                if self.list_depth == Some(self.depth) {
+                    self.out.items.push(here);
+                }
+                self.depth += 1;
+            }
+            ')' | ']' | '}' => {
+                self.depth = self.depth.saturating_sub(1);
+                if self.list_depth.is_some_and(|d| self.depth < d) {
+                    self.list_depth = None;
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
 /// Finds where the top-level `asset`, `constraints` (and each of its
 /// elements) and `corners` values start (1-based line and column). Only run
 /// on text RON already accepted, so it can be simple: it skips comments and
 /// strings and tracks bracket depth.
 fn scan_positions(text: &str) -> ScannedPositions {
-    let chars: Vec<char> = text.chars().collect();
-    let mut out = ScannedPositions::default();
-    let (mut line, mut col) = (1usize, 1usize);
-    let mut depth = 0usize;
-    let mut i = 0;
-    let mut ident = String::new();
-    let mut pending: Option<String> = None; // top-level field whose value comes next
-    let mut in_constraints_list = false;
-    let mut list_depth = 0usize;
-    let advance = |c: char, line: &mut usize, col: &mut usize| {
-        if c == '\n' {
-            *line += 1;
-            *col = 1;
-        } else {
-            *col += 1;
-        }
+    let mut cur = Cursor {
+        chars: text.chars().collect(),
+        i: 0,
+        line: 1,
+        col: 1,
     };
-    while i < chars.len() {
-        let c = chars[i];
-        if c == '/' && chars.get(i + 1) == Some(&'/') {
-            while i < chars.len() && chars[i] != '\n' {
-                advance(chars[i], &mut line, &mut col);
-                i += 1;
-            }
+    let mut scan = Scan::default();
+    while let Some(c) = cur.peek(0) {
+        if cur.skip_comment() {
             continue;
         }
-        if c == '/' && chars.get(i + 1) == Some(&'*') {
-            let mut nest = 0;
-            while i < chars.len() {
-                if chars[i] == '/' && chars.get(i + 1) == Some(&'*') {
-                    nest += 1;
-                    advance(chars[i], &mut line, &mut col);
-                    i += 1;
-                } else if chars[i] == '*' && chars.get(i + 1) == Some(&'/') {
-                    nest -= 1;
-                    advance(chars[i], &mut line, &mut col);
-                    i += 1;
-                    if nest == 0 {
-                        advance(chars[i], &mut line, &mut col);
-                        i += 1;
-                        break;
-                    }
-                }
-                advance(chars[i], &mut line, &mut col);
-                i += 1;
-            }
-            continue;
-        }
-        let here = (line, col);
-        if let Some(field) = pending.take_if(|_| !c.is_whitespace() && c != ':') {
-            match field.as_str() {
-                "asset" => out.asset = Some(here),
-                "corners" => out.corners = Some(here),
-                "constraints" => {
-                    out.constraints = Some(here);
-                    if c == '[' {
-                        in_constraints_list = true;
-                        list_depth = depth + 1;
-                    }
-                }
-                _ => {}
-            }
+        let here = (cur.line, cur.col);
+        if let Some(field) = scan.pending.take_if(|_| !c.is_whitespace() && c != ':') {
+            scan.value_starts(&field, c, here);
         }
         if c == '"' {
-            advance(c, &mut line, &mut col);
-            i += 1;
-            while i < chars.len() && chars[i] != '"' {
-                if chars[i] == '\\' {
-                    advance(chars[i], &mut line, &mut col);
-                    i += 1;
-                }
-                if i < chars.len() {
-                    advance(chars[i], &mut line, &mut col);
-                    i += 1;
-                }
-            }
-            if i < chars.len() {
-                advance(chars[i], &mut line, &mut col);
-                i += 1;
-            }
-            ident.clear();
+            cur.skip_string();
+            scan.ident.clear();
             continue;
         }
         if c.is_alphanumeric() || c == '_' {
-            ident.push(c);
+            scan.ident.push(c);
         } else {
-            if c == ':' && depth == 1 && !ident.is_empty() {
-                pending = Some(std::mem::take(&mut ident));
-            } else if !c.is_whitespace() {
-                ident.clear();
-            }
-            match c {
-                '(' | '[' | '{' => {
-                    if in_constraints_list && depth == list_depth {
-                        out.items.push(here);
-                    }
-                    depth += 1;
-                }
-                ')' | ']' | '}' => {
-                    depth = depth.saturating_sub(1);
-                    if in_constraints_list && depth < list_depth {
-                        in_constraints_list = false;
-                    }
-                }
-                _ => {}
-            }
+            scan.punctuation(c, here);
         }
-        if c.is_whitespace() && !ident.is_empty() && pending.is_none() {
-            // An identifier followed by whitespace then ':' is still a field name.
-            let mut j = i;
-            while j < chars.len() && chars[j].is_whitespace() {
-                j += 1;
-            }
-            if chars.get(j) != Some(&':') {
-                ident.clear();
-            }
+        if c.is_whitespace() && !scan.ident.is_empty() && scan.pending.is_none() && !cur.colon_follows() {
+            scan.ident.clear();
         }
-        advance(c, &mut line, &mut col);
-        i += 1;
+        cur.bump();
     }
-    out
+    scan.out
 }
 
 #[cfg(test)]

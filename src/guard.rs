@@ -57,7 +57,7 @@ fn in_parallel(triangles: &[[u32; 3]], check: impl Fn(&[[u32; 3]]) -> bool + Syn
         return check(triangles);
     }
     let chunk = triangles.len().div_ceil(rayon::current_num_threads()).max(1);
-    triangles.par_chunks(chunk).all(|part| check(part))
+    triangles.par_chunks(chunk).all(&check)
 }
 
 /// The guard every step applies: a candidate layout is acceptable if it keeps

@@ -39,120 +39,135 @@ pub(super) fn load(
         .document;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(path, base, &document, bin.as_deref())?;
-
-    let n_meshes = document.meshes().len();
-    let mesh = match selector.unwrap_or(&MeshSelector::Index(0)) {
-        MeshSelector::Index(i) => document.meshes().nth(*i).ok_or_else(|| AssetError::MeshSelection {
-            path: p(),
-            message: if n_meshes == 0 {
-                "the file has no meshes".into()
-            } else {
-                format!("mesh {i} does not exist (the file has meshes 0..{n_meshes})")
-            },
-        })?,
-        MeshSelector::Name(name) => document
-            .meshes()
-            .find(|m| m.name() == Some(name.as_str()))
-            .ok_or_else(|| AssetError::MeshSelection {
-                path: p(),
-                message: format!(
-                    "no mesh named {name:?} (names: {:?})",
-                    document
-                        .meshes()
-                        .map(|m| m.name().unwrap_or("").to_string())
-                        .collect::<Vec<_>>()
-                ),
-            })?,
-    };
-    let mesh_index = mesh.index();
-    let mut primitives = Vec::new();
-    for prim in mesh.primitives() {
-        let pi = prim.index();
-        if prim.mode() != gltf::mesh::Mode::Triangles {
-            return Err(AssetError::NonTrianglePrimitive {
-                path: p(),
-                mesh: mesh_index,
-                primitive: pi,
-                mode: format!("{:?}", prim.mode()).to_uppercase(),
-            });
-        }
-        let perr = |message: String| AssetError::Primitive {
-            path: p(),
-            mesh: mesh_index,
-            primitive: pi,
-            message,
-        };
-        let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-        let positions: Vec<[f32; 3]> = reader
-            .read_positions()
-            .ok_or_else(|| perr("no POSITION attribute".into()))?
-            .collect();
-        if let Some((vertex, position)) = positions
-            .iter()
-            .enumerate()
-            .find(|(_, q)| q.iter().any(|x| !x.is_finite()))
-        {
-            return Err(AssetError::NonFinitePosition {
-                path: p(),
-                mesh: mesh_index,
-                primitive: pi,
-                vertex,
-                position: *position,
-            });
-        }
-        let indices: Vec<u32> = match reader.read_indices() {
-            Some(i) => i.into_u32().collect(),
-            None => (0..positions.len() as u32).collect(),
-        };
-        if !indices.len().is_multiple_of(3) {
-            return Err(perr(format!(
-                "{} indices is not a whole number of triangles",
-                indices.len()
-            )));
-        }
-        if let Some((k, &i)) = indices
-            .iter()
-            .enumerate()
-            .find(|(_, i)| **i as usize >= positions.len())
-        {
-            return Err(perr(format!(
-                "index {k} is {i}, but the primitive has {} vertices",
-                positions.len()
-            )));
-        }
-        let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(uv_set).map(|t| t.into_f32().collect());
-        if let Some(u) = &uvs
-            && u.len() != positions.len()
-        {
-            return Err(perr(format!(
-                "TEXCOORD_{uv_set} has {} entries for {} vertices",
-                u.len(),
-                positions.len()
-            )));
-        }
-        primitives.push(PrimitiveGeometry {
-            index: pi,
-            positions,
-            indices,
-            uvs,
-        });
-    }
+    let mesh = select_mesh(path, &document, selector)?;
+    let primitives = mesh
+        .primitives()
+        .map(|prim| read_primitive(path, &prim, mesh.index(), &buffers, uv_set))
+        .collect::<Result<Vec<_>, _>>()?;
     if primitives.is_empty() {
         return Err(AssetError::MeshSelection {
             path: p(),
-            message: format!("mesh {mesh_index} has no primitives"),
+            message: format!("mesh {} has no primitives", mesh.index()),
         });
     }
     Ok(SourceAsset {
         path: p(),
         format,
-        mesh_index,
+        mesh_index: mesh.index(),
         mesh_name: mesh.name().map(str::to_string),
         primitives,
         uv_set,
         container: Container::Gltf { json, bin },
-        n_meshes,
+        n_meshes: document.meshes().len(),
         decoded_texture: super::TextureCache::default(),
+    })
+}
+
+/// The mesh `selector` names (by index or name; default the first).
+fn select_mesh<'a>(
+    path: &Path,
+    document: &'a gltf::Document,
+    selector: Option<&MeshSelector>,
+) -> Result<gltf::Mesh<'a>, AssetError> {
+    let n_meshes = document.meshes().len();
+    let fail = |message: String| AssetError::MeshSelection {
+        path: path.to_path_buf(),
+        message,
+    };
+    match selector.unwrap_or(&MeshSelector::Index(0)) {
+        MeshSelector::Index(i) => document.meshes().nth(*i).ok_or_else(|| {
+            fail(if n_meshes == 0 {
+                "the file has no meshes".into()
+            } else {
+                format!("mesh {i} does not exist (the file has meshes 0..{n_meshes})")
+            })
+        }),
+        MeshSelector::Name(name) => document
+            .meshes()
+            .find(|m| m.name() == Some(name.as_str()))
+            .ok_or_else(|| {
+                let names: Vec<String> = document.meshes().map(|m| m.name().unwrap_or("").to_string()).collect();
+                fail(format!("no mesh named {name:?} (names: {names:?})"))
+            }),
+    }
+}
+
+/// One TRIANGLES primitive's positions, indices and TEXCOORD_`uv_set`, checked.
+fn read_primitive(
+    path: &Path,
+    prim: &gltf::Primitive,
+    mesh_index: usize,
+    buffers: &[Vec<u8>],
+    uv_set: u32,
+) -> Result<PrimitiveGeometry, AssetError> {
+    let pi = prim.index();
+    if prim.mode() != gltf::mesh::Mode::Triangles {
+        return Err(AssetError::NonTrianglePrimitive {
+            path: path.to_path_buf(),
+            mesh: mesh_index,
+            primitive: pi,
+            mode: format!("{:?}", prim.mode()).to_uppercase(),
+        });
+    }
+    let perr = |message: String| AssetError::Primitive {
+        path: path.to_path_buf(),
+        mesh: mesh_index,
+        primitive: pi,
+        message,
+    };
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+    let positions: Vec<[f32; 3]> = reader
+        .read_positions()
+        .ok_or_else(|| perr("no POSITION attribute".into()))?
+        .collect();
+    if let Some((vertex, position)) = positions
+        .iter()
+        .enumerate()
+        .find(|(_, q)| q.iter().any(|x| !x.is_finite()))
+    {
+        return Err(AssetError::NonFinitePosition {
+            path: path.to_path_buf(),
+            mesh: mesh_index,
+            primitive: pi,
+            vertex,
+            position: *position,
+        });
+    }
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if !indices.len().is_multiple_of(3) {
+        return Err(perr(format!(
+            "{} indices is not a whole number of triangles",
+            indices.len()
+        )));
+    }
+    if let Some((k, &i)) = indices
+        .iter()
+        .enumerate()
+        .find(|(_, i)| **i as usize >= positions.len())
+    {
+        return Err(perr(format!(
+            "index {k} is {i}, but the primitive has {} vertices",
+            positions.len()
+        )));
+    }
+    let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(uv_set).map(|t| t.into_f32().collect());
+    if let Some(u) = &uvs
+        && u.len() != positions.len()
+    {
+        return Err(perr(format!(
+            "TEXCOORD_{uv_set} has {} entries for {} vertices",
+            u.len(),
+            positions.len()
+        )));
+    }
+    Ok(PrimitiveGeometry {
+        index: pi,
+        positions,
+        indices,
+        uvs,
     })
 }
 
@@ -307,8 +322,7 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
     let Container::Gltf { json: original, bin } = &asset.container else {
         return Err(werr("not a glTF asset".into()));
     };
-    let out_format = AssetFormat::of(out);
-    if out_format != Some(asset.format) {
+    if AssetFormat::of(out) != Some(asset.format) {
         return Err(werr(format!(
             "the output must have the input's type (.{}) so nothing but the UVs changes",
             match asset.format {
@@ -318,92 +332,118 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
             }
         )));
     }
-    let mut json = original.clone();
-    let attribute = format!("TEXCOORD_{}", asset.uv_set);
-    let set_attribute = |json: &mut Value, prim: usize, accessor: usize| {
-        json["meshes"][asset.mesh_index]["primitives"][prim]["attributes"][attribute.as_str()] = json!(accessor);
-    };
     match asset.format {
-        AssetFormat::Glb => {
-            let buffers = array(&mut json, "buffers");
-            let uses_bin = buffers.first().is_some_and(|b| b.get("uri").is_none()) && bin.is_some();
-            if !uses_bin {
-                // Make room for a BIN-chunk buffer at index 0.
-                buffers.insert(0, json!({ "byteLength": 0 }));
-                for view in array(&mut json, "bufferViews") {
-                    if let Some(b) = view.get("buffer").and_then(Value::as_u64) {
-                        view["buffer"] = json!(b + 1);
-                    }
-                }
-            }
-            let mut blob = if uses_bin {
-                bin.clone().unwrap_or_default()
-            } else {
-                Vec::new()
-            };
-            for (prim, prim_uvs) in asset.primitives.iter().zip(uvs) {
-                pad4(&mut blob);
-                let offset = blob.len();
-                blob.extend_from_slice(&f32_bytes(prim_uvs));
-                let acc = push_uv_accessor(&mut json, 0, offset, prim_uvs);
-                set_attribute(&mut json, prim.index, acc);
-            }
-            pad4(&mut blob);
-            json["buffers"][0]["byteLength"] = json!(blob.len());
-            let text = serde_json::to_vec(&json).map_err(|e| werr(e.to_string()))?;
-            atomic::write_atomically(out, &glb::build(&text, Some(&blob))).map_err(|e| werr(e.to_string()))
-        }
-        AssetFormat::Gltf => {
-            let (in_dir, out_dir) = (absolute_dir(&asset.path), absolute_dir(out));
-            // Keep external references valid from the output's folder.
-            let mut referenced: Vec<PathBuf> = Vec::new();
-            for key in ["buffers", "images"] {
-                let Some(items) = json.get_mut(key).and_then(Value::as_array_mut) else {
-                    continue;
-                };
-                for item in items {
-                    let Some(uri) = item.get("uri").and_then(Value::as_str).map(str::to_string) else {
-                        continue;
-                    };
-                    if uri.starts_with("data:") || uri.contains("://") {
-                        continue;
-                    }
-                    let target = in_dir.join(percent_decode(&uri));
-                    referenced.push(target.clone());
-                    if in_dir != out_dir {
-                        let rel = relative_path(&out_dir, &target);
-                        item["uri"] = json!(percent_encode_path(&rel.to_string_lossy()));
-                    }
-                }
-            }
-            let stem = out
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "out".into());
-            let mut bin_name = format!("{stem}.uvpin.bin");
-            let mut k = 1;
-            while referenced.iter().any(|r| *r == out_dir.join(&bin_name)) {
-                bin_name = format!("{stem}.uvpin-{k}.bin");
-                k += 1;
-            }
-            let mut blob = Vec::new();
-            let buffer = array(&mut json, "buffers").len();
-            for (prim, prim_uvs) in asset.primitives.iter().zip(uvs) {
-                pad4(&mut blob);
-                let offset = blob.len();
-                blob.extend_from_slice(&f32_bytes(prim_uvs));
-                let acc = push_uv_accessor(&mut json, buffer, offset, prim_uvs);
-                set_attribute(&mut json, prim.index, acc);
-            }
-            array(&mut json, "buffers")
-                .push(json!({ "uri": percent_encode_path(&bin_name), "byteLength": blob.len() }));
-            let text = serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?;
-            let bin_path = out.with_file_name(&bin_name);
-            atomic::write_atomically(&bin_path, &blob).map_err(|e| werr(format!("{}: {e}", bin_path.display())))?;
-            atomic::write_atomically(out, &text).map_err(|e| werr(e.to_string()))
-        }
+        AssetFormat::Glb => write_glb(asset, original.clone(), bin.as_deref(), uvs, out),
+        AssetFormat::Gltf => write_gltf(asset, original.clone(), uvs, out),
         AssetFormat::Obj => unreachable!("checked above"),
     }
+}
+
+/// Points each primitive's TEXCOORD_`uv_set` at accessor `accessor`.
+fn set_uv_attribute(json: &mut Value, asset: &SourceAsset, prim: usize, accessor: usize) {
+    let attribute = format!("TEXCOORD_{}", asset.uv_set);
+    json["meshes"][asset.mesh_index]["primitives"][prim]["attributes"][attribute.as_str()] = json!(accessor);
+}
+
+/// Appends the UVs to `blob` (the bytes of buffer `buffer`) with their
+/// accessors, and points the primitives at them.
+fn append_uvs(json: &mut Value, asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], buffer: usize, blob: &mut Vec<u8>) {
+    for (prim, prim_uvs) in asset.primitives.iter().zip(uvs) {
+        pad4(blob);
+        let offset = blob.len();
+        blob.extend_from_slice(&f32_bytes(prim_uvs));
+        let acc = push_uv_accessor(json, buffer, offset, prim_uvs);
+        set_uv_attribute(json, asset, prim.index, acc);
+    }
+    pad4(blob);
+}
+
+/// A .glb: the UVs appended to the BIN chunk (made buffer 0 if the file has none).
+fn write_glb(
+    asset: &SourceAsset,
+    mut json: Value,
+    bin: Option<&[u8]>,
+    uvs: &[Vec<[f32; 2]>],
+    out: &Path,
+) -> Result<(), AssetError> {
+    let werr = |message: String| AssetError::Write {
+        path: out.to_path_buf(),
+        message,
+    };
+    let buffers = array(&mut json, "buffers");
+    let uses_bin = buffers.first().is_some_and(|b| b.get("uri").is_none()) && bin.is_some();
+    if !uses_bin {
+        // Make room for a BIN-chunk buffer at index 0.
+        buffers.insert(0, json!({ "byteLength": 0 }));
+        for view in array(&mut json, "bufferViews") {
+            if let Some(b) = view.get("buffer").and_then(Value::as_u64) {
+                view["buffer"] = json!(b + 1);
+            }
+        }
+    }
+    let mut blob = if uses_bin {
+        bin.map(<[u8]>::to_vec).unwrap_or_default()
+    } else {
+        Vec::new()
+    };
+    append_uvs(&mut json, asset, uvs, 0, &mut blob);
+    json["buffers"][0]["byteLength"] = json!(blob.len());
+    let text = serde_json::to_vec(&json).map_err(|e| werr(e.to_string()))?;
+    atomic::write_atomically(out, &glb::build(&text, Some(&blob))).map_err(|e| werr(e.to_string()))
+}
+
+/// Rewrites the relative URIs of `json`'s buffers and images so they stay
+/// valid from `out_dir`; returns the files they name.
+fn rebase_uris(json: &mut Value, in_dir: &Path, out_dir: &Path) -> Vec<PathBuf> {
+    let mut referenced: Vec<PathBuf> = Vec::new();
+    for key in ["buffers", "images"] {
+        let Some(items) = json.get_mut(key).and_then(Value::as_array_mut) else {
+            continue;
+        };
+        for item in items {
+            let Some(uri) = item.get("uri").and_then(Value::as_str).map(str::to_string) else {
+                continue;
+            };
+            if uri.starts_with("data:") || uri.contains("://") {
+                continue;
+            }
+            let target = in_dir.join(percent_decode(&uri));
+            referenced.push(target.clone());
+            if in_dir != out_dir {
+                let rel = relative_path(out_dir, &target);
+                item["uri"] = json!(percent_encode_path(&rel.to_string_lossy()));
+            }
+        }
+    }
+    referenced
+}
+
+/// A .gltf: the UVs in a new buffer `<stem>.uvpin.bin` beside it.
+fn write_gltf(asset: &SourceAsset, mut json: Value, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<(), AssetError> {
+    let werr = |message: String| AssetError::Write {
+        path: out.to_path_buf(),
+        message,
+    };
+    let (in_dir, out_dir) = (absolute_dir(&asset.path), absolute_dir(out));
+    let referenced = rebase_uris(&mut json, &in_dir, &out_dir);
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let mut bin_name = format!("{stem}.uvpin.bin");
+    let mut k = 1;
+    while referenced.iter().any(|r| *r == out_dir.join(&bin_name)) {
+        bin_name = format!("{stem}.uvpin-{k}.bin");
+        k += 1;
+    }
+    let mut blob = Vec::new();
+    let buffer = array(&mut json, "buffers").len();
+    append_uvs(&mut json, asset, uvs, buffer, &mut blob);
+    array(&mut json, "buffers").push(json!({ "uri": percent_encode_path(&bin_name), "byteLength": blob.len() }));
+    let text = serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?;
+    let bin_path = out.with_file_name(&bin_name);
+    atomic::write_atomically(&bin_path, &blob).map_err(|e| werr(format!("{}: {e}", bin_path.display())))?;
+    atomic::write_atomically(out, &text).map_err(|e| werr(e.to_string()))
 }
 
 /// A fresh glTF document holding one mesh (positions, indices, optional

@@ -67,143 +67,11 @@ impl Topology {
     /// triangles or inconsistent winding, bow-tie vertex, closed surface, genus
     /// > 0, outer loop with fewer than 4 vertices.
     pub fn build(mesh: &TriMesh) -> Result<Self, TopologyError> {
-        let n = mesh.n_vertices();
-        if mesh.triangles.is_empty() {
-            return Err(TopologyError::Empty);
-        }
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            let [a, b, c] = *tri;
-            for &v in tri {
-                if v as usize >= n {
-                    return Err(TopologyError::VertexOutOfRange {
-                        triangle: t,
-                        vertex: v,
-                        n_vertices: n,
-                    });
-                }
-            }
-            if a == b || b == c || a == c {
-                return Err(TopologyError::DegenerateTriangle { triangle: t, a, b, c });
-            }
-        }
-        // Directed half-edges a → b grouped by their source a (compressed rows
-        // of (b, triangle)): each twin lookup scans one vertex's few edges.
-        let n_half = mesh.triangles.len() * 3;
-        let mut offsets = vec![0usize; n + 1];
-        for tri in &mesh.triangles {
-            for &v in tri {
-                offsets[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut fill = offsets.clone();
-        let mut rows = vec![(0u32, 0u32); n_half];
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for k in 0..3 {
-                let a = tri[k] as usize;
-                rows[fill[a]] = (tri[(k + 1) % 3], t as u32);
-                fill[a] += 1;
-            }
-        }
-        drop(fill);
-        let row = |a: u32| &rows[offsets[a as usize]..offsets[a as usize + 1]];
-        let mut edges = Vec::with_capacity(n_half / 2 + 8);
-        let mut edge_is_boundary = Vec::with_capacity(n_half / 2 + 8);
-        // next boundary vertex along the winding, per vertex.
-        let mut boundary_next: Vec<u32> = vec![u32::MAX; n];
-        // Corner fans: union-find over (triangle, corner) joined across interior edges.
-        let mut fans = UnionFind::new(n_half);
-        let corner = |t: u32, v: u32| -> usize {
-            let tri = mesh.triangles[t as usize];
-            let k = tri.iter().position(|&x| x == v).expect("vertex of triangle");
-            t as usize * 3 + k
-        };
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                let n_same = row(a).iter().filter(|(x, _)| *x == b).count();
-                let mut opposite_iter = row(b).iter().filter(|(x, _)| *x == a).map(|h| h.1);
-                let twin = opposite_iter.next();
-                let n_opposite = twin.map_or(0, |_| 1 + opposite_iter.count());
-                if n_same + n_opposite > 2 {
-                    let mut triangles: Vec<usize> = row(a)
-                        .iter()
-                        .filter(|(x, _)| *x == b)
-                        .chain(row(b).iter().filter(|(x, _)| *x == a))
-                        .map(|h| h.1 as usize)
-                        .collect();
-                    triangles.sort_unstable();
-                    return Err(TopologyError::NonManifoldEdge {
-                        a: a.min(b),
-                        b: a.max(b),
-                        n_triangles: triangles.len(),
-                        triangles: triangles.into_iter().take(4).collect(),
-                    });
-                }
-                if n_same > 1 {
-                    let other = row(a)
-                        .iter()
-                        .find(|h| h.0 == b && h.1 as usize != t)
-                        .expect("two triangles")
-                        .1;
-                    return Err(TopologyError::InconsistentOrientation {
-                        a,
-                        b,
-                        t0: t,
-                        t1: other as usize,
-                    });
-                }
-                match twin {
-                    None => {
-                        if boundary_next[a as usize] != u32::MAX {
-                            return Err(TopologyError::NonManifoldVertex { vertex: a, n_fans: 2 });
-                        }
-                        boundary_next[a as usize] = b;
-                        edges.push([a.min(b), a.max(b)]);
-                        edge_is_boundary.push(true);
-                    }
-                    Some(twin) if a < b => {
-                        fans.union(corner(t as u32, a), corner(twin, a));
-                        fans.union(corner(t as u32, b), corner(twin, b));
-                        edges.push([a, b]);
-                        edge_is_boundary.push(false);
-                    }
-                    Some(_) => {}
-                }
-            }
-        }
-        // Every vertex's corners must form one fan.
-        let mut fan_of: Vec<u32> = vec![u32::MAX; n];
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for (k, &v) in tri.iter().enumerate() {
-                let root = fans.find(t * 3 + k) as u32;
-                let slot = &mut fan_of[v as usize];
-                if *slot == u32::MAX {
-                    *slot = root;
-                } else if *slot != root {
-                    return Err(TopologyError::NonManifoldVertex { vertex: v, n_fans: 2 });
-                }
-            }
-        }
-        // Boundary loops.
-        let mut loops = Vec::new();
-        let mut visited = vec![false; n];
-        for start in 0..n {
-            if boundary_next[start] == u32::MAX || visited[start] {
-                continue;
-            }
-            let mut lp = Vec::new();
-            let mut v = start as u32;
-            while !visited[v as usize] {
-                visited[v as usize] = true;
-                lp.push(v);
-                v = boundary_next[v as usize];
-                debug_assert!(v != u32::MAX, "open boundary chain");
-            }
-            loops.push(lp);
-        }
+        check_triangles(mesh)?;
+        let half = HalfEdges::new(mesh);
+        let mut edges = classify_edges(mesh, &half)?;
+        let used = check_fans(mesh, &mut edges.fans)?;
+        let loops = boundary_loops(&edges.boundary_next);
         if loops.is_empty() {
             return Err(TopologyError::Closed);
         }
@@ -212,8 +80,7 @@ impl Topology {
             .max_by(|&a, &b| loop_lengths[a].total_cmp(&loop_lengths[b]))
             .expect("non-empty");
         // Euler characteristic of the used vertices: V - E + F = 2 - 2g - b.
-        let used = fan_of.iter().filter(|&&f| f != u32::MAX).count() as i64;
-        let chi = used - edges.len() as i64 + mesh.triangles.len() as i64;
+        let chi = used as i64 - edges.edges.len() as i64 + mesh.triangles.len() as i64;
         let genus2 = 2 - loops.len() as i64 - chi;
         if genus2 != 0 {
             return Err(TopologyError::NotADisk {
@@ -228,8 +95,8 @@ impl Topology {
             loops,
             outer,
             loop_lengths,
-            edges,
-            edge_is_boundary,
+            edges: edges.edges,
+            edge_is_boundary: edges.edge_is_boundary,
         })
     }
 
@@ -246,6 +113,194 @@ impl Topology {
             .filter(move |(i, _)| *i != self.outer)
             .map(|(_, l)| l)
     }
+}
+
+/// Every triangle names three distinct vertices of the mesh.
+fn check_triangles(mesh: &TriMesh) -> Result<(), TopologyError> {
+    let n = mesh.n_vertices();
+    if mesh.triangles.is_empty() {
+        return Err(TopologyError::Empty);
+    }
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = *tri;
+        if let Some(&v) = tri.iter().find(|&&v| v as usize >= n) {
+            return Err(TopologyError::VertexOutOfRange {
+                triangle: t,
+                vertex: v,
+                n_vertices: n,
+            });
+        }
+        if a == b || b == c || a == c {
+            return Err(TopologyError::DegenerateTriangle { triangle: t, a, b, c });
+        }
+    }
+    Ok(())
+}
+
+/// Directed half-edges `a → b` grouped by their source `a` (compressed rows
+/// of `(b, triangle)`): each twin lookup scans one vertex's few edges.
+struct HalfEdges {
+    offsets: Vec<usize>,
+    rows: Vec<(u32, u32)>,
+}
+
+impl HalfEdges {
+    fn new(mesh: &TriMesh) -> Self {
+        let n = mesh.n_vertices();
+        let mut offsets = vec![0usize; n + 1];
+        for tri in &mesh.triangles {
+            for &v in tri {
+                offsets[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut rows = vec![(0u32, 0u32); mesh.triangles.len() * 3];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let a = tri[k] as usize;
+                rows[fill[a]] = (tri[(k + 1) % 3], t as u32);
+                fill[a] += 1;
+            }
+        }
+        HalfEdges { offsets, rows }
+    }
+
+    /// The half-edges leaving `a`: `(target, triangle)`.
+    fn from(&self, a: u32) -> &[(u32, u32)] {
+        &self.rows[self.offsets[a as usize]..self.offsets[a as usize + 1]]
+    }
+
+    /// The triangles of half-edges `a → b`.
+    fn between(&self, a: u32, b: u32) -> impl Iterator<Item = u32> + '_ {
+        self.from(a).iter().filter(move |(x, _)| *x == b).map(|h| h.1)
+    }
+}
+
+/// The edges of a checked mesh and what they tell about its vertices.
+struct EdgeClasses {
+    edges: Vec<[u32; 2]>,
+    edge_is_boundary: Vec<bool>,
+    /// Per vertex, the next boundary vertex along the winding (`u32::MAX`: none).
+    boundary_next: Vec<u32>,
+    /// Corner fans: (triangle, corner) joined across interior edges.
+    fans: UnionFind,
+}
+
+/// Classifies every edge as interior or boundary.
+///
+/// # Errors
+/// An edge with more than two triangles, with two triangles of the same
+/// winding, or a vertex where two boundary edges leave.
+fn classify_edges(mesh: &TriMesh, half: &HalfEdges) -> Result<EdgeClasses, TopologyError> {
+    let n_half = mesh.triangles.len() * 3;
+    let mut out = EdgeClasses {
+        edges: Vec::with_capacity(n_half / 2 + 8),
+        edge_is_boundary: Vec::with_capacity(n_half / 2 + 8),
+        boundary_next: vec![u32::MAX; mesh.n_vertices()],
+        fans: UnionFind::new(n_half),
+    };
+    let corner = |t: u32, v: u32| -> usize {
+        let tri = mesh.triangles[t as usize];
+        let k = tri.iter().position(|&x| x == v).expect("vertex of triangle");
+        t as usize * 3 + k
+    };
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let twin = check_edge(half, t, a, b)?;
+            match twin {
+                None => {
+                    if out.boundary_next[a as usize] != u32::MAX {
+                        return Err(TopologyError::NonManifoldVertex { vertex: a, n_fans: 2 });
+                    }
+                    out.boundary_next[a as usize] = b;
+                    out.edges.push([a.min(b), a.max(b)]);
+                    out.edge_is_boundary.push(true);
+                }
+                Some(twin) if a < b => {
+                    out.fans.union(corner(t as u32, a), corner(twin, a));
+                    out.fans.union(corner(t as u32, b), corner(twin, b));
+                    out.edges.push([a, b]);
+                    out.edge_is_boundary.push(false);
+                }
+                Some(_) => {}
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Checks half-edge `a → b` of triangle `t`; its twin's triangle, if any.
+fn check_edge(half: &HalfEdges, t: usize, a: u32, b: u32) -> Result<Option<u32>, TopologyError> {
+    let n_same = half.between(a, b).count();
+    let mut opposite = half.between(b, a);
+    let twin = opposite.next();
+    let n_opposite = twin.map_or(0, |_| 1 + opposite.count());
+    if n_same + n_opposite > 2 {
+        let mut triangles: Vec<usize> = half
+            .between(a, b)
+            .chain(half.between(b, a))
+            .map(|t| t as usize)
+            .collect();
+        triangles.sort_unstable();
+        return Err(TopologyError::NonManifoldEdge {
+            a: a.min(b),
+            b: a.max(b),
+            n_triangles: triangles.len(),
+            triangles: triangles.into_iter().take(4).collect(),
+        });
+    }
+    if n_same > 1 {
+        let other = half.between(a, b).find(|&o| o as usize != t).expect("two triangles");
+        return Err(TopologyError::InconsistentOrientation {
+            a,
+            b,
+            t0: t,
+            t1: other as usize,
+        });
+    }
+    Ok(twin)
+}
+
+/// Every vertex's corners must form one fan; returns how many vertices are used.
+fn check_fans(mesh: &TriMesh, fans: &mut UnionFind) -> Result<usize, TopologyError> {
+    let mut fan_of: Vec<u32> = vec![u32::MAX; mesh.n_vertices()];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for (k, &v) in tri.iter().enumerate() {
+            let root = fans.find(t * 3 + k) as u32;
+            let slot = &mut fan_of[v as usize];
+            if *slot == u32::MAX {
+                *slot = root;
+            } else if *slot != root {
+                return Err(TopologyError::NonManifoldVertex { vertex: v, n_fans: 2 });
+            }
+        }
+    }
+    Ok(fan_of.iter().filter(|&&f| f != u32::MAX).count())
+}
+
+/// The boundary loops, each following `boundary_next` from its smallest vertex.
+fn boundary_loops(boundary_next: &[u32]) -> Vec<Vec<u32>> {
+    let mut loops = Vec::new();
+    let mut visited = vec![false; boundary_next.len()];
+    for start in 0..boundary_next.len() {
+        if boundary_next[start] == u32::MAX || visited[start] {
+            continue;
+        }
+        let mut lp = Vec::new();
+        let mut v = start as u32;
+        while !visited[v as usize] {
+            visited[v as usize] = true;
+            lp.push(v);
+            v = boundary_next[v as usize];
+            debug_assert!(v != u32::MAX, "open boundary chain");
+        }
+        loops.push(lp);
+    }
+    loops
 }
 
 /// 3D length of a closed vertex loop.

@@ -50,9 +50,20 @@ fn paint(rgb: [u8; 3], alpha: u8) -> Paint<'static> {
 pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
     let mut pixmap = Pixmap::new(size, size).expect("non-zero size");
     pixmap.fill(Color::WHITE);
+    draw_background(&mut pixmap, scene, size);
+    draw_triangles(&mut pixmap, scene, size);
+    draw_outer_loop(&mut pixmap, scene, size);
+    // Constraints: arrows first, then dots on top.
+    let radius = (size as f32 / 110.0).max(3.0);
+    draw_arrows(&mut pixmap, scene, size, radius);
+    draw_markers(&mut pixmap, scene, size, radius);
+    pixmap
+}
+
+/// The texture (or a light grey square) under the layout.
+fn draw_background(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
     let m = margin(size);
     let span = size as f32 - 2.0 * m;
-    let px = |uv: DVec2| uv_to_pixel(uv, size);
     let square = tiny_skia::Rect::from_xywh(m, m, span, span).expect("square");
     match scene.texture.and_then(texture_pixmap) {
         Some(tex) => {
@@ -72,20 +83,27 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
         }
         None => pixmap.fill_rect(square, &paint([242, 242, 242], 255), Transform::identity(), None),
     }
+}
+
+/// The triangles coloured by stretch (virtual hole triangles shaded), and
+/// their edges where they are big enough to see (about 8 px² or more).
+fn draw_triangles(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
+    let px = |uv: DVec2| uv_to_pixel(uv, size);
     let textured = scene.texture.is_some();
-    // Edges only where triangles are big enough to see (about 8 px² or more).
     let many = scene.triangles.len() as u64 * 8 > u64::from(size) * u64::from(size);
-    let edge = Stroke {
-        width: 0.5,
-        ..Default::default()
-    };
     // One path per fill colour (and one for all edges): triangles of a
     // fold-free layout do not overlap, so filling them together is the same
     // picture without seams, and much faster on big meshes.
     let mut fills: std::collections::BTreeMap<[u8; 4], PathBuilder> = std::collections::BTreeMap::new();
     let mut edges = PathBuilder::new();
+    let triangle = |pb: &mut PathBuilder, [a, b, c]: [(f32, f32); 3]| {
+        pb.move_to(a.0, a.1);
+        pb.line_to(b.0, b.1);
+        pb.line_to(c.0, c.1);
+        pb.close();
+    };
     for (i, t) in scene.triangles.iter().enumerate() {
-        let [a, b, c] = t.map(|v| px(scene.uvs[v as usize]));
+        let corners = t.map(|v| px(scene.uvs[v as usize]));
         let virtual_triangle = i >= scene.n_real_triangles;
         let key = if virtual_triangle {
             [110, 110, 120, 140]
@@ -94,16 +112,9 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
             let [r, g, b] = stretch_colour(s);
             [r, g, b, if textured { 110 } else { 255 }]
         };
-        let pb = fills.entry(key).or_default();
-        pb.move_to(a.0, a.1);
-        pb.line_to(b.0, b.1);
-        pb.line_to(c.0, c.1);
-        pb.close();
+        triangle(fills.entry(key).or_default(), corners);
         if !many && !virtual_triangle {
-            edges.move_to(a.0, a.1);
-            edges.line_to(b.0, b.1);
-            edges.line_to(c.0, c.1);
-            edges.close();
+            triangle(&mut edges, corners);
         }
     }
     for (key, pb) in fills {
@@ -113,29 +124,41 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
         }
     }
     if let Some(path) = edges.finish() {
+        let edge = Stroke {
+            width: 0.5,
+            ..Default::default()
+        };
         pixmap.stroke_path(&path, &paint([40, 40, 40], 90), &edge, Transform::identity(), None);
     }
-    // The outer boundary.
-    if let Some((&first, rest)) = scene.outer_loop.split_first() {
-        let mut pb = PathBuilder::new();
-        let p0 = px(scene.uvs[first as usize]);
-        pb.move_to(p0.0, p0.1);
-        for &v in rest {
-            let p = px(scene.uvs[v as usize]);
-            pb.line_to(p.0, p.1);
-        }
-        pb.close();
-        if let Some(path) = pb.finish() {
-            let stroke = Stroke {
-                width: (size as f32 / 256.0).max(1.5),
-                line_join: LineJoin::Round,
-                ..Default::default()
-            };
-            pixmap.stroke_path(&path, &paint([20, 40, 120], 255), &stroke, Transform::identity(), None);
-        }
+}
+
+/// The outer boundary as a dark blue line.
+fn draw_outer_loop(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
+    let px = |uv: DVec2| uv_to_pixel(uv, size);
+    let Some((&first, rest)) = scene.outer_loop.split_first() else {
+        return;
+    };
+    let mut pb = PathBuilder::new();
+    let p0 = px(scene.uvs[first as usize]);
+    pb.move_to(p0.0, p0.1);
+    for &v in rest {
+        let p = px(scene.uvs[v as usize]);
+        pb.line_to(p.0, p.1);
     }
-    // Constraints: arrows first, then dots on top.
-    let radius = (size as f32 / 110.0).max(3.0);
+    pb.close();
+    if let Some(path) = pb.finish() {
+        let stroke = Stroke {
+            width: (size as f32 / 256.0).max(1.5),
+            line_join: LineJoin::Round,
+            ..Default::default()
+        };
+        pixmap.stroke_path(&path, &paint([20, 40, 120], 255), &stroke, Transform::identity(), None);
+    }
+}
+
+/// An arrow from each constraint's step-1 position to its target.
+fn draw_arrows(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32, radius: f32) {
+    let px = |uv: DVec2| uv_to_pixel(uv, size);
     let arrow = Stroke {
         width: (size as f32 / 400.0).max(1.0),
         line_cap: LineCap::Round,
@@ -145,34 +168,40 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
         let (s, t) = (px(mk.step1), px(mk.target));
         let (dx, dy) = (t.0 - s.0, t.1 - s.1);
         let len = (dx * dx + dy * dy).sqrt();
-        if len > 1.0 {
-            let mut pb = PathBuilder::new();
-            pb.move_to(s.0, s.1);
-            pb.line_to(t.0, t.1);
-            let (ux, uy) = (dx / len, dy / len);
-            let head = (radius * 1.6).min(len * 0.5);
-            for side in [-1.0f32, 1.0] {
-                pb.move_to(t.0, t.1);
-                pb.line_to(
-                    t.0 - head * (ux * 0.87 - side * uy * 0.5),
-                    t.1 - head * (uy * 0.87 + side * ux * 0.5),
-                );
-            }
-            if let Some(path) = pb.finish() {
-                pixmap.stroke_path(&path, &paint([25, 25, 25], 230), &arrow, Transform::identity(), None);
-            }
+        if len <= 1.0 {
+            continue;
+        }
+        let mut pb = PathBuilder::new();
+        pb.move_to(s.0, s.1);
+        pb.line_to(t.0, t.1);
+        let (ux, uy) = (dx / len, dy / len);
+        let head = (radius * 1.6).min(len * 0.5);
+        for side in [-1.0f32, 1.0] {
+            pb.move_to(t.0, t.1);
+            pb.line_to(
+                t.0 - head * (ux * 0.87 - side * uy * 0.5),
+                t.1 - head * (uy * 0.87 + side * ux * 0.5),
+            );
+        }
+        if let Some(path) = pb.finish() {
+            pixmap.stroke_path(&path, &paint([25, 25, 25], 230), &arrow, Transform::identity(), None);
         }
     }
+}
+
+/// A dot where each constraint ended (red, with a ring on its target, if unreached).
+fn draw_markers(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32, radius: f32) {
+    let px = |uv: DVec2| uv_to_pixel(uv, size);
+    let thin = |width: f32| Stroke {
+        width,
+        ..Default::default()
+    };
     for mk in scene.markers {
         let colour = if mk.reached { REACHED_COLOUR } else { UNREACHED_COLOUR };
         if !mk.reached {
             let t = px(mk.target);
             if let Some(ring) = PathBuilder::from_circle(t.0, t.1, radius * 1.4) {
-                let stroke = Stroke {
-                    width: 1.5,
-                    ..Default::default()
-                };
-                pixmap.stroke_path(&ring, &paint(colour, 255), &stroke, Transform::identity(), None);
+                pixmap.stroke_path(&ring, &paint(colour, 255), &thin(1.5), Transform::identity(), None);
             }
         }
         let r = px(mk.result);
@@ -184,14 +213,15 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
                 Transform::identity(),
                 None,
             );
-            let ring = Stroke {
-                width: 1.0,
-                ..Default::default()
-            };
-            pixmap.stroke_path(&dot, &paint([255, 255, 255], 255), &ring, Transform::identity(), None);
+            pixmap.stroke_path(
+                &dot,
+                &paint([255, 255, 255], 255),
+                &thin(1.0),
+                Transform::identity(),
+                None,
+            );
         }
     }
-    pixmap
 }
 
 /// An RGBA image as a premultiplied tiny-skia pixmap.

@@ -466,40 +466,19 @@ fn write(path: &Path, bytes: &[u8]) -> Result<(), SweepError> {
 pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepOutcome, SweepError> {
     let sweep = SweepFile::load(sweep_path)?;
     let base = sweep_path.parent().unwrap_or(Path::new("."));
-    let mut files: Vec<PathBuf> = Vec::new();
-    for pattern in &sweep.constraints {
-        let found = file::expand(pattern, base);
-        if found.is_empty() {
-            return Err(SweepError::NoFiles {
-                sweep: sweep_path.to_path_buf(),
-                pattern: pattern.clone(),
-            });
-        }
-        for f in found {
-            if !files.contains(&f) {
-                files.push(f);
-            }
-        }
-    }
+    let files = expand_files(&sweep, sweep_path, base)?;
     let names: Vec<String> = files
         .iter()
         .map(|f| f.strip_prefix(base).unwrap_or(f).display().to_string())
         .collect();
-    let cwd = std::env::current_dir().unwrap_or_default();
-    let output = crate::watch::registry::normalize(&base.join(&sweep.output), &cwd);
-    let output = output.strip_prefix(&cwd).map(Path::to_path_buf).unwrap_or(output);
+    let output = output_folder(base, &sweep.output);
     let jsonl_path = output.join("runs.jsonl");
     let runs = grid(&sweep, &names);
-    let mut done: HashMap<String, Row> = HashMap::new();
-    if !options.force
-        && let Ok(text) = std::fs::read_to_string(&jsonl_path)
-    {
-        for line in text.lines() {
-            if let Ok(row) = serde_json::from_str::<Row>(line) {
-                done.insert(row.id.clone(), row);
-            }
-        }
-    }
+    let mut done = if options.force {
+        HashMap::new()
+    } else {
+        rows_done(&jsonl_path)
+    };
     let pending: Vec<&Run> = runs.iter().filter(|r| !done.contains_key(&r.id)).collect();
     let thumbs = sweep.thumbnails.then(|| output.join("thumbs"));
     std::fs::create_dir_all(thumbs.as_deref().unwrap_or(&output)).map_err(|source| SweepError::Write {
@@ -516,129 +495,222 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepOutco
             jobs,
             message: e.to_string(),
         })?;
-    // Inputs and step-1 probes, only for files with pending runs.
-    let needed: Vec<usize> = (0..files.len())
-        .filter(|&i| pending.iter().any(|r| r.file_index == i))
-        .collect();
-    let inputs: HashMap<usize, Input> = pool.install(|| {
-        needed
-            .par_iter()
-            .map(|&i| {
-                let loaded = crate::api::load(&files[i], &SolverOptions::DEFAULT)
-                    .map(|(l, a)| (l, Arc::new(a)))
-                    .map_err(|e| e.to_string());
-                (
-                    i,
-                    Input {
-                        name: names[i].clone(),
-                        loaded,
-                    },
-                )
-            })
-            .collect()
-    });
-    let mut probe_keys: Vec<(usize, CornerChoice)> =
-        pending.iter().map(|r| (r.file_index, r.setting.corners)).collect();
-    probe_keys.sort_by_key(|(i, c)| (*i, *c == CornerChoice::Auto));
-    probe_keys.dedup();
-    let probes: HashMap<(usize, CornerChoice), Step1> = pool.install(|| {
-        probe_keys
-            .par_iter()
-            .map(|&(i, corners)| {
-                let step1 = match &inputs[&i].loaded {
-                    Ok((l, a)) => probe_step1(l, a, corners),
-                    Err(e) => Err(e.clone()),
-                };
-                ((i, corners), step1)
-            })
-            .collect()
-    });
-    let bar = match options.progress {
-        Progress::Auto if std::io::stderr().is_terminal() => {
-            let bar = indicatif::ProgressBar::new(pending.len() as u64);
-            if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} {msg}") {
-                bar.set_style(style);
-            }
-            Some(bar)
-        }
-        _ => None,
+    let inputs = pool.install(|| load_inputs(&files, &names, &pending));
+    let probes = pool.install(|| probe_all(&inputs, &pending));
+    let ctx = RunContext {
+        inputs: &inputs,
+        probes: &probes,
+        sweep: &sweep,
+        thumbs: thumbs.as_deref(),
     };
-    let lines = options.progress == Progress::Auto && bar.is_none();
-    let journal = Mutex::new(
-        std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&jsonl_path)
-            .map_err(|source| SweepError::Write {
-                path: jsonl_path.clone(),
-                source,
-            })?,
-    );
-    if options.force {
-        journal.lock().expect("journal").set_len(0).ok();
-    }
-    let counter = std::sync::atomic::AtomicUsize::new(0);
-    let total = pending.len();
-    let new_rows: Vec<Row> = pool.install(|| {
-        pending
-            .par_iter()
-            .map(|run| {
-                let row = solve_run(
-                    run,
-                    &inputs[&run.file_index],
-                    &probes[&(run.file_index, run.setting.corners)],
-                    &sweep,
-                    thumbs.as_deref(),
-                );
-                if let Ok(line) = serde_json::to_string(&row)
-                    && let Ok(mut f) = journal.lock()
-                {
-                    let _ = writeln!(f, "{line}");
-                }
-                let k = counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                if let Some(bar) = &bar {
-                    bar.inc(1);
-                    bar.set_message(format!("{}: {}", row.id, row.status));
-                } else if lines {
-                    eprintln!("[{k}/{total}] {}: {} ({:.1} ms)", row.id, row.status, row.time_ms);
-                }
-                row
-            })
-            .collect()
-    });
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
+    let new_rows = pool.install(|| run_pending(&ctx, &pending, &jsonl_path, options))?;
     let ran = new_rows.len();
     for row in new_rows {
         done.insert(row.id.clone(), row);
     }
     // Rows in grid order; rows of runs no longer in the grid are dropped.
     let rows: Vec<Row> = runs.iter().filter_map(|r| done.remove(&r.id)).collect();
-    let mut jsonl = String::new();
-    for r in &rows {
-        jsonl += &serde_json::to_string(r).expect("row serialises");
-        jsonl.push('\n');
-    }
-    drop(journal);
-    write(&jsonl_path, jsonl.as_bytes())?;
-    write(&output.join("runs.csv"), to_csv(&rows).as_bytes())?;
-    let summary = summary(&rows);
-    write(&output.join("summary.md"), summary.as_bytes())?;
-    if let Some(dir) = &thumbs {
-        let sheet = contact_sheet(&runs, &rows, dir, sweep.thumbnail_size);
-        let png = crate::preview::render::encode_png(&sheet).map_err(|e| SweepError::Write {
-            path: output.join("contact_sheet.png"),
-            source: std::io::Error::other(e),
-        })?;
-        write(&output.join("contact_sheet.png"), &png)?;
-    }
+    let summary = write_outputs(&output, &rows, &runs, thumbs.as_deref(), sweep.thumbnail_size)?;
     Ok(SweepOutcome {
         rows,
         ran,
         output,
         summary,
     })
+}
+
+/// The constraint files the sweep's patterns name, each once.
+fn expand_files(sweep: &SweepFile, sweep_path: &Path, base: &Path) -> Result<Vec<PathBuf>, SweepError> {
+    let mut files: Vec<PathBuf> = Vec::new();
+    for pattern in &sweep.constraints {
+        let found = file::expand(pattern, base);
+        if found.is_empty() {
+            return Err(SweepError::NoFiles {
+                sweep: sweep_path.to_path_buf(),
+                pattern: pattern.clone(),
+            });
+        }
+        for f in found {
+            if !files.contains(&f) {
+                files.push(f);
+            }
+        }
+    }
+    Ok(files)
+}
+
+/// The output folder, relative to the working folder where it is inside it.
+fn output_folder(base: &Path, output: &Path) -> PathBuf {
+    let cwd = std::env::current_dir().unwrap_or_default();
+    let output = crate::watch::registry::normalize(&base.join(output), &cwd);
+    output.strip_prefix(&cwd).map(Path::to_path_buf).unwrap_or(output)
+}
+
+/// The rows already in `runs.jsonl`, by run id.
+fn rows_done(jsonl_path: &Path) -> HashMap<String, Row> {
+    let Ok(text) = std::fs::read_to_string(jsonl_path) else {
+        return HashMap::new();
+    };
+    text.lines()
+        .filter_map(|line| serde_json::from_str::<Row>(line).ok())
+        .map(|row| (row.id.clone(), row))
+        .collect()
+}
+
+/// The constraint files with pending runs and their assets, loaded once each.
+fn load_inputs(files: &[PathBuf], names: &[String], pending: &[&Run]) -> HashMap<usize, Input> {
+    let needed: Vec<usize> = (0..files.len())
+        .filter(|&i| pending.iter().any(|r| r.file_index == i))
+        .collect();
+    needed
+        .par_iter()
+        .map(|&i| {
+            let loaded = crate::api::load(&files[i], &SolverOptions::DEFAULT)
+                .map(|(l, a)| (l, Arc::new(a)))
+                .map_err(|e| e.to_string());
+            let input = Input {
+                name: names[i].clone(),
+                loaded,
+            };
+            (i, input)
+        })
+        .collect()
+}
+
+/// Step 1 of every (file, corner choice) the pending runs need.
+fn probe_all(inputs: &HashMap<usize, Input>, pending: &[&Run]) -> HashMap<(usize, CornerChoice), Step1> {
+    let mut keys: Vec<(usize, CornerChoice)> = pending.iter().map(|r| (r.file_index, r.setting.corners)).collect();
+    keys.sort_by_key(|(i, c)| (*i, *c == CornerChoice::Auto));
+    keys.dedup();
+    keys.par_iter()
+        .map(|&(i, corners)| {
+            let step1 = match &inputs[&i].loaded {
+                Ok((l, a)) => probe_step1(l, a, corners),
+                Err(e) => Err(e.clone()),
+            };
+            ((i, corners), step1)
+        })
+        .collect()
+}
+
+/// What every run of one sweep shares.
+struct RunContext<'a> {
+    inputs: &'a HashMap<usize, Input>,
+    probes: &'a HashMap<(usize, CornerChoice), Step1>,
+    sweep: &'a SweepFile,
+    thumbs: Option<&'a Path>,
+}
+
+/// A progress bar on a terminal, plain lines otherwise (or nothing).
+enum Reporter {
+    Bar(indicatif::ProgressBar),
+    Lines,
+    Quiet,
+}
+
+impl Reporter {
+    fn new(progress: Progress, total: usize) -> Self {
+        match progress {
+            Progress::Quiet => Reporter::Quiet,
+            Progress::Auto if std::io::stderr().is_terminal() => {
+                let bar = indicatif::ProgressBar::new(total as u64);
+                if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} {msg}")
+                {
+                    bar.set_style(style);
+                }
+                Reporter::Bar(bar)
+            }
+            Progress::Auto => Reporter::Lines,
+        }
+    }
+
+    fn done(&self, row: &Row, k: usize, total: usize) {
+        match self {
+            Reporter::Bar(bar) => {
+                bar.inc(1);
+                bar.set_message(format!("{}: {}", row.id, row.status));
+            }
+            Reporter::Lines => eprintln!("[{k}/{total}] {}: {} ({:.1} ms)", row.id, row.status, row.time_ms),
+            Reporter::Quiet => {}
+        }
+    }
+
+    fn finish(self) {
+        if let Reporter::Bar(bar) = self {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// Solves the pending runs in parallel, each row appended to the journal
+/// (`runs.jsonl`) as it finishes, so an interrupted sweep resumes.
+fn run_pending(
+    ctx: &RunContext,
+    pending: &[&Run],
+    jsonl_path: &Path,
+    options: &SweepOptions,
+) -> Result<Vec<Row>, SweepError> {
+    let journal = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(jsonl_path)
+        .map_err(|source| SweepError::Write {
+            path: jsonl_path.to_path_buf(),
+            source,
+        })?;
+    if options.force {
+        journal.set_len(0).ok();
+    }
+    let journal = Mutex::new(journal);
+    let reporter = Reporter::new(options.progress, pending.len());
+    let counter = std::sync::atomic::AtomicUsize::new(0);
+    let rows = pending
+        .par_iter()
+        .map(|run| {
+            let input = &ctx.inputs[&run.file_index];
+            let probe = &ctx.probes[&(run.file_index, run.setting.corners)];
+            let row = solve_run(run, input, probe, ctx.sweep, ctx.thumbs);
+            if let Ok(line) = serde_json::to_string(&row)
+                && let Ok(mut f) = journal.lock()
+            {
+                let _ = writeln!(f, "{line}");
+            }
+            let k = counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            reporter.done(&row, k, pending.len());
+            row
+        })
+        .collect();
+    reporter.finish();
+    Ok(rows)
+}
+
+/// Writes `runs.jsonl` (in grid order), `runs.csv`, `summary.md` and the
+/// contact sheet; returns the summary.
+fn write_outputs(
+    output: &Path,
+    rows: &[Row],
+    runs: &[Run],
+    thumbs: Option<&Path>,
+    thumbnail_size: u32,
+) -> Result<String, SweepError> {
+    let mut jsonl = String::new();
+    for r in rows {
+        jsonl += &serde_json::to_string(r).expect("row serialises");
+        jsonl.push('\n');
+    }
+    write(&output.join("runs.jsonl"), jsonl.as_bytes())?;
+    write(&output.join("runs.csv"), to_csv(rows).as_bytes())?;
+    let summary = summary(rows);
+    write(&output.join("summary.md"), summary.as_bytes())?;
+    if let Some(dir) = thumbs {
+        let sheet = contact_sheet(runs, rows, dir, thumbnail_size);
+        let png = crate::preview::render::encode_png(&sheet).map_err(|e| SweepError::Write {
+            path: output.join("contact_sheet.png"),
+            source: std::io::Error::other(e),
+        })?;
+        write(&output.join("contact_sheet.png"), &png)?;
+    }
+    Ok(summary)
 }
 
 /// Status colour under each thumbnail of the contact sheet.
