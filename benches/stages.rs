@@ -1,11 +1,15 @@
 //! Per-stage timings: `cargo bench --bench stages [-- FILTER]`.
 //!
-//! Prints a table of medians (ms) over repeated runs for the sample asset, the
-//! paper's case size (1.7k vertices, 50 constraints), the shared third-party
-//! meshes (end to end through glTF files, if `../shared/meshes` exists), and
-//! generated grids of 10k, 100k and 1M vertices. Constrained cases use
-//! targets pushed through a smooth bijective warp of the step-1 layout, so
-//! they are reachable. Not a test: no thresholds, just figures.
+//! Medians (ms) over repeated runs for the sample asset, the paper's case
+//! size (1.7k vertices, 50 constraints), the shared third-party meshes (end
+//! to end through glTF files, if `../shared/meshes` exists), and generated
+//! grids of 10k, 100k and 1M vertices; then step 1 alone against uvpin's
+//! result. Constrained cases use targets pushed through a smooth bijective
+//! warp (or a swirl) of the unconstrained layout, so they are reachable. A
+//! full run (no filter) writes the tables into `docs/benchmarks.md`. Not a
+//! test: no thresholds, just figures.
+
+mod common;
 
 use glam::DVec2;
 use std::path::{Path, PathBuf};
@@ -15,15 +19,7 @@ use uvpin::param::{uv_to_xy, xy_to_uv};
 use uvpin::report::{Report, StageTimes};
 use uvpin::testing::{Rng, grid_mesh, smooth_warp, swirl};
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
+use common::median;
 
 struct Row {
     name: String,
@@ -37,9 +33,9 @@ struct Row {
 }
 
 /// Step-1-only layout against uvpin's result: stretch, residual, time.
-fn print_comparison(rows: &[Row]) {
-    println!("\n| case | step 1: L2 | L∞ | max residual | ms | uvpin: L2 | L∞ | max residual | ms |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+fn comparison_table(rows: &[Row]) -> String {
+    let mut out = String::from("| case | step 1: L2 | L∞ | max residual | ms | uvpin: L2 | L∞ | max residual | ms |\n");
+    out += "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for r in rows {
         let Some(rep) = &r.report else { continue };
         let step1_residual = rep
@@ -54,8 +50,8 @@ fn print_comparison(rows: &[Row]) {
                 .collect(),
         );
         let total_ms = median(r.times.iter().map(|t| t.total_ms()).collect());
-        println!(
-            "| {} | {:.3} | {:.3} | {:.3e} | {:.1} | {:.3} | {:.3} | {:.1e} | {:.1} |",
+        out += &format!(
+            "| {} | {:.3} | {:.3} | {:.3e} | {:.1} | {:.3} | {:.3} | {:.1e} | {:.1} |\n",
             r.name,
             rep.stretch_step1.l2,
             rep.stretch_step1.linf,
@@ -67,16 +63,13 @@ fn print_comparison(rows: &[Row]) {
             total_ms
         );
     }
+    out
 }
 
-fn print_header() {
-    println!(
-        "| case | vertices | constraints | status | runs | load | topology | boundary | factor | solve | spline | guard | completion | polish | export | step 1 | total |"
-    );
-    println!("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-}
+const HEADER: &str = "| case | vertices | constraints | status | runs | load | topology | boundary | factor | solve | spline | guard | completion | polish | export | step 1 | total |\n\
+|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|";
 
-fn print_row(r: &Row) {
+fn stage_row(r: &Row) -> String {
     let m = |f: fn(&StageTimes) -> f64| median(r.times.iter().map(f).collect());
     let fmt = |x: f64| {
         if x >= 100.0 {
@@ -87,7 +80,7 @@ fn print_row(r: &Row) {
             format!("{x:.3}")
         }
     };
-    println!(
+    format!(
         "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
         r.name,
         r.vertices,
@@ -106,7 +99,7 @@ fn print_row(r: &Row) {
         fmt(m(|t| t.export_ms)),
         fmt(m(|t| t.topology_ms + t.boundary_ms + t.factor_ms + t.solve_ms)),
         fmt(m(|t| t.total_ms())),
-    );
+    )
 }
 
 /// uvpin's layout of `mesh` without constraints, as stored: the step-1
@@ -172,10 +165,9 @@ fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: us
 /// One case of an interleaved set: name, mesh, constraints, options.
 type Case<'a> = (&'a str, &'a TriMesh, Vec<(u32, DVec2)>, SolverOptions);
 
-/// Runs `cases` round-robin, one solve of each per round, `runs` rounds.
-/// This machine switches between fast and slow spells lasting about a
-/// second (up to 2× apart); run back to back, a case's runs would all land
-/// in one spell, so rows could not be compared with each other.
+/// Runs `cases` round-robin, one solve of each per round, `runs` rounds, so
+/// that the rows are measured side by side (a shared machine's speed drifts;
+/// run back to back, each row would see a different part of the drift).
 fn bench_interleaved(cases: &[Case], runs: usize) -> Vec<Row> {
     let mut rows: Vec<Row> = cases
         .iter()
@@ -243,126 +235,147 @@ fn curved_grid(n: usize, seed: u64) -> TriMesh {
     uvpin::testing::random_disk(&mut rng, n, 0)
 }
 
-fn main() {
-    let filter: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with('-'));
-    let wanted = |name: &str| filter.as_ref().is_none_or(|f| name.contains(f.as_str()));
-    let tmp = std::env::temp_dir().join(format!("uvpin-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).expect("temp dir");
-    println!("uvpin per-stage medians, milliseconds (release build, Par::Seq)\n");
-    print_header();
-    let mut rows: Vec<Row> = Vec::new();
-    let show = |row: Row, rows: &mut Vec<Row>| {
-        print_row(&row);
-        rows.push(row);
-    };
+/// The sample asset, end to end through its files.
+fn sample_rows(tmp: &Path) -> Vec<Row> {
+    let sample = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/face.uvpin.ron");
+    bench_file("sample face (assets/)", &sample, &tmp.join("face.glb"), 21)
+        .into_iter()
+        .collect()
+}
 
-    if wanted("sample") {
-        let sample = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/face.uvpin.ron");
-        if let Some(r) = bench_file("sample face (assets/)", &sample, &tmp.join("face.glb"), 21) {
-            show(r, &mut rows);
-        }
-    }
-    if wanted("paper") {
-        let mesh = curved_grid(41, 1);
-        let c = warp_constraints(&mesh, 50, 2);
-        let mut no_polish = SolverOptions::DEFAULT;
-        no_polish.polish = false;
-        // The paper's Fig. 8 crossing at the same size: the spline path stalls.
-        let (a, b) = (15 + 41 * 20, 25 + 41 * 20);
-        let uvs = unconstrained_uvs(&mesh, no_polish);
-        let at = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
-        let crossing = vec![(a, at(b)), (b, at(a))];
-        // 50 constraints turned by a strong swirl: the spline path stalls and
-        // the completion reaches them (its result is the witness).
-        let swirled = mapped_constraints(&uvs, 50, 2, |xy| swirl(xy, 4.0));
-        let d = SolverOptions::DEFAULT;
-        let cases: Vec<Case> = vec![
-            ("paper size: 41² curved grid", &mesh, c.clone(), d),
-            ("paper size, polish off", &mesh, c, no_polish),
-            ("paper size, crossing pair", &mesh, crossing, d),
-            ("paper size, swirl (stalls)", &mesh, swirled.clone(), d),
-            ("paper size, swirl, polish off", &mesh, swirled, no_polish),
-        ];
-        for row in bench_interleaved(&cases, 21) {
-            show(row, &mut rows);
-        }
-    }
-    let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
-    if shared.is_dir() {
-        for (file, runs) in [
-            ("woody.glb", 11),
-            ("halftunnel.glb", 11),
-            ("alligator.glb", 11),
-            ("lion.glb", 7),
-            ("camelhead.glb", 7),
-            ("face.glb", 5),
-        ] {
-            let name = format!("{file} (40 constraints)");
-            if !wanted(&name) {
-                continue;
-            }
-            let asset = uvpin::io::load_asset(&shared.join(file), None, 0).expect("shared mesh");
-            let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
-            let uvs = unconstrained_uvs(&mesh, SolverOptions::DEFAULT);
-            let c = mapped_constraints(&uvs, 40, 3, warp);
-            let ron = tmp.join(format!("{file}.uvpin.ron"));
-            let text = constraint_text(&shared.join(file), &c);
-            std::fs::write(&ron, format!("{text})\n")).expect("write");
-            if let Some(r) = bench_file(&name, &ron, &tmp.join(file), runs) {
-                show(r, &mut rows);
-            }
-            // The 26k-vertex patch once more with the completion doing all
-            // the work (the goal's worst case: 0.5 s with it taking over).
-            if file == "face.glb" {
-                let forced = tmp.join("face.always.uvpin.ron");
-                std::fs::write(&forced, format!("{text}, solver: (completion: Always))\n")).expect("write");
-                let name = format!("{file} (40 constraints, completion: Always)");
-                if let Some(r) = bench_file(&name, &forced, &tmp.join("face.always.glb"), runs) {
-                    show(r, &mut rows);
-                }
-                // A real stall at 26k vertices: the same 40 vertices turned
-                // by a 4 rad swirl (the whole swirled step-1 layout is
-                // fold-free, so it is reachable); the spline path stalls at
-                // once and the completion does all the work.
-                let turn = |xy: DVec2| swirl(xy, 4.0);
-                let swirled = mapped_constraints(&uvs, 40, 3, turn);
-                let ron = tmp.join("face.swirl.uvpin.ron");
-                let text = constraint_text(&shared.join(file), &swirled);
-                std::fs::write(&ron, format!("{text})\n")).expect("write");
-                let witness: Vec<[f32; 2]> = uvs
-                    .iter()
-                    .map(|p| {
-                        let q = xy_to_uv(turn(uv_to_xy(DVec2::new(p[0] as f64, p[1] as f64))));
-                        [q.x as f32, q.y as f32]
-                    })
-                    .collect();
-                let folds = uvpin::guard::count_uv_orientations(&witness, &mesh.triangles);
-                let name = if folds.is_clean() {
-                    format!("{file} (40 constraints swirled 4 rad, stalls)")
-                } else {
-                    format!("{file} (40 constraints swirled 4 rad, stalls; its witness folds: {folds:?})")
-                };
-                if let Some(r) = bench_file(&name, &ron, &tmp.join("face.swirl.glb"), 3) {
-                    show(r, &mut rows);
-                }
-            }
-        }
+/// The paper's case size, with the polish on and off, the Fig. 8 crossing
+/// and a strong swirl that stalls the spline path.
+fn paper_rows() -> Vec<Row> {
+    let mesh = curved_grid(41, 1);
+    let c = warp_constraints(&mesh, 50, 2);
+    let mut no_polish = SolverOptions::DEFAULT;
+    no_polish.polish = false;
+    // The paper's Fig. 8 crossing at the same size: the spline path stalls.
+    let (a, b) = (15 + 41 * 20, 25 + 41 * 20);
+    let uvs = unconstrained_uvs(&mesh, no_polish);
+    let at = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
+    let crossing = vec![(a, at(b)), (b, at(a))];
+    // 50 constraints turned by a strong swirl: the spline path stalls and
+    // the completion reaches them (its result is the witness).
+    let swirled = mapped_constraints(&uvs, 50, 2, |xy| swirl(xy, 4.0));
+    let d = SolverOptions::DEFAULT;
+    let cases: Vec<Case> = vec![
+        ("paper size: 41² curved grid", &mesh, c.clone(), d),
+        ("paper size, polish off", &mesh, c, no_polish),
+        ("paper size, crossing pair", &mesh, crossing, d),
+        ("paper size, swirl (stalls)", &mesh, swirled.clone(), d),
+        ("paper size, swirl, polish off", &mesh, swirled, no_polish),
+    ];
+    bench_interleaved(&cases, 21)
+}
+
+/// A 26k-vertex real stall: the face's 40 vertices turned by a 4 rad swirl
+/// (the whole swirled layout is checked to be fold-free, so it is reachable).
+fn face_swirl_row(tmp: &Path, asset: &Path, mesh: &TriMesh, uvs: &[[f32; 2]]) -> Option<Row> {
+    let turn = |xy: DVec2| swirl(xy, 4.0);
+    let swirled = mapped_constraints(uvs, 40, 3, turn);
+    let ron = tmp.join("face.swirl.uvpin.ron");
+    std::fs::write(&ron, format!("{})\n", constraint_text(asset, &swirled))).expect("write");
+    let witness: Vec<[f32; 2]> = uvs
+        .iter()
+        .map(|p| {
+            let q = xy_to_uv(turn(uv_to_xy(DVec2::new(p[0] as f64, p[1] as f64))));
+            [q.x as f32, q.y as f32]
+        })
+        .collect();
+    let folds = uvpin::guard::count_uv_orientations(&witness, &mesh.triangles);
+    let name = if folds.is_clean() {
+        "face.glb (40 constraints swirled 4 rad, stalls)".to_string()
     } else {
+        format!("face.glb (40 constraints swirled 4 rad, stalls; its witness folds: {folds:?})")
+    };
+    bench_file(&name, &ron, &tmp.join("face.swirl.glb"), 3)
+}
+
+/// The shared third-party meshes with 40 warped constraints each (and the
+/// face twice more: the completion doing all the work, and a swirl).
+fn shared_rows(tmp: &Path, wanted: &dyn Fn(&str) -> bool) -> Vec<Row> {
+    let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
+    if !shared.is_dir() {
         eprintln!("(../shared/meshes not found: shared meshes skipped)");
+        return Vec::new();
     }
+    let mut rows = Vec::new();
+    for (file, runs) in [
+        ("woody.glb", 11),
+        ("halftunnel.glb", 11),
+        ("alligator.glb", 11),
+        ("lion.glb", 7),
+        ("camelhead.glb", 7),
+        ("face.glb", 5),
+    ] {
+        let name = format!("{file} (40 constraints)");
+        if !wanted(&name) {
+            continue;
+        }
+        let asset = uvpin::io::load_asset(&shared.join(file), None, 0).expect("shared mesh");
+        let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
+        let uvs = unconstrained_uvs(&mesh, SolverOptions::DEFAULT);
+        let c = mapped_constraints(&uvs, 40, 3, warp);
+        let ron = tmp.join(format!("{file}.uvpin.ron"));
+        let text = constraint_text(&shared.join(file), &c);
+        std::fs::write(&ron, format!("{text})\n")).expect("write");
+        rows.extend(bench_file(&name, &ron, &tmp.join(file), runs));
+        if file == "face.glb" {
+            let forced = tmp.join("face.always.uvpin.ron");
+            std::fs::write(&forced, format!("{text}, solver: (completion: Always))\n")).expect("write");
+            let name = format!("{file} (40 constraints, completion: Always)");
+            rows.extend(bench_file(&name, &forced, &tmp.join("face.always.glb"), runs));
+            rows.extend(face_swirl_row(tmp, &shared.join(file), &mesh, &uvs));
+        }
+    }
+    rows
+}
+
+/// Generated grids of 10k, 100k and 1M vertices.
+fn grid_rows(wanted: &dyn Fn(&str) -> bool) -> Vec<Row> {
+    let mut rows = Vec::new();
     for (n, runs, k) in [(100usize, 11usize, 40usize), (317, 5, 40), (1000, 3, 0)] {
-        let name = format!("grid {n}² ({} constraints)", k);
+        let name = format!("grid {n}² ({k} constraints)");
         if !wanted(&name) {
             continue;
         }
         let mesh = grid_mesh(n, n);
-        let c = if k > 0 {
-            warp_constraints(&mesh, k, 4)
-        } else {
-            Vec::new()
-        };
-        show(bench_mesh(&name, &mesh, &c, runs), &mut rows);
+        let c = if k > 0 { warp_constraints(&mesh, k, 4) } else { Vec::new() };
+        rows.push(bench_mesh(&name, &mesh, &c, runs));
     }
-    print_comparison(&rows);
+    rows
+}
+
+fn main() {
+    let filter = common::filter();
+    let wanted = |name: &str| filter.as_ref().is_none_or(|f| name.contains(f.as_str()));
+    let tmp = std::env::temp_dir().join(format!("uvpin-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).expect("temp dir");
+    println!("{HEADER}");
+    let mut rows: Vec<Row> = Vec::new();
+    let mut show = |new: Vec<Row>| {
+        for r in new {
+            println!("{}", stage_row(&r));
+            rows.push(r);
+        }
+    };
+    if wanted("sample") {
+        show(sample_rows(&tmp));
+    }
+    if wanted("paper") {
+        show(paper_rows());
+    }
+    show(shared_rows(&tmp, &wanted));
+    show(grid_rows(&wanted));
+    let stages: Vec<String> = rows.iter().map(stage_row).collect();
+    let body = format!(
+        "Per-stage medians in milliseconds (`cargo bench --bench stages`); the paper-size rows are \
+         measured side by side, interleaved.\n\n{HEADER}\n{}\n\nStep 1 alone against uvpin's result \
+         (Sander L2 and L∞ stretch, 1 = isometry; largest distance of a constraint from its target):\n\n{}",
+        stages.join("\n"),
+        comparison_table(&rows)
+    );
+    common::publish("stages", "Stages", &body);
     let _ = std::fs::remove_dir_all(&tmp);
 }

@@ -1,6 +1,9 @@
 //! A 100-run sweep of the sample asset (4 settings × 25 target blends, with
-//! thumbnails): runs per second with 1 and 2 worker threads.
-//! `cargo bench --bench sweep` prints a table; timings are never asserted.
+//! thumbnails): runs per second with one worker thread and with one per core.
+//! `cargo bench --bench sweep` prints a table and writes it into
+//! `docs/benchmarks.md`; timings are never asserted.
+
+mod common;
 
 use std::path::Path;
 use std::time::Instant;
@@ -31,11 +34,13 @@ fn main() {
 )"#,
     )
     .unwrap();
-    println!("\n100-run sweep of assets/face.uvpin.ron (4 settings x 25 blends 0..1.2, thumbnails)");
-    println!("| threads | wall s | runs/s |");
-    println!("|---:|---:|---:|");
+    let mut body = String::from(
+        "A 100-run sweep of `assets/face.uvpin.ron` (4 settings × 25 target blends 0…1.2, thumbnails).\n\n\
+         | threads | wall s | runs/s |\n|---:|---:|---:|\n",
+    );
     let mut summary = String::new();
-    for jobs in [1, 2] {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    for jobs in [1, cores.max(2)] {
         let t0 = Instant::now();
         let outcome = run_sweep(
             &sweep,
@@ -48,9 +53,10 @@ fn main() {
         .unwrap();
         let s = t0.elapsed().as_secs_f64();
         assert_eq!(outcome.rows.len(), 100);
-        println!("| {jobs} | {s:.2} | {:.1} |", 100.0 / s);
+        body += &format!("| {jobs} | {s:.2} | {:.1} |\n", 100.0 / s);
         summary = outcome.summary;
     }
-    println!("\n{summary}");
+    body += &format!("\nPer setting:\n\n{summary}");
+    common::publish("sweep", "Sweeps", &body);
     let _ = std::fs::remove_dir_all(&dir);
 }

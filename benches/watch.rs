@@ -3,8 +3,11 @@
 //! median over 25 edits, for the sample asset and a 100k-vertex mesh; idle
 //! CPU over 10 s; 200 watched assets with one edited.
 //!
-//! `cargo bench --bench watch` prints a table. Not a test: timings on a shared
-//! machine are noisy, so they are quoted as medians, never asserted.
+//! `cargo bench --bench watch` prints a table and writes it into
+//! `docs/benchmarks.md`. Not a test: timings on a shared machine are noisy,
+//! so they are quoted as medians, never asserted.
+
+mod common;
 
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
@@ -90,10 +93,7 @@ impl Drop for Daemon {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use common::median;
 
 fn write_glb(path: &Path, mesh: &TriMesh) {
     let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
@@ -166,42 +166,32 @@ fn temp(name: &str) -> PathBuf {
     dir
 }
 
-fn main() {
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut rows = Vec::new();
-
-    // The sample asset: nudge the nose tip target back and forth.
+/// The sample asset: the nose tip's target nudged back and forth; then the
+/// daemon's idle CPU over 10 s (% of one core).
+fn sample_case(repo: &Path) -> (Row, f64) {
     let dir = temp("sample");
     std::fs::copy(repo.join("assets/face.glb"), dir.join("assets/face.glb")).unwrap();
     let original = std::fs::read_to_string(repo.join("assets/face.uvpin.ron")).unwrap();
     let ron = dir.join("assets/face.uvpin.ron");
     std::fs::write(&ron, &original).unwrap();
-    let sample_vertices = uvpin::io::load_asset(&repo.join("assets/face.glb"), None, 0)
+    let vertices = uvpin::io::load_asset(&repo.join("assets/face.glb"), None, 0)
         .unwrap()
         .primitives[0]
         .positions
         .len();
-    let (row, sample) = hot_reload(
-        "sample (face.glb)",
-        &dir,
-        &ron,
-        &dir.join("out/face.glb"),
-        sample_vertices,
-        |k| {
-            let u = 0.5 + 0.004 * ((k % 5) as f64 - 2.0);
-            original.replace("uv: (0.500, 0.580)", &format!("uv: ({u:.3}, 0.580)"))
-        },
-    );
-    rows.push(row);
-
-    // Idle CPU of the sample daemon over 10 s.
+    let (row, sample) = hot_reload("sample (face.glb)", &dir, &ron, &dir.join("out/face.glb"), vertices, |k| {
+        let u = 0.5 + 0.004 * ((k % 5) as f64 - 2.0);
+        original.replace("uv: (0.500, 0.580)", &format!("uv: ({u:.3}, 0.580)"))
+    });
     std::thread::sleep(Duration::from_millis(500));
     let c0 = sample.cpu_seconds();
     std::thread::sleep(Duration::from_secs(10));
     let idle_cpu = (sample.cpu_seconds() - c0) / 10.0 * 100.0;
-    drop(sample);
+    (row, idle_cpu)
+}
 
-    // A 100k-vertex bent grid with 8 constraints.
+/// A 100k-vertex bent grid with 8 constraints, one of them nudged.
+fn big_case() -> Row {
     let n = 317;
     let dir = temp("100k");
     let mut mesh = grid_mesh(n, n);
@@ -210,16 +200,7 @@ fn main() {
     }
     write_glb(&dir.join("assets/big.glb"), &mesh);
     let ron = dir.join("assets/big.uvpin.ron");
-    let lattice: Vec<(usize, usize)> = vec![
-        (80, 80),
-        (160, 80),
-        (240, 80),
-        (80, 160),
-        (240, 160),
-        (80, 240),
-        (160, 240),
-        (240, 240),
-    ];
+    let lattice = [(80, 80), (160, 80), (240, 80), (80, 160), (240, 160), (80, 240), (160, 240), (240, 240)];
     let text_of = |k: usize| {
         let s = 0.003 * ((k % 5) as f64 - 2.0);
         let mut t = String::from("(\n    asset: \"big.glb\",\n    constraints: [\n");
@@ -232,11 +213,12 @@ fn main() {
         t + "    ],\n)\n"
     };
     std::fs::write(&ron, text_of(0)).unwrap();
-    let (row, big) = hot_reload("100k-vertex grid", &dir, &ron, &dir.join("out/big.glb"), n * n, text_of);
-    rows.push(row);
-    drop(big);
+    hot_reload("100k-vertex grid", &dir, &ron, &dir.join("out/big.glb"), n * n, text_of).0
+}
 
-    // 200 watched assets, one edited.
+/// 200 watched assets, one edited: seconds until all are solved at start,
+/// re-solves after the edit, and its latency (ms).
+fn many_case() -> (f64, usize, f64) {
     let dir = temp("many");
     let small = 20;
     let centre = (10 + 10 * small) as u32;
@@ -261,17 +243,22 @@ fn main() {
         &dir.join("out/m117/g.glb"),
     );
     std::thread::sleep(Duration::from_secs(1));
-    let solves_after_edit = d.count("solving") - 200;
-    drop(d);
+    (startup, d.count("solving") - 200, latency)
+}
 
-    println!(
-        "\nuvpin watch: constraint file rename -> output rename, median of {EDITS} edits, debounce {DEBOUNCE_MS} ms"
+fn main() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (sample, idle_cpu) = sample_case(repo);
+    let rows = [sample, big_case()];
+    let (startup, solves_after_edit, latency) = many_case();
+    let mut body = format!(
+        "`uvpin watch` (the release binary, a real file watcher): time from a constraint file's rename to the \
+         output's rename, median of {EDITS} edits, debounce {DEBOUNCE_MS} ms.\n\n\
+         | asset | vertices | latency (median) | latency - debounce | solve (median) | reached |\n|---|---|---|---|---|---|\n"
     );
-    println!("| asset | vertices | latency (median) | latency - debounce | solve (median) | reached |");
-    println!("|---|---|---|---|---|---|");
     for r in &rows {
-        println!(
-            "| {} | {} | {:.0} ms | {:.0} ms | {:.1} ms | {}/{} |",
+        body += &format!(
+            "| {} | {} | {:.0} ms | {:.0} ms | {:.1} ms | {}/{} |\n",
             r.name,
             r.vertices,
             r.latency,
@@ -281,8 +268,9 @@ fn main() {
             EDITS
         );
     }
-    println!("\nidle CPU over 10 s: {idle_cpu:.2} % of one core");
-    println!(
-        "200 watched assets: all solved {startup:.1} s after start; one edited -> {solves_after_edit} re-solve, latency {latency:.0} ms"
+    body += &format!(
+        "\nIdle CPU over 10 s: {idle_cpu:.2} % of one core. 200 watched assets: all solved {startup:.1} s after start; \
+         one edited gives {solves_after_edit} re-solve, latency {latency:.0} ms."
     );
+    common::publish("watch", "Hot reload", &body);
 }

@@ -7,7 +7,8 @@ use common::*;
 use serde_json::Value;
 use std::path::Path;
 use uvpin::mesh::topology::Topology;
-use uvpin::mesh::weld::weld;
+use uvpin::io::SourceAsset;
+use uvpin::mesh::weld::{Chart, WeldedMesh, weld};
 
 /// JSON and BIN chunk of a GLB file.
 fn glb_parts(path: &Path) -> (Value, Vec<u8>) {
@@ -19,20 +20,12 @@ fn glb_parts(path: &Path) -> (Value, Vec<u8>) {
     )
 }
 
-/// Solves `asset` with one constraint at an interior vertex of its largest
-/// disk-like chart and checks that nothing but TEXCOORD_`uv_set` changed.
-fn round_trip(name: &str, uv_set: u32) {
-    let Some(asset) = shared_mesh(name) else {
-        return;
-    };
-    let tmp = TempDir::new(&format!("rt-{name}"));
-    let source = uvpin::io::load_asset(&asset, None, uv_set).unwrap();
-    let welded = weld(&source.primitives);
-    // The largest chart that is a disk, and an interior vertex of it.
+/// The largest chart of `welded` that is a disk, and an interior vertex of it (welded id).
+fn disk_chart_and_interior(welded: &WeldedMesh) -> (Chart, u32) {
     let sizes = welded.chart_sizes();
     let mut order: Vec<u32> = (0..welded.n_charts as u32).collect();
     order.sort_by_key(|&c| std::cmp::Reverse(sizes[c as usize].1));
-    let (chart, interior) = order
+    order
         .iter()
         .find_map(|&c| {
             let chart = welded.chart(c);
@@ -46,30 +39,12 @@ fn round_trip(name: &str, uv_set: u32) {
             let w = chart.welded_ids[v];
             Some((chart, w))
         })
-        .expect("a disk-like chart");
-    let (prim_pos, gltf_vertex) = welded
-        .vertex_of
-        .iter()
-        .enumerate()
-        .find_map(|(p, map)| map.iter().position(|&w| w == interior).map(|i| (p, i as u32)))
-        .unwrap();
-    let ron = tmp.path("c.uvpin.ron");
-    std::fs::write(
-        &ron,
-        format!(
-            "(asset: {:?}, uv_set: {uv_set}, primitive: {}, constraints: [(vertex: {gltf_vertex}, uv: (0.5, 0.5))])",
-            asset.display().to_string(),
-            source.primitives[prim_pos].index
-        ),
-    )
-    .unwrap();
-    let out = tmp.path(name);
-    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert!(matches!(o.status.code(), Some(0 | 2)), "{}", stderr(&o));
+        .expect("a disk-like chart")
+}
 
-    // 1. JSON: identical after removing exactly what uvpin adds or repoints.
-    let (json_in, bin_in) = glb_parts(&asset);
-    let (mut json_out, bin_out) = glb_parts(&out);
+/// The output's JSON is the input's but for the UV attribute, the new
+/// accessors and views and the buffer length.
+fn assert_json_changes_only_uvs(json_in: &Value, mut json_out: Value, source: &SourceAsset, uv_set: u32) {
     let mut expected = json_in.clone();
     let n_acc = json_in["accessors"].as_array().unwrap().len();
     let n_views = json_in["bufferViews"].as_array().unwrap().len();
@@ -91,8 +66,10 @@ fn round_trip(name: &str, uv_set: u32) {
         json_out, expected,
         "only the UV attribute, new accessors/views and the buffer length may differ"
     );
+}
 
-    // 2. Every original buffer view (so every original accessor) keeps its bytes.
+/// Every original buffer view (so every original accessor) keeps its bytes.
+fn assert_views_keep_bytes(json_in: &Value, bin_in: &[u8], bin_out: &[u8]) {
     for (i, view) in json_in["bufferViews"].as_array().unwrap().iter().enumerate() {
         let off = view["byteOffset"].as_u64().unwrap_or(0) as usize;
         let len = view["byteLength"].as_u64().unwrap() as usize;
@@ -102,9 +79,10 @@ fn round_trip(name: &str, uv_set: u32) {
             "buffer view {i} changed"
         );
     }
+}
 
-    // 3. UVs: other charts bit-identical; the solved chart fold-free.
-    let written = uvpin::io::load_asset(&out, None, uv_set).unwrap();
+/// Other charts keep their UVs bit for bit; the solved chart is fold-free.
+fn assert_uvs(source: &SourceAsset, written: &SourceAsset, welded: &WeldedMesh, chart: &Chart) {
     let mut changed = 0;
     for (p, (before, after)) in source.primitives.iter().zip(&written.primitives).enumerate() {
         assert_eq!(before.positions, after.positions);
@@ -137,6 +115,43 @@ fn round_trip(name: &str, uv_set: u32) {
         })
         .collect();
     assert!(uvpin::guard::count_uv_orientations(&local_uvs, &chart.mesh.triangles).is_clean());
+}
+
+/// Solves `asset` with one constraint at an interior vertex of its largest
+/// disk-like chart and checks that nothing but TEXCOORD_`uv_set` changed.
+fn round_trip(name: &str, uv_set: u32) {
+    let Some(asset) = shared_mesh(name) else {
+        return;
+    };
+    let tmp = TempDir::new(&format!("rt-{name}"));
+    let source = uvpin::io::load_asset(&asset, None, uv_set).unwrap();
+    let welded = weld(&source.primitives);
+    let (chart, interior) = disk_chart_and_interior(&welded);
+    let (prim_pos, gltf_vertex) = welded
+        .vertex_of
+        .iter()
+        .enumerate()
+        .find_map(|(p, map)| map.iter().position(|&w| w == interior).map(|i| (p, i as u32)))
+        .unwrap();
+    let ron = tmp.path("c.uvpin.ron");
+    std::fs::write(
+        &ron,
+        format!(
+            "(asset: {:?}, uv_set: {uv_set}, primitive: {}, constraints: [(vertex: {gltf_vertex}, uv: (0.5, 0.5))])",
+            asset.display().to_string(),
+            source.primitives[prim_pos].index
+        ),
+    )
+    .unwrap();
+    let out = tmp.path(name);
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(matches!(o.status.code(), Some(0 | 2)), "{}", stderr(&o));
+    let (json_in, bin_in) = glb_parts(&asset);
+    let (json_out, bin_out) = glb_parts(&out);
+    assert_json_changes_only_uvs(&json_in, json_out, &source, uv_set);
+    assert_views_keep_bytes(&json_in, &bin_in, &bin_out);
+    let written = uvpin::io::load_asset(&out, None, uv_set).unwrap();
+    assert_uvs(&source, &written, &welded, &chart);
 }
 
 #[test]
