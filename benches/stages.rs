@@ -341,7 +341,11 @@ fn grid_rows(wanted: &dyn Fn(&str) -> bool) -> Vec<Row> {
             continue;
         }
         let mesh = grid_mesh(n, n);
-        let c = if k > 0 { warp_constraints(&mesh, k, 4) } else { Vec::new() };
+        let c = if k > 0 {
+            warp_constraints(&mesh, k, 4)
+        } else {
+            Vec::new()
+        };
         rows.push(bench_mesh(&name, &mesh, &c, runs));
     }
     rows

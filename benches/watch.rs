@@ -179,10 +179,17 @@ fn sample_case(repo: &Path) -> (Row, f64) {
         .primitives[0]
         .positions
         .len();
-    let (row, sample) = hot_reload("sample (face.glb)", &dir, &ron, &dir.join("out/face.glb"), vertices, |k| {
-        let u = 0.5 + 0.004 * ((k % 5) as f64 - 2.0);
-        original.replace("uv: (0.500, 0.580)", &format!("uv: ({u:.3}, 0.580)"))
-    });
+    let (row, sample) = hot_reload(
+        "sample (face.glb)",
+        &dir,
+        &ron,
+        &dir.join("out/face.glb"),
+        vertices,
+        |k| {
+            let u = 0.5 + 0.004 * ((k % 5) as f64 - 2.0);
+            original.replace("uv: (0.500, 0.580)", &format!("uv: ({u:.3}, 0.580)"))
+        },
+    );
     std::thread::sleep(Duration::from_millis(500));
     let c0 = sample.cpu_seconds();
     std::thread::sleep(Duration::from_secs(10));
@@ -200,7 +207,16 @@ fn big_case() -> Row {
     }
     write_glb(&dir.join("assets/big.glb"), &mesh);
     let ron = dir.join("assets/big.uvpin.ron");
-    let lattice = [(80, 80), (160, 80), (240, 80), (80, 160), (240, 160), (80, 240), (160, 240), (240, 240)];
+    let lattice = [
+        (80, 80),
+        (160, 80),
+        (240, 80),
+        (80, 160),
+        (240, 160),
+        (80, 240),
+        (160, 240),
+        (240, 240),
+    ];
     let text_of = |k: usize| {
         let s = 0.003 * ((k % 5) as f64 - 2.0);
         let mut t = String::from("(\n    asset: \"big.glb\",\n    constraints: [\n");

@@ -155,7 +155,10 @@ fn constraint_text(mesh: &TriMesh, outer: &[u32]) -> String {
     );
     for (label, at, uv) in LANDMARKS {
         let v = nearest_of(&mut (0..mesh.n_vertices() as u32), DVec2::from(at));
-        ron += &format!("        (vertex: {v}, uv: ({:.3}, {:.3}), label: \"{label}\"),\n", uv[0], uv[1]);
+        ron += &format!(
+            "        (vertex: {v}, uv: ({:.3}, {:.3}), label: \"{label}\"),\n",
+            uv[0], uv[1]
+        );
     }
     // The outer-loop vertices nearest the outline's diagonals.
     let corner = |dir: DVec2| nearest_of(&mut outer.iter().copied(), OUTER.0 + dir.normalize() * OUTER.1);

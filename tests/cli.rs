@@ -53,10 +53,9 @@ fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
         assert!((uvs[v][1] as f64 - t[1].as_f64().unwrap()).abs() < 1e-7);
     }
     // And so does an independent reader written in Python.
-    if let Some(py) = python_uv_orientation(&out, 0) {
-        assert_eq!(py[0]["triangles"], tris.len());
-        assert_eq!(py[0]["negative"], tris.len(), "{}", py[0]["positive"]);
-    }
+    let py = python_uv_orientation(&out, 0);
+    assert_eq!(py[0]["triangles"], tris.len());
+    assert_eq!(py[0]["negative"], tris.len(), "{}", py[0]["positive"]);
     // `uvpin check` agrees with the constraint file.
     let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
@@ -388,9 +387,8 @@ fn gltf_with_external_buffer_round_trips_to_gltf_and_bin() {
     assert_eq!(written["x_unknown_field"], serde_json::json!([1, 2, 3]));
     // The original buffer is referenced from the output's folder.
     assert_eq!(written["buffers"][0]["uri"], "../in/geometry%20data.bin");
-    if let Some(py) = python_uv_orientation(&out, 0) {
-        assert_eq!(py[0]["negative"], mesh.n_triangles());
-    }
+    let py = python_uv_orientation(&out, 0);
+    assert_eq!(py[0]["negative"], mesh.n_triangles());
     // .glb in → .gltf out is refused (nothing but the UVs may change).
     let ron2 = tmp.path("s.uvpin.ron");
     write_constraints(&ron2, &repo().join("assets/face.glb"), &[], "");

@@ -7,6 +7,7 @@
 //! zero flipped and zero-area triangles.
 
 mod common;
+use common::Needs;
 use glam::DVec2;
 use uvpin::mesh::TriMesh;
 use uvpin::options::SolverOptions;
@@ -184,13 +185,12 @@ fn mirrored_case(name: &str, mesh: &TriMesh, seed: u64) -> Report {
     r
 }
 
-fn shared(name: &str) -> Option<TriMesh> {
-    let path = common::shared_mesh(name)?;
+fn shared(name: &str) -> TriMesh {
+    let path = common::shared_mesh(name);
     let asset = uvpin::io::load_asset(&path, None, 0).unwrap();
-    Some(uvpin::mesh::weld::weld(&asset.primitives).mesh)
+    uvpin::mesh::weld::weld(&asset.primitives).mesh
 }
 
-#[test]
 fn solvable_procedural_cases_are_reached_exactly() {
     let mut cases = 0;
     for seed in 0..8u64 {
@@ -211,7 +211,6 @@ fn solvable_procedural_cases_are_reached_exactly() {
     eprintln!("{cases} solvable procedural cases reached");
 }
 
-#[test]
 fn witnessed_swirls_are_reached_exactly() {
     // Swirls stronger than these fold the swirled layout on meshes this
     // coarse, so they prove nothing (the benchmark's 4 rad swirl stalls the
@@ -233,7 +232,6 @@ fn witnessed_swirls_are_reached_exactly() {
     assert!(cases >= 12, "too few swirls are witnessed: {cases}");
 }
 
-#[test]
 fn crossing_and_impossible_procedural_cases() {
     // Every case is fold-free (checked in `solve`). A swap is reached, or
     // proven impossible on its mesh: "crossing disk 4" asks two vertices
@@ -264,10 +262,9 @@ fn crossing_and_impossible_procedural_cases() {
     );
 }
 
-#[test]
 fn shared_meshes_solvable_crossing_and_impossible() {
     for name in ["woody.glb", "halftunnel.glb", "alligator.glb"] {
-        let Some(mesh) = shared(name) else { continue };
+        let mesh = shared(name);
         let r = warp_case(&format!("{name} warp"), &mesh, 25, 0.1, 3);
         eprintln!("{name} warp: {}", r.explain.join(" | "));
         let r = crossing_case(&format!("{name} crossing"), &mesh, 5);
@@ -287,7 +284,6 @@ fn shared_meshes_solvable_crossing_and_impossible() {
 /// snap left the layout more distorted (symmetric Dirichlet, in all or in
 /// its worst triangle) than step 1, and then it lowers the stretch; at or
 /// below the limit it always follows.
-#[test]
 fn large_charts_are_polished_only_after_a_distorting_completion() {
     let (mut polished, mut skipped) = (0, 0);
     for seed in 0..6u64 {
@@ -341,4 +337,34 @@ fn large_charts_are_polished_only_after_a_distorting_completion() {
         polished > 0 && skipped > 0,
         "both branches: {polished} polished, {skipped} not"
     );
+}
+
+fn main() -> std::process::ExitCode {
+    common::run_cases(&[
+        (
+            "solvable_procedural_cases_are_reached_exactly",
+            &[],
+            solvable_procedural_cases_are_reached_exactly,
+        ),
+        (
+            "witnessed_swirls_are_reached_exactly",
+            &[],
+            witnessed_swirls_are_reached_exactly,
+        ),
+        (
+            "crossing_and_impossible_procedural_cases",
+            &[],
+            crossing_and_impossible_procedural_cases,
+        ),
+        (
+            "shared_meshes_solvable_crossing_and_impossible",
+            &[Needs::SharedMeshes],
+            shared_meshes_solvable_crossing_and_impossible,
+        ),
+        (
+            "large_charts_are_polished_only_after_a_distorting_completion",
+            &[],
+            large_charts_are_polished_only_after_a_distorting_completion,
+        ),
+    ])
 }

@@ -6,8 +6,8 @@ mod common;
 use common::*;
 use serde_json::Value;
 use std::path::Path;
-use uvpin::mesh::topology::Topology;
 use uvpin::io::SourceAsset;
+use uvpin::mesh::topology::Topology;
 use uvpin::mesh::weld::{Chart, WeldedMesh, weld};
 
 /// JSON and BIN chunk of a GLB file.
@@ -120,9 +120,7 @@ fn assert_uvs(source: &SourceAsset, written: &SourceAsset, welded: &WeldedMesh, 
 /// Solves `asset` with one constraint at an interior vertex of its largest
 /// disk-like chart and checks that nothing but TEXCOORD_`uv_set` changed.
 fn round_trip(name: &str, uv_set: u32) {
-    let Some(asset) = shared_mesh(name) else {
-        return;
-    };
+    let asset = shared_mesh(name);
     let tmp = TempDir::new(&format!("rt-{name}"));
     let source = uvpin::io::load_asset(&asset, None, uv_set).unwrap();
     let welded = weld(&source.primitives);
@@ -154,21 +152,16 @@ fn round_trip(name: &str, uv_set: u32) {
     assert_uvs(&source, &written, &welded, &chart);
 }
 
-#[test]
 fn duck_round_trip_changes_only_the_uv_set() {
     round_trip("Duck.glb", 0);
 }
 
-#[test]
 fn damaged_helmet_round_trip_changes_only_the_uv_set() {
     round_trip("DamagedHelmet.glb", 0);
 }
 
-#[test]
 fn a_new_uv_set_can_be_added_beside_the_existing_one() {
-    let Some(asset) = shared_mesh("Duck.glb") else {
-        return;
-    };
+    let asset = shared_mesh("Duck.glb");
     let tmp = TempDir::new("uvset1");
     // TEXCOORD_1 does not exist: charts are welded by position only.
     let ron = tmp.path("c.uvpin.ron");
@@ -193,4 +186,24 @@ fn a_new_uv_set_can_be_added_beside_the_existing_one() {
         assert!(json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"].is_u64());
         assert!(json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"].is_u64());
     }
+}
+
+fn main() -> std::process::ExitCode {
+    run_cases(&[
+        (
+            "duck_round_trip_changes_only_the_uv_set",
+            &[Needs::SharedMeshes],
+            duck_round_trip_changes_only_the_uv_set,
+        ),
+        (
+            "damaged_helmet_round_trip_changes_only_the_uv_set",
+            &[Needs::SharedMeshes],
+            damaged_helmet_round_trip_changes_only_the_uv_set,
+        ),
+        (
+            "a_new_uv_set_can_be_added_beside_the_existing_one",
+            &[Needs::SharedMeshes],
+            a_new_uv_set_can_be_added_beside_the_existing_one,
+        ),
+    ])
 }

@@ -58,7 +58,10 @@ pub fn write_section(name: &str, title: &str, body: &str) {
          replaces its own section. Medians over repeated runs; timings are never asserted in tests.\n"
             .to_string()
     });
-    let (start, end) = (format!("<!-- bench:{name}:start -->"), format!("<!-- bench:{name}:end -->"));
+    let (start, end) = (
+        format!("<!-- bench:{name}:start -->"),
+        format!("<!-- bench:{name}:end -->"),
+    );
     let section = format!("{start}\n## {title}\n\n{}\n\n{body}\n{end}", machine_line());
     let new = match (text.find(&start), text.find(&end)) {
         (Some(a), Some(b)) if b > a => format!("{}{section}{}", &text[..a], &text[b + end.len()..]),

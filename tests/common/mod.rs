@@ -29,18 +29,75 @@ pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// `../shared/meshes/<name>`, or `None` (with a message) when `../shared` is absent.
-pub fn shared_mesh(name: &str) -> Option<PathBuf> {
+/// `../shared/meshes/<name>`. Tests that use it are trials that need
+/// [`Needs::SharedMeshes`]: ignored when the folder is absent, outside CI.
+///
+/// # Panics
+/// When the file is missing.
+pub fn shared_mesh(name: &str) -> PathBuf {
     let p = repo().join("../shared/meshes").join(name);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIP: {} not found (../shared/meshes is beside the repository in CI)",
-            p.display()
-        );
-        None
+    assert!(p.is_file(), "{} not found", p.display());
+    p
+}
+
+/// What a test needs beyond the repository, and may be absent on a
+/// developer's machine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Needs {
+    /// Third-party meshes in `../shared/meshes` (beside the repository in CI).
+    SharedMeshes,
+    /// Node and the Khronos glTF validator in `.tools/` (the README's test command installs it).
+    Validator,
+}
+
+impl Needs {
+    /// Why the need is not met, if it is not.
+    fn missing(self) -> Option<&'static str> {
+        match self {
+            Needs::SharedMeshes => (!repo().join("../shared/meshes").is_dir()).then_some("../shared/meshes not found"),
+            Needs::Validator => validator_module()
+                .is_none()
+                .then_some("gltf-validator not installed (npm install --prefix .tools gltf-validator)"),
+        }
     }
+}
+
+/// The Khronos validator's npm module, if installed.
+pub fn validator_module() -> Option<PathBuf> {
+    [
+        std::env::var_os("GLTF_VALIDATOR_MODULE").map(PathBuf::from),
+        Some(repo().join(".tools/node_modules/gltf-validator")),
+    ]
+    .into_iter()
+    .flatten()
+    .find(|p| p.join("package.json").is_file())
+}
+
+/// A test of a `harness = false` file: its name, what it needs, its body.
+pub type Case = (&'static str, &'static [Needs], fn());
+
+/// Runs `cases` with libtest's output and arguments. A case whose needs
+/// are not met is reported as *ignored* (in the summary's count, with the
+/// reason on its line), except in CI (where `CI` is set): there it runs,
+/// and fails on what is missing.
+pub fn run_cases(cases: &[Case]) -> std::process::ExitCode {
+    let args = libtest_mimic::Arguments::from_args();
+    let in_ci = std::env::var_os("CI").is_some();
+    let trials = cases
+        .iter()
+        .map(|&(name, needs, body)| {
+            let missing = needs.iter().find_map(|n| n.missing()).filter(|_| !in_ci);
+            let trial = libtest_mimic::Trial::test(name, move || {
+                body();
+                Ok(())
+            });
+            match missing {
+                Some(reason) => trial.with_kind(format!("needs: {reason}")).with_ignored_flag(true),
+                None => trial,
+            }
+        })
+        .collect();
+    libtest_mimic::run(&args, trials).exit_code()
 }
 
 /// Runs the uvpin binary.
@@ -94,36 +151,35 @@ pub fn write_mesh_glb(path: &Path, mesh: &uvpin::mesh::TriMesh) {
 }
 
 /// Runs the independent Python reader (tests/helpers/read_gltf.py, standard
-/// library only) on `path` with `args`; its JSON, or `None` (with a message)
-/// without python3.
-fn python_reader(path: &Path, args: &[&str]) -> Option<serde_json::Value> {
+/// library only) on `path` with `args`; its JSON.
+///
+/// # Panics
+/// Without python3 (a prerequisite of the tests), or when the reader fails.
+fn python_reader(path: &Path, args: &[&str]) -> serde_json::Value {
     let script = repo().join("tests/helpers/read_gltf.py");
     match Command::new("python3").arg(script).arg(path).args(args).output() {
-        Ok(o) if o.status.success() => Some(serde_json::from_slice(&o.stdout).expect("reader JSON")),
+        Ok(o) if o.status.success() => serde_json::from_slice(&o.stdout).expect("reader JSON"),
         Ok(o) => panic!(
             "independent reader failed on {}: {}",
             path.display(),
             String::from_utf8_lossy(&o.stderr)
         ),
-        Err(e) => {
-            eprintln!("SKIP independent reader: python3 not available ({e})");
-            None
-        }
+        Err(e) => panic!("python3 runs the tests' independent glTF reader: {e}"),
     }
 }
 
 /// Reads a glTF file back with the independent Python reader: per primitive
 /// of mesh 0, its vertex count, triangle count and how many triangles of each
-/// orientation TEXCOORD_<set> gives. `None` (with a message) without python3.
-pub fn python_uv_orientation(path: &Path, uv_set: u32) -> Option<serde_json::Value> {
+/// orientation TEXCOORD_<set> gives.
+pub fn python_uv_orientation(path: &Path, uv_set: u32) -> serde_json::Value {
     python_reader(path, &[&uv_set.to_string()])
 }
 
 /// The texture coordinates (TEXCOORD_<set>) of primitive 0 of mesh 0, read
 /// back with the independent Python reader, and its flipped + zero-area
-/// triangle count. `None` (with a message) without python3.
-pub fn python_uvs(path: &Path, uv_set: u32) -> Option<(Vec<[f64; 2]>, u64)> {
-    let v = python_reader(path, &[&uv_set.to_string(), "uvs"])?;
+/// triangle count.
+pub fn python_uvs(path: &Path, uv_set: u32) -> (Vec<[f64; 2]>, u64) {
+    let v = python_reader(path, &[&uv_set.to_string(), "uvs"]);
     let p = &v[0];
     let uvs = p["uv"]
         .as_array()
@@ -132,5 +188,5 @@ pub fn python_uvs(path: &Path, uv_set: u32) -> Option<(Vec<[f64; 2]>, u64)> {
         .map(|c| [c[0].as_f64().unwrap(), c[1].as_f64().unwrap()])
         .collect();
     let bad = p["positive"].as_u64().unwrap() + p["zero"].as_u64().unwrap();
-    Some((uvs, bad))
+    (uvs, bad)
 }
