@@ -1,8 +1,8 @@
 //! The foldover guard: the exact orientation of every triangle.
 //!
 //! The paper's condition `det(∇U) > 0` (Eq. 3) is what must hold; its
-//! sufficient pointwise form (Eq. 5/7), checked at constraint points only, lets
-//! folds through (32 of 74 cases in algorithm.md). uvpin instead checks the
+//! pointwise form (Eq. 5/7), checked at constraint points only, lets folds
+//! through between them (docs/algorithm.md). uvpin instead checks the
 //! sign of every triangle's area, virtual hole triangles included, with an
 //! exact orientation predicate.
 

@@ -61,6 +61,11 @@ pub mod testing;
 #[cfg(feature = "daemon")]
 pub mod watch;
 
+/// The README's Rust example, compiled and run as a doc test.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeExample;
+
 pub use api::{MeshSolution, MeshStep1, Options, load, solve_file, solve_loaded, solve_mesh, step1, unreachable_proof};
 pub use error::{Error, Result};
 pub use pins::Pins;

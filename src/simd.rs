@@ -2,9 +2,8 @@
 //! registers and can return with the registers' upper halves dirty. The
 //! rest of uvpin is compiled for baseline x86-64, whose SSE-encoded vector
 //! instructions then pay a transition penalty on Intel cores until the
-//! upper halves are cleared (measured: the spline fit's kernel matrix,
-//! built right after faer's QR, ran 5× slower). [`after_faer`] clears them;
-//! every call into faer is followed by it.
+//! upper halves are cleared (docs/decisions.md). [`after_faer`] clears
+//! them; every call into faer is followed by it.
 
 /// Clears the upper halves of the vector registers (`vzeroupper`) where the
 /// CPU has AVX; nothing elsewhere.

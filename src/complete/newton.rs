@@ -6,10 +6,8 @@
 //! elimination order) is a [`NewtonPattern`] made once per chart and shared.
 //! Each Newton step assembles the projected Hessian straight into the
 //! factor's value order (no sorting, no permutation) and refactors
-//! numerically into reused memory. (Reusing an older factorisation, as a
-//! conjugate-gradient preconditioner or as the Hessian of a cheaper lagged
-//! step, was tried: the Hessian changes so much between steps that CG needed
-//! 25–50 iterations, and lagged steps were cut to 5–10 % by the barrier.)
+//! numerically into reused memory (an older factorisation does not serve:
+//! the Hessian changes too much between steps, docs/decisions.md).
 //! The line search never lets a triangle's area reach zero: it starts at 0.9 ×
 //! the largest step that keeps every triangle (virtual ones included)
 //! positive, backtracks until Armijo holds, and accepts only layouts that
@@ -364,8 +362,7 @@ impl NewtonSystem {
                 // A full step with room before the barrier is stretched while
                 // the energy keeps falling: the PSD projection makes the model
                 // too stiff where the energy is nearly flat, so the tail of a
-                // polish takes full steps that each gain under 1 % (sample
-                // face: 20 → 17 polish steps, energy 5.950 → 5.920).
+                // polish would take many full steps that each gain little.
                 let (mut alpha, mut e) = (alpha, e);
                 if alpha == 1.0 {
                     let mut a = alpha;

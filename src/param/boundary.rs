@@ -1,7 +1,7 @@
 //! The outer boundary loop `B` onto the unit square (§III.B): four corner
 //! vertices on the square's corners, the rest on its sides by 3D arc length.
 //!
-//! The square has a trap (algorithm.md): a triangle whose three vertices lie on
+//! The square has a trap (docs/algorithm.md): a triangle whose three vertices lie on
 //! one side, or an interior edge joining two vertices of one side, gets zero
 //! area. Automatic corners are searched to avoid it; when no corner choice
 //! (or the user's corners) can, the sides are bowed outward into a strictly

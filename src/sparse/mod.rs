@@ -1,8 +1,8 @@
 //! The one place uvpin talks to faer's sparse Cholesky (so a faer upgrade
 //! touches one file). Symbolic analysis (AMD ordering) and numeric
 //! factorisation are separate: the pattern is fixed by the mesh, values change
-//! with weights. Always `Par::Seq`: on 2 cores faer's parallel triangular solve
-//! is 20–30× slower (crate-stack.md, F1).
+//! with weights. Always `Par::Seq`: faer's parallel triangular solve is far
+//! slower than the sequential one at these sizes (docs/decisions.md).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
