@@ -207,12 +207,7 @@ pub fn unreachable_proof(mesh: &TriMesh, pins: &Pins) -> Result<Option<String>, 
         &step1.boundary,
         SolverOptions::DEFAULT.max_boundary_centres,
     )?;
-    let mut on_outer = vec![false; prepared.filled.mesh.n_vertices()];
-    step1
-        .boundary
-        .loop_vertices
-        .iter()
-        .for_each(|&v| on_outer[v as usize] = true);
+    let on_outer = step1.boundary.on_loop(prepared.filled.mesh.n_vertices());
     let certificate = crate::complete::find_obstruction(&prepared.filled, &step1.layout, &problem);
     Ok(certificate.map(|c| c.describe(report::vertex_namer(&prepared, &on_outer))))
 }

@@ -94,35 +94,39 @@ pub enum Command {
     /// Without arguments it watches assets/ and writes to out/ (the embedded
     /// defaults, documented in config/uvpin.ron). Flags override the
     /// configuration file.
-    Watch {
-        /// Folders (recursively) and constraint files to watch.
-        paths: Vec<PathBuf>,
-        /// Configuration file: its `watch` and `solver` sections.
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// Write outputs into this folder (mirroring the constraint files' names).
-        #[arg(long, conflicts_with = "in_place")]
-        out: Option<PathBuf>,
-        /// Write the UVs back into the watched assets themselves.
-        #[arg(long)]
-        in_place: bool,
-        /// Status file (JSON).
-        #[arg(long)]
-        status: Option<PathBuf>,
-        /// Debounce window in milliseconds.
-        #[arg(long)]
-        debounce_ms: Option<u64>,
-        /// Log format.
-        #[arg(long, value_enum)]
-        log: Option<LogArg>,
-        /// No pictures beside the outputs.
-        #[arg(long)]
-        no_previews: bool,
-        /// Solve everything present once, print a summary and exit
-        /// (0: all reached, 2: some partial, 1: some errors).
-        #[arg(long)]
-        once: bool,
-    },
+    Watch(WatchArgs),
+}
+
+/// `uvpin watch`'s arguments; the flags override the configuration file.
+#[derive(Debug, clap::Args)]
+pub struct WatchArgs {
+    /// Folders (recursively) and constraint files to watch.
+    paths: Vec<PathBuf>,
+    /// Configuration file: its `watch` and `solver` sections.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Write outputs into this folder (mirroring the constraint files' names).
+    #[arg(long, conflicts_with = "in_place")]
+    out: Option<PathBuf>,
+    /// Write the UVs back into the watched assets themselves.
+    #[arg(long)]
+    in_place: bool,
+    /// Status file (JSON).
+    #[arg(long)]
+    status: Option<PathBuf>,
+    /// Debounce window in milliseconds.
+    #[arg(long)]
+    debounce_ms: Option<u64>,
+    /// Log format.
+    #[arg(long, value_enum)]
+    log: Option<LogArg>,
+    /// No pictures beside the outputs.
+    #[arg(long)]
+    no_previews: bool,
+    /// Solve everything present once, print a summary and exit
+    /// (0: all reached, 2: some partial, 1: some errors).
+    #[arg(long)]
+    once: bool,
 }
 
 /// `--log` values (of `uvpin watch`).
@@ -177,29 +181,7 @@ pub fn main() -> ExitCode {
             jobs,
             quiet,
         } => run_sweep(&sweep, force, jobs, quiet),
-        Command::Watch {
-            paths,
-            config,
-            out,
-            in_place,
-            status,
-            debounce_ms,
-            log,
-            no_previews,
-            once,
-        } => {
-            let flags = WatchFlags {
-                paths,
-                out,
-                in_place,
-                status,
-                debounce_ms,
-                log,
-                no_previews,
-                once,
-            };
-            watch(config.as_deref(), flags)
-        }
+        Command::Watch(args) => watch(args),
     }
 }
 
@@ -237,19 +219,7 @@ fn run_sweep(sweep: &std::path::Path, force: bool, jobs: Option<usize>, quiet: b
     }
 }
 
-/// `uvpin watch`'s flags, which override the configuration file.
-struct WatchFlags {
-    paths: Vec<PathBuf>,
-    out: Option<PathBuf>,
-    in_place: bool,
-    status: Option<PathBuf>,
-    debounce_ms: Option<u64>,
-    log: Option<LogArg>,
-    no_previews: bool,
-    once: bool,
-}
-
-impl WatchFlags {
+impl WatchArgs {
     /// The `watch` section with these flags applied.
     fn apply(self, mut watch: crate::config::WatchConfig) -> crate::config::WatchConfig {
         if !self.paths.is_empty() {
@@ -279,14 +249,14 @@ impl WatchFlags {
     }
 }
 
-fn watch(config: Option<&std::path::Path>, flags: WatchFlags) -> ExitCode {
-    let config = match config.map(crate::config::Config::load).transpose() {
+fn watch(args: WatchArgs) -> ExitCode {
+    let config = match args.config.as_deref().map(crate::config::Config::load).transpose() {
         Ok(c) => c.unwrap_or_default(),
         Err(e) => return fail(&e),
     };
-    let once = flags.once;
+    let once = args.once;
     let options = crate::watch::daemon::WatchOptions {
-        config: flags.apply(config.watch),
+        config: args.apply(config.watch),
         solver: config.solver,
         once,
     };

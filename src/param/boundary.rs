@@ -92,6 +92,13 @@ impl BoundaryMap {
     pub fn corner_vertices(&self) -> [u32; 4] {
         self.corners.map(|i| self.loop_vertices[i])
     }
+
+    /// Per vertex of a chart of `n_vertices`, whether it is on the outer loop.
+    pub fn on_loop(&self, n_vertices: usize) -> Vec<bool> {
+        let mut on = vec![false; n_vertices];
+        self.loop_vertices.iter().for_each(|&v| on[v as usize] = true);
+        on
+    }
 }
 
 /// Triangles and interior edges whose vertices all lie on the outer loop: the

@@ -54,15 +54,6 @@ pub(crate) fn vertex_namer<'a>(p: &'a PreparedChart, on_outer: &'a [bool]) -> im
     }
 }
 
-/// Per chart vertex, whether it is on the outer loop.
-fn outer_mask(p: &PreparedChart, boundary: &BoundaryMap) -> Vec<bool> {
-    let mut on_outer = vec![false; p.filled.mesh.n_vertices()];
-    for &v in &boundary.loop_vertices {
-        on_outer[v as usize] = true;
-    }
-    on_outer
-}
-
 /// Each constraint's target, result, step-1 position and residual.
 fn constraint_reports(s: &SolveSummary, on_outer: &[bool]) -> Vec<ConstraintReport> {
     let tolerance = s.solver.options().tolerance;
@@ -182,7 +173,7 @@ fn stretch_of(p: &PreparedChart, layout: &[DVec2]) -> Stretch {
 /// The report of a finished solve (before the file is written).
 pub fn build(s: &SolveSummary) -> Report {
     let p = s.prepared;
-    let on_outer = outer_mask(p, s.boundary);
+    let on_outer = s.boundary.on_loop(p.filled.mesh.n_vertices());
     let constraints = constraint_reports(s, &on_outer);
     let max_residual = constraints.iter().map(|c| c.residual).fold(0.0, f64::max);
     let mean_residual = if constraints.is_empty() {

@@ -232,12 +232,7 @@ fn probe_step1(loaded: &LoadedConstraints, asset: &Arc<SourceAsset>, corners: Co
     let source = ConstraintSource::File(Arc::new(with_setting(loaded, &setting)));
     let prepared = crate::chart::prepare(&source, asset).map_err(|e| e.to_string())?;
     let step1 = crate::solver::step1::step1(&prepared, &source, &asset.path).map_err(|e| e.to_string())?;
-    let mut on_outer = vec![false; prepared.filled.mesh.n_vertices()];
-    step1
-        .boundary
-        .loop_vertices
-        .iter()
-        .for_each(|&v| on_outer[v as usize] = true);
+    let on_outer = step1.boundary.on_loop(prepared.filled.mesh.n_vertices());
     let mut out = vec![(DVec2::ZERO, false); loaded.file.constraints.len()];
     for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
         out[c.index] = (crate::param::xy_to_uv(step1.layout[v as usize]), on_outer[v as usize]);
