@@ -313,7 +313,7 @@ fn shared_rows(tmp: &Path, wanted: &dyn Fn(&str) -> bool) -> Vec<Row> {
         if !wanted(&name) {
             continue;
         }
-        let asset = uvpin::io::load_asset(&shared.join(file), None, 0).expect("shared mesh");
+        let asset = uvpin::io::load_asset(&shared.join(file), None, 0, &Default::default()).expect("shared mesh");
         let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
         let uvs = unconstrained_uvs(&mesh, SolverOptions::DEFAULT);
         let c = mapped_constraints(&uvs, 40, 3, warp);

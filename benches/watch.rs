@@ -174,7 +174,7 @@ fn sample_case(repo: &Path) -> (Row, f64) {
     let original = std::fs::read_to_string(repo.join("assets/face.uvpin.ron")).unwrap();
     let ron = dir.join("assets/face.uvpin.ron");
     std::fs::write(&ron, &original).unwrap();
-    let vertices = uvpin::io::load_asset(&repo.join("assets/face.glb"), None, 0)
+    let vertices = uvpin::io::load_asset(&repo.join("assets/face.glb"), None, 0, &Default::default())
         .unwrap()
         .primitives[0]
         .positions

@@ -101,7 +101,7 @@ fn panel(
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let (ron, out) = (Path::new(&args[1]), Path::new(&args[2]));
-    let (loaded, asset) = uvpin::load(ron, &SolverOptions::DEFAULT).expect("load");
+    let (loaded, asset) = uvpin::load(ron, &SolverOptions::DEFAULT, &Default::default()).expect("load");
     let options = loaded.solver;
     let source = ConstraintSource::File(Arc::new(loaded));
     let solved = uvpin::api::solve_chart(&source, &asset, &options).expect("solve");

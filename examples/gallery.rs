@@ -14,8 +14,12 @@ const SIZE: u32 = 512;
 fn main() {
     let docs = Path::new("docs/gallery");
     std::fs::create_dir_all(docs).expect("docs/gallery");
-    let (loaded, asset) =
-        uvpin::load(Path::new("assets/face.uvpin.ron"), &SolverOptions::DEFAULT).expect("load the sample");
+    let (loaded, asset) = uvpin::load(
+        Path::new("assets/face.uvpin.ron"),
+        &SolverOptions::DEFAULT,
+        &Default::default(),
+    )
+    .expect("load the sample");
     let options = loaded.solver;
     let source = ConstraintSource::File(Arc::new(loaded));
     let solved = uvpin::api::solve_chart(&source, &asset, &options).expect("solve");

@@ -35,7 +35,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// How to solve.
+/// How to solve, and what to write.
 #[derive(Debug, Clone, Default)]
 pub struct Options {
     /// Solver settings. For a constraint file these are the defaults; the
@@ -44,9 +44,13 @@ pub struct Options {
     /// Where [`solve_file`] writes the asset with the new UVs (`None`:
     /// nothing is written).
     pub output: Option<PathBuf>,
+    /// Where [`solve_file`] writes the JSON report (`None`: not written).
+    pub report: Option<PathBuf>,
     /// Pictures to draw once the solve is over.
     #[cfg(feature = "pictures")]
     pub pictures: crate::preview::Pictures,
+    /// What input may be read: size limits, and from where.
+    pub input: io::InputRules,
 }
 
 impl From<SolverOptions> for Options {
@@ -68,33 +72,47 @@ pub struct MeshSolution {
     pub uvs: Vec<[f32; 2]>,
 }
 
-/// Reads a constraint file and the asset it names; `defaults` apply when
-/// the file has no `solver` section.
+/// Reads a constraint file and the asset it names, within `input`;
+/// `defaults` apply when the file has no `solver` section.
 ///
 /// # Errors
 /// Constraint-file and asset errors.
-pub fn load(constraints_path: &Path, defaults: &SolverOptions) -> Result<(LoadedConstraints, SourceAsset), Error> {
-    let loaded = LoadedConstraints::load_with_defaults(constraints_path, defaults)?;
+pub fn load(
+    constraints_path: &Path,
+    defaults: &SolverOptions,
+    input: &io::InputRules,
+) -> Result<(LoadedConstraints, SourceAsset), Error> {
+    let loaded = LoadedConstraints::load_within(constraints_path, defaults, input)?;
     let asset_path = loaded.asset_path();
-    let asset = io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set).map_err(|e| match e {
-        io::AssetError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => loaded
-            .asset_error("asset", format!("{} does not exist", asset_path.display()))
-            .into(),
-        e => Error::from(e),
-    })?;
+    let asset =
+        io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set, input).map_err(|e| match e {
+            io::AssetError::Read { source, .. } if source.is_not_found() => loaded
+                .asset_error("asset", format!("{} does not exist", asset_path.display()))
+                .into(),
+            e => Error::from(e),
+        })?;
     Ok((loaded, asset))
 }
 
-/// Solves `constraints_path` and writes `options.output` (if given). Returns
-/// the report: `Reached` or `Partial` (written, fold-free), or `Error` when
-/// the final write failed. Input errors come back as `Err` with nothing
-/// written.
+/// Solves `constraints_path` and writes `options.output`, the report and the
+/// pictures (those asked for) together: all or none. Returns the report:
+/// `Reached` or `Partial` (written, fold-free), or `Error` when nothing
+/// could be written. Input errors come back as `Err` with nothing written.
 ///
 /// # Errors
-/// Any input error: constraint file, asset, topology.
+/// Any input error: constraint file, asset, topology; an output path that is
+/// not a regular file.
 pub fn solve_file(constraints_path: &Path, options: &Options) -> Result<Report, Error> {
     let t0 = Instant::now();
-    let (loaded, asset) = load(constraints_path, &options.solver)?;
+    for target in options.output.iter().chain(&options.report) {
+        io::read::check_output_target(target).map_err(|e| {
+            Error::Asset(io::AssetError::Write {
+                path: target.clone(),
+                message: format!("refusing to replace it: {e}"),
+            })
+        })?;
+    }
+    let (loaded, asset) = load(constraints_path, &options.solver, &options.input)?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     solve_loaded_timed(loaded, &Arc::new(asset), options, load_ms)
 }
@@ -291,33 +309,30 @@ impl SolvedChart {
         chart::assemble_uvs(asset, &self.prepared, self.solver.layout())
     }
 
-    /// Checks the layout as stored, writes `options.output` and the
-    /// pictures; the final report.
+    /// Checks the layout as stored, then writes `options.output`, the
+    /// pictures and the report together (all or none); the final report.
     pub fn export(self, asset: &SourceAsset, options: &Options) -> Report {
         let t0 = Instant::now();
         let output = options.output.as_deref();
         let guard = self.solver.options().guard;
-        let mut report = crate::export::export_chart(
-            asset,
-            &self.prepared,
-            self.solver.layout(),
-            self.report.clone(),
-            output,
-            guard,
-        );
+        let mut report = self.report.clone();
+        let layout = self.solver.layout();
+        let mut staged = crate::export::stage_chart(asset, &self.prepared, layout, &mut report, output, guard);
         report.times.export_ms = t0.elapsed().as_secs_f64() * 1e3;
         report.total_ms = report.times.total_ms();
         #[cfg(feature = "pictures")]
-        if let Err(e) = crate::preview::draw_chart(
-            asset,
-            &self.prepared,
-            &self.step1.boundary.loop_vertices,
-            self.solver.layout(),
-            &report,
-            &options.pictures,
-        ) {
-            report.warnings.push(format!("preview: {e}"));
+        {
+            let outer = &self.step1.boundary.loop_vertices;
+            match crate::preview::render_chart(asset, &self.prepared, outer, layout, &report, &options.pictures) {
+                Ok(pictures) => pictures.into_iter().for_each(|(path, png)| staged.add(path, png)),
+                Err(e) => report.warnings.push(format!("preview: {e}")),
+            }
         }
+        if let Some(path) = &options.report {
+            let json = serde_json::to_string_pretty(&report).expect("the report serialises");
+            staged.add(path.clone(), format!("{json}\n").into_bytes());
+        }
+        crate::export::commit(staged, &mut report);
         report
     }
 }

@@ -264,9 +264,35 @@ pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVe
         .collect()
 }
 
-/// Orientation of the solved chart exactly as it will be stored (f32 UVs),
-/// real and virtual hole triangles.
+/// The solved chart's OBJ texture coordinates as stored (`vt`, f32, v up),
+/// one per vertex of the single OBJ primitive; vertices outside the chart
+/// get (0, 1), glTF's (0, 0).
+pub fn assemble_obj_vt(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> Vec<[f32; 2]> {
+    prepared.welded.vertex_of[0]
+        .iter()
+        .enumerate()
+        .map(|(i, w)| match prepared.chart.local_of(*w) {
+            Some(local) => guard::stored_vt(layout[local as usize]),
+            None => asset.primitives[0]
+                .uvs
+                .as_ref()
+                .map_or([0.0, 1.0], |u| [u[i][0], 1.0 - u[i][1]]),
+        })
+        .collect()
+}
+
+/// Orientation of the solved chart exactly as it will be stored, real and
+/// virtual hole triangles: the worse of glTF's f32 texture coordinates and
+/// OBJ's f32 `vt` (every accepted layout is clean in both).
 pub fn written_orientation(prepared: &PreparedChart, layout: &[DVec2]) -> OrientationCounts {
-    let uvs: Vec<[f32; 2]> = layout.iter().map(|p| guard::stored_uv(*p)).collect();
-    guard::count_uv_orientations(&uvs, &prepared.filled.mesh.triangles)
+    let triangles = &prepared.filled.mesh.triangles;
+    let gltf: Vec<[f32; 2]> = layout.iter().map(|p| guard::stored_uv(*p)).collect();
+    let obj: Vec<[f32; 2]> = layout.iter().map(|p| guard::stored_vt(*p)).collect();
+    let a = guard::count_stored_orientations(&gltf, triangles, guard::VAxis::Down);
+    let b = guard::count_stored_orientations(&obj, triangles, guard::VAxis::Up);
+    if a.flipped + a.zero_area >= b.flipped + b.zero_area {
+        a
+    } else {
+        b
+    }
 }

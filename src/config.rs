@@ -13,6 +13,8 @@ pub struct Config {
     pub watch: WatchConfig,
     /// Solver options for constraint files without a `solver` section.
     pub solver: SolverOptions,
+    /// How much input is accepted: file sizes, vertices, triangles.
+    pub limits: crate::io::InputLimits,
 }
 
 /// Where `uvpin watch` writes solved assets.
@@ -61,6 +63,9 @@ pub struct WatchConfig {
     pub previews: bool,
     /// Their size in pixels (default 512).
     pub preview_size: u32,
+    /// Folders outside the watched ones that assets, buffers and images may
+    /// be read from (default none: only the watched folders).
+    pub allow_paths: Vec<PathBuf>,
 }
 
 impl Default for WatchConfig {
@@ -74,6 +79,7 @@ impl Default for WatchConfig {
             constraint_suffix: ".uvpin.ron".into(),
             previews: true,
             preview_size: 512,
+            allow_paths: Vec::new(),
         }
     }
 }
@@ -92,7 +98,10 @@ impl WatchConfig {
 #[derive(Debug, Error)]
 pub enum ConfigError {
     #[error("{path}: cannot read the configuration: {source}")]
-    Read { path: PathBuf, source: std::io::Error },
+    Read {
+        path: PathBuf,
+        source: crate::io::ReadError,
+    },
     #[error(transparent)]
     Syntax(#[from] crate::ron_file::RonSyntaxError),
 }
@@ -103,10 +112,14 @@ impl Config {
     /// # Errors
     /// Unreadable file; RON errors and unknown fields, with line:column.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
-            path: path.into(),
-            source,
+        let limit = crate::io::InputLimits::DEFAULT.max_text_bytes;
+        let bytes = crate::io::read::read_regular(path, limit, &crate::io::ReadScope::Anywhere).map_err(|source| {
+            ConfigError::Read {
+                path: path.into(),
+                source,
+            }
         })?;
+        let text = String::from_utf8_lossy(&bytes);
         Ok(crate::ron_file::parse_ron(path, &text)?)
     }
 }

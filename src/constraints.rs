@@ -75,6 +75,67 @@ impl CornerSpec {
     }
 }
 
+/// The `corners` field: `Auto` (as if absent: arc-length quarters), or the
+/// four corner vertices.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Corners {
+    Auto,
+    Given(CornerSpec),
+}
+
+impl Corners {
+    /// The given corners, if any.
+    pub fn given(&self) -> Option<CornerSpec> {
+        match self {
+            Corners::Auto => None,
+            Corners::Given(c) => Some(*c),
+        }
+    }
+}
+
+impl Serialize for Corners {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Corners::Auto => s.serialize_unit_struct("Auto"),
+            Corners::Given(c) => c.serialize(s),
+        }
+    }
+}
+
+/// Reads `Auto` or a corner struct, keeping the struct's own error messages
+/// (a misspelt corner name is named).
+struct CornersVisitor;
+
+impl<'de> serde::de::Visitor<'de> for CornersVisitor {
+    type Value = Corners;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("`Auto` or `(top_left: …, bottom_left: …, bottom_right: …, top_right: …)`")
+    }
+
+    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Corners, E> {
+        match v {
+            "Auto" => Ok(Corners::Auto),
+            other => Err(E::invalid_value(serde::de::Unexpected::Str(other), &self)),
+        }
+    }
+
+    /// RON reads the bare word `Auto` as a unit value.
+    fn visit_unit<E: serde::de::Error>(self) -> Result<Corners, E> {
+        Ok(Corners::Auto)
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Corners, A::Error> {
+        CornerSpec::deserialize(serde::de::value::MapAccessDeserializer::new(map)).map(Corners::Given)
+    }
+}
+
+impl<'de> Deserialize<'de> for Corners {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(CornersVisitor)
+    }
+}
+
 /// The whole constraint file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -96,7 +157,7 @@ pub struct ConstraintFile {
     pub constraints: Vec<ConstraintSpec>,
     /// Corner vertices (default: chosen automatically at arc-length quarters).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub corners: Option<CornerSpec>,
+    pub corners: Option<Corners>,
     /// Spline stepping limits (see [`SolverOptions`] for the defaults; a
     /// configuration file's `solver` applies when this is absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -106,7 +167,12 @@ pub struct ConstraintFile {
 #[derive(Debug, Error)]
 pub enum ConstraintFileError {
     #[error("{path}: cannot read the constraint file: {source}")]
-    Read { path: PathBuf, source: std::io::Error },
+    Read {
+        path: PathBuf,
+        source: crate::io::ReadError,
+    },
+    #[error("{path}: not UTF-8 text (an invalid byte at offset {at})")]
+    NotUtf8 { path: PathBuf, at: usize },
     #[error(transparent)]
     Syntax(#[from] crate::ron_file::RonSyntaxError),
     #[error("{path}:{line}:{column}: {field}: {message}")]
@@ -156,7 +222,8 @@ pub struct ResolvedConstraint {
 }
 
 impl LoadedConstraints {
-    /// Reads and parses a constraint file.
+    /// Reads and parses a constraint file (solver defaults for a file without
+    /// `solver`; read from anywhere, within the default limits).
     ///
     /// # Errors
     /// Unreadable file; RON syntax errors and unknown or missing fields (with
@@ -164,14 +231,30 @@ impl LoadedConstraints {
     /// `uv`/`px`; `px` without `image_size`; a target outside the unit square;
     /// one vertex given two different targets.
     pub fn load(path: &Path) -> Result<Self, ConstraintFileError> {
-        Self::load_with_defaults(path, &SolverOptions::DEFAULT)
+        Self::load_within(path, &SolverOptions::DEFAULT, &crate::io::InputRules::default())
     }
 
-    /// As [`LoadedConstraints::load`], with `defaults` for a file without `solver`.
-    pub fn load_with_defaults(path: &Path, defaults: &SolverOptions) -> Result<Self, ConstraintFileError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConstraintFileError::Read {
+    /// As [`LoadedConstraints::load`], with `defaults` for a file without
+    /// `solver`, read within `rules` (a regular file, at most
+    /// `max_text_bytes`, inside the scope).
+    ///
+    /// # Errors
+    /// As [`LoadedConstraints::load`].
+    pub fn load_within(
+        path: &Path,
+        defaults: &SolverOptions,
+        rules: &crate::io::InputRules,
+    ) -> Result<Self, ConstraintFileError> {
+        let bytes =
+            crate::io::read::read_regular(path, rules.limits.max_text_bytes, &rules.scope).map_err(|source| {
+                ConstraintFileError::Read {
+                    path: path.to_path_buf(),
+                    source,
+                }
+            })?;
+        let text = String::from_utf8(bytes).map_err(|e| ConstraintFileError::NotUtf8 {
             path: path.to_path_buf(),
-            source,
+            at: e.utf8_error().valid_up_to(),
         })?;
         Self::parse_with_defaults(path, &text, defaults)
     }
@@ -201,7 +284,23 @@ impl LoadedConstraints {
     /// As [`LoadedConstraints::parse`], with `defaults` for a file without `solver`.
     pub fn parse_with_defaults(path: &Path, text: &str, defaults: &SolverOptions) -> Result<Self, ConstraintFileError> {
         let file: ConstraintFile = crate::ron_file::parse_ron(path, text)?;
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let scan = scan_positions(text);
+        if file.corners == Some(Corners::Auto)
+            && let Some((line, column)) = scan.corners
+            && !text.lines().nth(line - 1).is_some_and(|l| {
+                let rest: String = l.chars().skip(column - 1).collect();
+                rest.starts_with("Auto") && !rest[4..].starts_with(|c: char| c.is_alphanumeric() || c == '_')
+            })
+        {
+            return Err(ConstraintFileError::Invalid {
+                path: path.to_path_buf(),
+                line,
+                column,
+                field: "corners".into(),
+                message: "expected `Auto` or `(top_left: …, bottom_left: …, bottom_right: …, top_right: …)`".into(),
+            });
+        }
         let mut item_positions = scan.items;
         item_positions.resize(file.constraints.len(), scan.constraints.unwrap_or((1, 1)));
         let loaded = LoadedConstraints {
@@ -410,7 +509,20 @@ impl LoadedConstraints {
                 snapped_distance: snapped,
             });
         }
+        if let Some((a, b)) = coincident_targets(&out) {
+            let (ca, cb) = (&out[a], &out[b]);
+            return Err(self.error_at(cb.index, self.target_field(cb.index), coincident_message(ca, cb)));
+        }
         Ok(out)
+    }
+
+    /// The field constraint `index`'s target is written in.
+    fn target_field(&self, index: usize) -> &'static str {
+        if self.file.constraints.get(index).is_some_and(|c| c.uv.is_none()) {
+            "px"
+        } else {
+            "uv"
+        }
     }
 
     /// Position in `primitives` of glTF primitive `index`.
@@ -441,7 +553,7 @@ impl LoadedConstraints {
         primitives: &[PrimitiveGeometry],
         welded: &WeldedMesh,
     ) -> Result<Option<[u32; 4]>, ConstraintFileError> {
-        let Some(corners) = self.file.corners else {
+        let Some(corners) = self.file.corners.and_then(|c| c.given()) else {
             return Ok(None);
         };
         let p = self.primitive_position(primitives, self.file.primitive, None)?;
@@ -459,6 +571,50 @@ impl LoadedConstraints {
         }
         Ok(Some(out))
     }
+}
+
+/// Two different vertices whose targets are closer than this (texture units)
+/// cannot both be reached without a zero-area triangle between them (f32
+/// texture coordinates cannot tell them apart either).
+pub const MIN_TARGET_DISTANCE: f64 = 1e-6;
+
+/// Two constraints (positions in `constraints`) on different vertices whose
+/// targets are (nearly) the same point, if any: no one-to-one map reaches both.
+pub fn coincident_targets(constraints: &[ResolvedConstraint]) -> Option<(usize, usize)> {
+    let mut order: Vec<usize> = (0..constraints.len()).collect();
+    order.sort_by(|&a, &b| constraints[a].target_uv.x.total_cmp(&constraints[b].target_uv.x));
+    for (k, &a) in order.iter().enumerate() {
+        let ta = constraints[a].target_uv;
+        for &b in &order[k + 1..] {
+            let tb = constraints[b].target_uv;
+            if tb.x - ta.x > MIN_TARGET_DISTANCE {
+                break;
+            }
+            if ta.distance(tb) <= MIN_TARGET_DISTANCE && constraints[a].welded != constraints[b].welded {
+                return Some((a.min(b), a.max(b)));
+            }
+        }
+    }
+    None
+}
+
+/// The message for two constraints with (nearly) the same target.
+pub fn coincident_message(a: &ResolvedConstraint, b: &ResolvedConstraint) -> String {
+    format!(
+        "constraints[{}] (vertex {}) and constraints[{}] (vertex {}) have the same target ({}, {}){}: two vertices \
+         cannot land on one point without a triangle collapsing between them",
+        a.index,
+        a.vertex,
+        b.index,
+        b.vertex,
+        b.target_uv.x,
+        b.target_uv.y,
+        if a.target_uv == b.target_uv {
+            String::new()
+        } else {
+            format!(" to within {:.1e}", a.target_uv.distance(b.target_uv))
+        }
+    )
 }
 
 /// Where a solve's constraints came from. Errors found later, against the
@@ -514,8 +670,8 @@ impl ConstraintSource {
     /// The field constraint `index`'s target is written in (`uv` or `px`).
     pub fn target_field(&self, index: usize) -> &'static str {
         match self {
-            ConstraintSource::File(l) if l.file.constraints.get(index).is_some_and(|c| c.uv.is_none()) => "px",
-            _ => "uv",
+            ConstraintSource::File(l) => l.target_field(index),
+            ConstraintSource::Memory(_) => "uv",
         }
     }
 }
@@ -749,6 +905,28 @@ mod tests {
         LoadedConstraints::parse(Path::new("f.ron"), text)
             .unwrap_err()
             .to_string()
+    }
+
+    #[test]
+    fn corners_may_be_auto_or_given() {
+        let auto =
+            LoadedConstraints::parse(Path::new("f.ron"), "(asset: \"a\", constraints: [], corners: Auto)").unwrap();
+        assert_eq!(auto.file.corners, Some(Corners::Auto));
+        let given =
+            "(asset: \"a\", constraints: [], corners: (top_left: 1, bottom_left: 2, bottom_right: 3, top_right: 4))";
+        let l = LoadedConstraints::parse(Path::new("f.ron"), given).unwrap();
+        assert_eq!(
+            l.file.corners.and_then(|c| c.given()).map(|c| c.as_array()),
+            Some([1, 2, 3, 4])
+        );
+        let e = err(
+            "(asset: \"a\", constraints: [], corners: (top_lft: 1, bottom_left: 2, bottom_right: 3, top_right: 4))",
+        );
+        assert!(e.starts_with("f.ron:1:") && e.contains("top_lft"), "{e}");
+        let e = err("(asset: \"a\", constraints: [], corners: Manual)");
+        assert!(e.starts_with("f.ron:1:40: corners: expected `Auto`"), "{e}");
+        let bom = "\u{feff}(asset: \"a\", constraints: [], corners: Auto)";
+        assert!(LoadedConstraints::parse(Path::new("f.ron"), bom).is_ok());
     }
 
     #[test]

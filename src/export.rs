@@ -1,55 +1,86 @@
-//! The last check before anything is written, and the write: the solved
-//! chart's layout is checked exactly as the output stores it (f32 texture
-//! coordinates), then the asset is written atomically with the new UV set.
+//! The last check before anything is written, and the files to write: the
+//! solved chart's layout is checked exactly as the outputs store it (f32
+//! texture coordinates), then the asset's files with the new UV set are
+//! staged, to be replaced atomically together with the report and pictures.
 
 use crate::chart::{self, PreparedChart};
 use crate::io::SourceAsset;
+use crate::io::atomic::Staged;
+use crate::io::gltf_file::StoredUvs;
 use crate::options::Guard;
 use crate::report::{Report, Status};
 use glam::DVec2;
 use std::path::Path;
 
+/// Marks `report` as an error: nothing is written.
+pub fn refuse(report: &mut Report, message: String) {
+    report.status = Status::Error;
+    report.message = Some(message);
+    report.output = None;
+}
+
 /// Checks `layout` (the solved chart's, filled) as it will be stored and, if
-/// it keeps every triangle positive, writes `asset` with it to `output` (if
-/// given). Returns `report` with the output named, or with status `Error`
-/// and the reason when nothing was written. `guard` names the guard that
-/// accepted the layout, for the message about a folded one (only the
+/// it keeps every triangle positive, stages `asset` with it as `output` (if
+/// given), naming the output in `report`. Otherwise `report` gets status
+/// `Error` and the reason, and nothing is staged. `guard` names the guard
+/// that accepted the layout, for the message about a folded one (only the
 /// paper's pointwise guard lets folds through).
-pub fn export_chart(
+pub fn stage_chart(
     asset: &SourceAsset,
     prepared: &PreparedChart,
     layout: &[DVec2],
-    mut report: Report,
+    report: &mut Report,
     output: Option<&Path>,
     guard: Guard,
-) -> Report {
+) -> Staged {
     let triangles = &prepared.filled.mesh.triangles;
     let written = report.orientation;
     if !crate::guard::all_positive(layout, triangles) {
-        report.status = Status::Error;
-        report.message = Some(format!(
-            "folded: the {guard:?} guard let {} triangles flip and {} collapse; a folded layout is never written",
-            written.flipped, written.zero_area
-        ));
-    } else if !written.is_clean() {
-        report.status = Status::Error;
-        report.message = Some(format!(
-            "the layout is fold-free in double precision, but {} triangles would be flipped and {} zero-area once stored \
-             as f32 texture coordinates (thin parts of the chart are squeezed against the square's sides; smallest triangle \
-             area {:.1e} of the texture); nothing written",
-            written.flipped,
-            written.zero_area,
-            crate::guard::smallest_area(layout, triangles)
-        ));
-    } else if let Some(out) = output {
-        let uvs = chart::assemble_uvs(asset, prepared, layout);
-        match crate::io::gltf_file::write_asset(asset, &uvs, out) {
-            Ok(()) => report.output = Some(out.display().to_string()),
-            Err(e) => {
-                report.status = Status::Error;
-                report.message = Some(e.to_string());
-            }
+        refuse(
+            report,
+            format!(
+                "folded: the {guard:?} guard let {} triangles flip and {} collapse; a folded layout is never written",
+                written.flipped, written.zero_area
+            ),
+        );
+        return Staged::new();
+    }
+    if !written.is_clean() {
+        refuse(
+            report,
+            format!(
+                "the layout is fold-free in double precision, but {} triangles would be flipped and {} zero-area once stored \
+                 as f32 texture coordinates (thin parts of the chart are squeezed against the square's sides; smallest triangle \
+                 area {:.1e} of the texture); nothing written",
+                written.flipped,
+                written.zero_area,
+                crate::guard::smallest_area(layout, triangles)
+            ),
+        );
+        return Staged::new();
+    }
+    let Some(out) = output else {
+        return Staged::new();
+    };
+    let uvs = StoredUvs {
+        gltf: chart::assemble_uvs(asset, prepared, layout),
+        obj_vt: (asset.format == crate::io::AssetFormat::Obj).then(|| chart::assemble_obj_vt(asset, prepared, layout)),
+    };
+    match crate::io::gltf_file::stage_asset(asset, &uvs, out) {
+        Ok(staged) => {
+            report.output = Some(out.display().to_string());
+            staged
+        }
+        Err(e) => {
+            refuse(report, e.to_string());
+            Staged::new()
         }
     }
-    report
+}
+
+/// Writes `staged`; on failure `report` becomes an error (nothing replaced).
+pub fn commit(staged: Staged, report: &mut Report) {
+    if let Err(e) = staged.commit() {
+        refuse(report, format!("cannot write: {e}; nothing was replaced"));
+    }
 }

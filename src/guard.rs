@@ -31,19 +31,33 @@ pub fn stored_uv(p: DVec2) -> [f32; 2] {
     [p.x as f32, (1.0 - p.y) as f32]
 }
 
-/// `true` when every triangle keeps its orientation both in double
-/// precision and as stored (f32 glTF texture coordinates): the guard every
-/// accepted layout must pass, so anything accepted can be written.
+/// A layout point as an OBJ `vt` stores it: `(x, y)` rounded to f32 (v up).
+#[inline]
+pub fn stored_vt(p: DVec2) -> [f32; 2] {
+    crate::io::obj::vt_as_stored(p.x, p.y)
+}
+
+/// Whether triangle `t` keeps its orientation as stored by `store` (`sign`:
+/// the stored orientation's sign that means kept, −1 for glTF's v down).
+#[inline]
+fn kept_as_stored(layout: &[DVec2], t: [u32; 3], store: fn(DVec2) -> [f32; 2], sign: f64) -> bool {
+    let [a, b, c] = t.map(|v| {
+        let [u, w] = store(layout[v as usize]);
+        DVec2::new(u as f64, w as f64)
+    });
+    sign * orientation(a, b, c) > 0.0
+}
+
+/// `true` when every triangle keeps its orientation in double precision and
+/// as every output format stores it (f32 glTF texture coordinates, f32 OBJ
+/// `vt`): the guard every accepted layout must pass, so anything accepted can
+/// be written in any format.
 pub fn all_positive_as_stored(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool {
     in_parallel(triangles, |part| {
         all_positive(layout, part)
-            && part.iter().all(|t| {
-                let [a, b, c] = t.map(|v| {
-                    let [u, w] = stored_uv(layout[v as usize]);
-                    DVec2::new(u as f64, w as f64)
-                });
-                orientation(a, b, c) < 0.0
-            })
+            && part
+                .iter()
+                .all(|&t| kept_as_stored(layout, t, stored_uv, -1.0) && kept_as_stored(layout, t, stored_vt, 1.0))
     })
 }
 
@@ -123,17 +137,36 @@ pub fn count_orientations(layout: &[DVec2], triangles: &[[u32; 3]]) -> Orientati
     counts
 }
 
+/// Which way a stored texture coordinate's second axis points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VAxis {
+    /// glTF: v grows downward, so a kept triangle has negative stored area.
+    Down,
+    /// OBJ: v grows upward.
+    Up,
+}
+
 /// Counts on glTF texture coordinates exactly as stored (f32, v down): a
 /// triangle keeps its orientation when `(u1−u0)(v2−v0) − (u2−u0)(v1−v0) < 0`.
 pub fn count_uv_orientations(uvs: &[[f32; 2]], triangles: &[[u32; 3]]) -> OrientationCounts {
+    count_stored_orientations(uvs, triangles, VAxis::Down)
+}
+
+/// Counts on texture coordinates exactly as stored (f32), with `axis` the
+/// direction of their second coordinate.
+pub fn count_stored_orientations(uvs: &[[f32; 2]], triangles: &[[u32; 3]], axis: VAxis) -> OrientationCounts {
+    let sign = match axis {
+        VAxis::Down => -1.0,
+        VAxis::Up => 1.0,
+    };
     let mut counts = OrientationCounts::default();
     for t in triangles {
         let [a, b, c] = t.map(|v| {
             let p = uvs[v as usize];
             DVec2::new(p[0] as f64, p[1] as f64)
         });
-        let o = orientation(a, b, c);
-        if o > 0.0 {
+        let o = sign * orientation(a, b, c);
+        if o < 0.0 {
             counts.flipped += 1;
         } else if o == 0.0 {
             counts.zero_area += 1;

@@ -91,6 +91,12 @@ impl Pins {
                 snapped_distance: None,
             });
         }
+        if let Some((a, b)) = crate::constraints::coincident_targets(&out) {
+            return Err(PinError::Constraint {
+                index: out[b].index,
+                message: crate::constraints::coincident_message(&out[a], &out[b]),
+            });
+        }
         let corners = self.corners.map(|c| resolve_corners(c, welded, n)).transpose()?;
         Ok((out, corners))
     }
@@ -153,6 +159,11 @@ mod tests {
         assert!(err(Pins::new(&[(1, DVec2::NAN)])).contains("outside the unit square"));
         assert!(err(Pins::new(&[(1, half), (1, DVec2::ZERO)])).starts_with("constraints[1]: vertex 1 is already"));
         assert!(err(Pins::new(&[]).with_corners([0, 1, 2, 7])).starts_with("corners: top_right: vertex 7"));
+        let e = err(Pins::new(&[(0, half), (1, half + DVec2::splat(1e-7))]));
+        assert!(
+            e.starts_with("constraints[1]: constraints[0] (vertex 0) and constraints[1] (vertex 1)"),
+            "{e}"
+        );
         let merged = Pins::new(&[(1, half), (1, half)]).resolve(&prim, &welded).unwrap();
         assert_eq!(merged.0.len(), 1);
     }

@@ -381,8 +381,14 @@ fn gltf_with_external_buffer_round_trips_to_gltf_and_bin() {
     let out = tmp.path("out/result.gltf");
     let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(tmp.path("out/result.uvpin.bin").is_file());
     let written: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    // The UVs are in a content-named buffer beside the output, which names it.
+    let bin = written["buffers"].as_array().unwrap().last().unwrap()["uri"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert!(bin.starts_with("result.uvpin-") && bin.ends_with(".bin"), "{bin}");
+    assert!(tmp.path("out").join(&bin).is_file());
     assert_eq!(written["extras"]["studio"], "kept");
     assert_eq!(written["x_unknown_field"], serde_json::json!([1, 2, 3]));
     // The original buffer is referenced from the output's folder.

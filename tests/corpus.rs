@@ -187,7 +187,7 @@ fn mirrored_case(name: &str, mesh: &TriMesh, seed: u64) -> Report {
 
 fn shared(name: &str) -> TriMesh {
     let path = common::shared_mesh(name);
-    let asset = uvpin::io::load_asset(&path, None, 0).unwrap();
+    let asset = uvpin::io::load_asset(&path, None, 0, &Default::default()).unwrap();
     uvpin::mesh::weld::weld(&asset.primitives).mesh
 }
 

@@ -39,6 +39,11 @@ impl Fixture {
         init_watch_world(
             &mut world,
             WatchSettings {
+                input: uvpin::io::InputRules {
+                    limits: uvpin::io::InputLimits::DEFAULT,
+                    scope: uvpin::io::ReadScope::within([root.clone()]),
+                },
+                settle: std::time::Duration::from_millis(1),
                 roots: vec![WatchRoot {
                     path: root.clone(),
                     single_file: false,
@@ -234,7 +239,7 @@ fn a_newer_edit_supersedes_a_running_solve_and_only_the_newest_is_written() {
     assert!((report.constraints[0].target.x - 0.56).abs() < 1e-12);
     assert_eq!(f.counters().solves_started, 2);
     let out = f.root.parent().unwrap().join("out/grid.glb");
-    let asset = uvpin::io::load_asset(&out, None, 0).unwrap();
+    let asset = uvpin::io::load_asset(&out, None, 0, &Default::default()).unwrap();
     let uv = asset.primitives[0].uvs.as_ref().unwrap()[A as usize];
     assert!(
         (f64::from(uv[0]) - 0.56).abs() < 1e-6 && (f64::from(uv[1]) - 0.45).abs() < 1e-6,

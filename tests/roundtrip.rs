@@ -122,7 +122,7 @@ fn assert_uvs(source: &SourceAsset, written: &SourceAsset, welded: &WeldedMesh, 
 fn round_trip(name: &str, uv_set: u32) {
     let asset = shared_mesh(name);
     let tmp = TempDir::new(&format!("rt-{name}"));
-    let source = uvpin::io::load_asset(&asset, None, uv_set).unwrap();
+    let source = uvpin::io::load_asset(&asset, None, uv_set, &Default::default()).unwrap();
     let welded = weld(&source.primitives);
     let (chart, interior) = disk_chart_and_interior(&welded);
     let (prim_pos, gltf_vertex) = welded
@@ -148,7 +148,7 @@ fn round_trip(name: &str, uv_set: u32) {
     let (json_out, bin_out) = glb_parts(&out);
     assert_json_changes_only_uvs(&json_in, json_out, &source, uv_set);
     assert_views_keep_bytes(&json_in, &bin_in, &bin_out);
-    let written = uvpin::io::load_asset(&out, None, uv_set).unwrap();
+    let written = uvpin::io::load_asset(&out, None, uv_set, &Default::default()).unwrap();
     assert_uvs(&source, &written, &welded, &chart);
 }
 

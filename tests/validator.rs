@@ -71,7 +71,7 @@ fn solve_real(asset: &Path, ron: &Path, out: &Path) {
     if o.status.code() != Some(1) {
         return;
     }
-    let asset_data = uvpin::io::load_asset(asset, None, 0).unwrap();
+    let asset_data = uvpin::io::load_asset(asset, None, 0, &Default::default()).unwrap();
     let welded = uvpin::mesh::weld::weld(&asset_data.primitives);
     let (p, v) = (0..welded.n_charts as u32)
         .filter(|&c| uvpin::mesh::topology::Topology::build(&welded.chart(c).mesh).is_ok())

@@ -415,7 +415,19 @@ fn an_asset_outside_the_watched_folders_is_watched_too() {
         &targets(0.0),
         "",
     );
-    let d = Daemon::start(&dir.0, &[]);
+    // Not read unless allowed: an error that says so.
+    let o = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args(["watch", "--once"])
+        .current_dir(&dir.0)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("outside the folders uvpin may read"),
+        "{}",
+        stderr(&o)
+    );
+    let d = Daemon::start(&dir.0, &["--allow", "meshes"]);
     d.wait_count("solved", "grid.uvpin.ron", 1);
     // Give the daemon a moment to add the watch on meshes/ after the first solve.
     std::thread::sleep(SETTLE);

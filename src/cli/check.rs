@@ -2,9 +2,10 @@
 
 use crate::constraints::{LoadedConstraints, MeshSelector};
 use crate::guard;
+use crate::guard::VAxis;
 use crate::mesh::weld::{WeldedMesh, weld};
 use crate::metrics::sander_stretch;
-use crate::param::uv_to_xy;
+use crate::param::{uv_to_xy, xy_to_uv};
 use glam::DVec2;
 use serde::Serialize;
 use std::path::Path;
@@ -32,6 +33,56 @@ struct ConstraintCheck {
     residual: f64,
 }
 
+/// The asset and its texture coordinates exactly as stored, per vertex of
+/// each primitive, with the direction of their v axis.
+struct StoredAsset {
+    asset: crate::io::SourceAsset,
+    uvs: Vec<Vec<[f32; 2]>>,
+    axis: VAxis,
+}
+
+/// Reads the asset to check: glTF's TEXCOORD_`uv_set`, or an OBJ's `vt`.
+fn load_checked(asset_path: &Path, uv_set: u32, mesh: Option<&str>) -> crate::Result<StoredAsset> {
+    let rules = crate::io::InputRules::default();
+    let missing = |asset: &crate::io::SourceAsset, primitive: usize, what: String| {
+        crate::Error::from(crate::io::AssetError::Primitive {
+            path: asset.path.clone(),
+            mesh: asset.mesh_index,
+            primitive,
+            message: format!("has no {what} to check"),
+        })
+    };
+    if crate::io::AssetFormat::of(asset_path) == Some(crate::io::AssetFormat::Obj) {
+        let (asset, vt) = crate::io::load_obj_with_tex_coords(asset_path, &rules)?;
+        let vt = vt.ok_or_else(|| missing(&asset, 0, "texture coordinates (vt) on every face corner".into()))?;
+        return Ok(StoredAsset {
+            asset,
+            uvs: vec![vt],
+            axis: VAxis::Up,
+        });
+    }
+    let selector = mesh.map(|m| {
+        m.parse::<usize>()
+            .map(MeshSelector::Index)
+            .unwrap_or_else(|_| MeshSelector::Name(m.into()))
+    });
+    let asset = crate::io::load_asset(asset_path, selector.as_ref(), uv_set, &rules)?;
+    let uvs = asset
+        .primitives
+        .iter()
+        .map(|p| {
+            p.uvs
+                .clone()
+                .ok_or_else(|| missing(&asset, p.index, format!("TEXCOORD_{uv_set}")))
+        })
+        .collect::<crate::Result<Vec<_>>>()?;
+    Ok(StoredAsset {
+        asset,
+        uvs,
+        axis: VAxis::Down,
+    })
+}
+
 /// Returns exit code 0 when every chart is fold-free and every constraint
 /// within tolerance, 2 otherwise.
 pub fn run(
@@ -41,67 +92,57 @@ pub fn run(
     constraints: Option<&Path>,
     json: bool,
 ) -> crate::Result<u8> {
-    let selector = mesh.map(|m| {
-        m.parse::<usize>()
-            .map(MeshSelector::Index)
-            .unwrap_or_else(|_| MeshSelector::Name(m.into()))
-    });
-    let asset = crate::io::load_asset(asset_path, selector.as_ref(), uv_set)?;
-    if let Some(p) = asset.primitives.iter().find(|p| p.uvs.is_none()) {
-        return Err(crate::io::AssetError::Primitive {
-            path: asset.path.clone(),
-            mesh: asset.mesh_index,
-            primitive: p.index,
-            message: format!("has no TEXCOORD_{uv_set} to check"),
-        }
-        .into());
-    }
-    let welded = weld(&asset.primitives);
-    let uv_of = welded_uvs(&asset, &welded);
+    let stored = load_checked(asset_path, uv_set, mesh)?;
+    let welded = weld(&stored.asset.primitives);
+    let uv_of = welded_uvs(&stored, &welded);
     let charts: Vec<ChartCheck> = (0..welded.n_charts as u32)
-        .map(|c| check_chart(&welded, c, &uv_of))
+        .map(|c| check_chart(&welded, c, &uv_of, stored.axis))
         .collect();
     let (residuals, tolerance) = match constraints {
-        Some(path) => check_constraints(path, &asset, &welded, &uv_of)?,
+        Some(path) => check_constraints(path, &stored, &welded, &uv_of)?,
         None => (Vec::new(), crate::options::SolverOptions::DEFAULT.tolerance),
     };
     let clean =
         charts.iter().all(|c| c.flipped == 0 && c.zero_area == 0) && residuals.iter().all(|r| r.residual <= tolerance);
     if json {
-        print_json(&asset, uv_set, &charts, &residuals);
+        print_json(&stored.asset, uv_set, &charts, &residuals);
     } else {
-        print_lines(&asset, uv_set, &charts, &residuals);
+        print_lines(&stored.asset, uv_set, &charts, &residuals);
     }
     Ok(if clean { 0 } else { 2 })
 }
 
-/// Each welded vertex's UV (welding included the UV, so it is unique).
-fn welded_uvs(asset: &crate::io::SourceAsset, welded: &WeldedMesh) -> Vec<DVec2> {
-    let mut uv_of = vec![DVec2::ZERO; welded.mesh.n_vertices()];
-    for (prim, map) in asset.primitives.iter().zip(&welded.vertex_of) {
-        let uvs = prim.uvs.as_ref().expect("checked: every primitive has UVs");
+/// Each welded vertex's stored texture coordinates (welding included the
+/// UV, so they are unique).
+fn welded_uvs(stored: &StoredAsset, welded: &WeldedMesh) -> Vec<[f32; 2]> {
+    let mut uv_of = vec![[0.0f32; 2]; welded.mesh.n_vertices()];
+    for (uvs, map) in stored.uvs.iter().zip(&welded.vertex_of) {
         for (i, &w) in map.iter().enumerate() {
-            uv_of[w as usize] = DVec2::new(uvs[i][0] as f64, uvs[i][1] as f64);
+            uv_of[w as usize] = uvs[i];
         }
     }
     uv_of
 }
 
-/// Orientation and stretch of chart `c`'s UVs (as stored, f32).
-fn check_chart(welded: &WeldedMesh, c: u32, uv_of: &[DVec2]) -> ChartCheck {
+/// A stored texture coordinate as a layout point (y up).
+fn layout_point(uv: [f32; 2], axis: VAxis) -> DVec2 {
+    let (u, v) = (uv[0] as f64, uv[1] as f64);
+    match axis {
+        VAxis::Down => uv_to_xy(DVec2::new(u, v)),
+        VAxis::Up => DVec2::new(u, v),
+    }
+}
+
+/// Orientation (exactly as stored) and stretch of chart `c`.
+fn check_chart(welded: &WeldedMesh, c: u32, uv_of: &[[f32; 2]], axis: VAxis) -> ChartCheck {
     let chart = welded.chart(c);
-    let uvs: Vec<[f32; 2]> = chart
-        .welded_ids
-        .iter()
-        .map(|&w| uv_of[w as usize].as_vec2().to_array())
-        .collect();
-    let counts = guard::count_uv_orientations(&uvs, &chart.mesh.triangles);
+    let uvs: Vec<[f32; 2]> = chart.welded_ids.iter().map(|&w| uv_of[w as usize]).collect();
+    let counts = guard::count_stored_orientations(&uvs, &chart.mesh.triangles, axis);
     let mirrored = counts.flipped == chart.mesh.n_triangles();
-    let layout: Vec<DVec2> = chart
-        .welded_ids
+    let layout: Vec<DVec2> = uvs
         .iter()
-        .map(|&w| {
-            let p = uv_to_xy(uv_of[w as usize]);
+        .map(|&uv| {
+            let p = layout_point(uv, axis);
             if mirrored { DVec2::new(-p.x, p.y) } else { p }
         })
         .collect();
@@ -121,17 +162,17 @@ fn check_chart(welded: &WeldedMesh, c: u32, uv_of: &[DVec2]) -> ChartCheck {
 /// Each constraint's residual, and the file's tolerance.
 fn check_constraints(
     path: &Path,
-    asset: &crate::io::SourceAsset,
+    stored: &StoredAsset,
     welded: &WeldedMesh,
-    uv_of: &[DVec2],
+    uv_of: &[[f32; 2]],
 ) -> crate::Result<(Vec<ConstraintCheck>, f64)> {
     let loaded = LoadedConstraints::load(path)?;
     let residuals = loaded
-        .resolve(&asset.primitives, welded)?
+        .resolve(&stored.asset.primitives, welded)?
         .into_iter()
         .map(|r| {
-            let actual = uv_of[r.welded as usize];
-            // glTF stores f32: measure against the target as it can be stored.
+            // In glTF texture coordinates, against the target as f32 can store it.
+            let actual = xy_to_uv(layout_point(uv_of[r.welded as usize], stored.axis));
             let storable = r.target_uv.as_vec2().as_dvec2();
             ConstraintCheck {
                 index: r.index,
@@ -153,18 +194,18 @@ fn print_json(asset: &crate::io::SourceAsset, uv_set: u32, charts: &[ChartCheck]
         "charts": charts,
         "constraints": residuals,
     });
-    println!("{}", serde_json::to_string_pretty(&out).expect("json"));
+    super::print_out(&serde_json::to_string_pretty(&out).expect("json"));
 }
 
 fn print_lines(asset: &crate::io::SourceAsset, uv_set: u32, charts: &[ChartCheck], residuals: &[ConstraintCheck]) {
-    println!(
+    let mut lines = vec![format!(
         "{} mesh {} TEXCOORD_{uv_set}: {} charts",
         asset.path.display(),
         asset.mesh_index,
         charts.len()
-    );
-    for c in charts {
-        println!(
+    )];
+    lines.extend(charts.iter().map(|c| {
+        format!(
             "chart {:>4}: {:>7} vertices {:>7} triangles  flipped {:>6}  zero-area {:>6}  stretch L2 {:>9.4}  L∞ {:>10.4}{}",
             c.chart,
             c.vertices,
@@ -174,12 +215,13 @@ fn print_lines(asset: &crate::io::SourceAsset, uv_set: u32, charts: &[ChartCheck
             c.stretch_l2,
             c.stretch_linf,
             if c.mirrored { "  (mirrored)" } else { "" }
-        );
-    }
-    for r in residuals {
-        println!(
+        )
+    }));
+    lines.extend(residuals.iter().map(|r| {
+        format!(
             "constraints[{}] vertex {}: target ({:.6}, {:.6}) actual ({:.6}, {:.6}) residual {:.3e}",
             r.index, r.vertex, r.target.x, r.target.y, r.actual.x, r.actual.y, r.residual
-        );
-    }
+        )
+    }));
+    super::print_out(&lines.join("\n"));
 }

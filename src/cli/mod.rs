@@ -25,7 +25,7 @@ pub enum Command {
     Solve {
         /// The constraint file (.uvpin.ron).
         constraints: PathBuf,
-        /// Output file: .glb for a .glb asset, .gltf (+ .uvpin.bin) for .gltf;
+        /// Output file: .glb for a .glb asset, .gltf (+ .uvpin-HASH.bin) for .gltf;
         /// .obj, .glb or .gltf for an .obj asset. Without it nothing is written.
         #[arg(short, long)]
         output: Option<PathBuf>,
@@ -123,6 +123,10 @@ pub struct WatchArgs {
     /// No pictures beside the outputs.
     #[arg(long)]
     no_previews: bool,
+    /// Also read assets, buffers and images inside this folder (repeatable;
+    /// by default only the watched folders are read).
+    #[arg(long, value_name = "DIR")]
+    allow: Vec<PathBuf>,
     /// Solve everything present once, print a summary and exit
     /// (0: all reached, 2: some partial, 1: some errors).
     #[arg(long)]
@@ -237,6 +241,7 @@ impl WatchArgs {
         if self.no_previews {
             watch.previews = false;
         }
+        watch.allow_paths.extend(self.allow);
         if let Some(ms) = self.debounce_ms {
             watch.debounce_ms = ms;
         }
@@ -258,6 +263,7 @@ fn watch(args: WatchArgs) -> ExitCode {
     let options = crate::watch::daemon::WatchOptions {
         config: args.apply(config.watch),
         solver: config.solver,
+        limits: config.limits,
         once,
     };
     match crate::watch::daemon::run(options) {
@@ -266,14 +272,14 @@ fn watch(args: WatchArgs) -> ExitCode {
     }
 }
 
-fn write_report(path: &std::path::Path, json: &str) -> std::io::Result<()> {
-    if path.as_os_str() == "-" {
-        let mut out = std::io::stdout().lock();
-        out.write_all(json.as_bytes())?;
-        out.write_all(b"\n")
-    } else {
-        crate::io::atomic::write_atomically(path, format!("{json}\n").as_bytes())
-    }
+/// Prints `text` and a newline on standard output; a closed pipe (`| head`)
+/// ends the output quietly.
+pub(crate) fn print_out(text: &str) {
+    let mut out = std::io::stdout().lock();
+    let _ = out
+        .write_all(text.as_bytes())
+        .and_then(|()| out.write_all(b"\n"))
+        .and_then(|()| out.flush());
 }
 
 /// What `uvpin solve` prints on standard error.
@@ -281,6 +287,16 @@ fn write_report(path: &std::path::Path, json: &str) -> std::io::Result<()> {
 struct Printing {
     quiet: bool,
     explain: bool,
+}
+
+/// `--preview-size` must be a size a picture can be drawn at.
+fn check_picture_size(size: u32) -> Result<(), String> {
+    let max = crate::preview::MAX_SIZE;
+    if (16..=max).contains(&size) {
+        Ok(())
+    } else {
+        Err(format!("--preview-size {size}: must be between 16 and {max} pixels"))
+    }
 }
 
 fn solve(
@@ -291,15 +307,27 @@ fn solve(
     pictures: crate::preview::Pictures,
     print: Printing,
 ) -> ExitCode {
+    if pictures.any()
+        && let Err(e) = check_picture_size(pictures.size)
+    {
+        return fail(&e);
+    }
+    let to_stdout = report_path.is_some_and(|p| p.as_os_str() == "-");
     let result = config
         .map(crate::config::Config::load)
         .transpose()
         .map_err(crate::Error::from)
         .and_then(|c| {
+            let config = c.unwrap_or_default();
             let options = crate::api::Options {
-                solver: c.unwrap_or_default().solver,
+                solver: config.solver,
                 output,
+                report: report_path.filter(|_| !to_stdout).map(std::path::Path::to_path_buf),
                 pictures,
+                input: crate::io::InputRules {
+                    limits: config.limits,
+                    scope: crate::io::ReadScope::Anywhere,
+                },
             };
             crate::api::solve_file(constraints, &options)
         });
@@ -313,23 +341,20 @@ fn solve(
                     eprintln!("{line}");
                 }
             }
-            if let Some(p) = report_path {
-                let json = serde_json::to_string_pretty(&report).expect("report serialises");
-                if let Err(e) = write_report(p, &json) {
-                    return fail(&format!("cannot write the report {}: {e}", p.display()));
-                }
+            if to_stdout {
+                print_out(&serde_json::to_string_pretty(&report).expect("report serialises"));
             }
             ExitCode::from(report.status.exit_code() as u8)
         }
         Err(e) => {
             eprintln!("error: {e}");
-            if let Some(p) = report_path {
+            if to_stdout {
                 let json = serde_json::json!({
                     "status": Status::Error,
                     "message": e.to_string(),
                     "constraint_file": constraints.display().to_string(),
                 });
-                let _ = write_report(p, &serde_json::to_string_pretty(&json).expect("json"));
+                print_out(&serde_json::to_string_pretty(&json).expect("json"));
             }
             ExitCode::from(1)
         }

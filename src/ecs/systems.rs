@@ -187,16 +187,10 @@ pub fn export_layout(
 ) {
     for (entity, job, data, solver, finished, times) in &charts {
         let t0 = Instant::now();
-        let layout = solver.0.layout();
-        let output = job.output.as_deref();
-        let mut report = crate::export::export_chart(
-            &job.asset,
-            &data.0,
-            layout,
-            finished.0.clone(),
-            output,
-            job.options.guard,
-        );
+        let mut report = finished.0.clone();
+        let (layout, output, guard) = (solver.0.layout(), job.output.as_deref(), job.options.guard);
+        let staged = crate::export::stage_chart(&job.asset, &data.0, layout, &mut report, output, guard);
+        crate::export::commit(staged, &mut report);
         report.times.export_ms = times.0.export_ms + ms(t0);
         report.total_ms = report.times.total_ms();
         commands.entity(entity).insert(Exported(report));

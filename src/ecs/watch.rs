@@ -41,6 +41,12 @@ pub struct FileChanged(pub FileEvent);
 /// What the daemon watches and where it writes.
 #[derive(Resource, Debug, Clone)]
 pub struct WatchSettings {
+    /// What input may be read: the limits, and only inside the watched
+    /// folders and the configuration's `allow_paths`.
+    pub input: crate::io::InputRules,
+    /// How long a constraint file must have rested before a parse error
+    /// counts (a burst of saves can be read half-written): the debounce.
+    pub settle: std::time::Duration,
     pub roots: Vec<WatchRoot>,
     pub output: OutputMode,
     pub rules: FileRules,
@@ -75,6 +81,9 @@ pub struct WatchRegistry {
     pub written: HashMap<PathBuf, u64>,
     /// Folders of assets outside every watched root; the daemon watches them too.
     pub asset_folders: BTreeSet<PathBuf>,
+    /// Constraint files to read again at these times: they failed to parse
+    /// while still being written (a burst of saves).
+    pub rechecks: Vec<(Instant, PathBuf)>,
     pub counters: WatchCounters,
 }
 
@@ -268,12 +277,12 @@ fn asset_changed(world: &mut World, file: &Path, to_load: &mut BTreeMap<PathBuf,
                 for e in dependants(world, asset) {
                     let err = Error::Asset(crate::io::AssetError::Read {
                         path: asset.clone(),
-                        source: std::io::Error::new(
+                        source: crate::io::ReadError::Io(std::io::Error::new(
                             std::io::ErrorKind::NotFound,
                             "the asset was removed; the last output is kept",
-                        ),
+                        )),
                     });
-                    fail(world, e, err);
+                    asset_gone(world, e, err);
                 }
             }
             Ok(h) if h == old_hash || Some(h) == written => {
@@ -281,10 +290,7 @@ fn asset_changed(world: &mut World, file: &Path, to_load: &mut BTreeMap<PathBuf,
                 if was_missing {
                     set_missing(world, asset, false);
                     for e in dependants(world, asset) {
-                        if world.get::<Failed>(e).is_some() {
-                            let path = world.get::<WatchedFile>(e).expect("watched").path.clone();
-                            to_load.insert(path, true);
-                        }
+                        asset_back_unchanged(world, e, to_load);
                     }
                 }
             }
@@ -316,6 +322,44 @@ fn asset_changed(world: &mut World, file: &Path, to_load: &mut BTreeMap<PathBuf,
     for p in waiting {
         to_load.insert(p, true);
     }
+}
+
+/// The asset of `entity` was removed: a running solve stops; a finished
+/// one keeps its result (the last output stays), so that an identical
+/// re-creation needs no new solve.
+fn asset_gone(world: &mut World, entity: Entity, err: Error) {
+    let mut e = world.entity_mut(entity);
+    if e.get::<Exported>().is_none() {
+        e.remove::<(Finished, Candidate)>();
+    }
+    e.insert(Failed(Arc::new(err)));
+}
+
+/// The asset of `entity` is back with the content it had: its last result
+/// stands again (nothing to solve), or, if its solve was cut short, it is
+/// solved again.
+fn asset_back_unchanged(world: &mut World, entity: Entity, to_load: &mut BTreeMap<PathBuf, bool>) {
+    if world.get::<Failed>(entity).is_none() {
+        return;
+    }
+    let path = world.get::<WatchedFile>(entity).expect("watched").path.clone();
+    let Some(status) = world.get::<Exported>(entity).map(|e| e.0.status) else {
+        to_load.insert(path, true);
+        return;
+    };
+    world.entity_mut(entity).remove::<Failed>();
+    let settings = world.resource::<WatchSettings>();
+    let name = display(&path, &settings.cwd);
+    let mut log = world.resource_mut::<DaemonLog>();
+    log.logger.info(
+        "unchanged",
+        Some(&name),
+        "the asset is back unchanged; its last result stands",
+        json!({}),
+    );
+    let entry = log.status.entry(&name);
+    entry.state = FileState::of(status);
+    entry.last_error = None;
 }
 
 /// Marks `entity` failed: a running solve stops and nothing is written.
@@ -360,10 +404,16 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
     let t0 = Instant::now();
     let loaded = match LoadedConstraints::parse_with_defaults(path, &text, &settings.defaults) {
         Ok(l) => l,
+        Err(crate::constraints::ConstraintFileError::Syntax(_)) if still_being_written(path, settings.settle) => {
+            return recheck_later(world, settings, entity, path);
+        }
         Err(e) => return fail(world, entity, e.into()),
     };
     let asset_path = normalize(&loaded.asset_path(), &settings.cwd);
     note_asset(world, settings, entity, &asset_path);
+    if let Err(e) = check_in_place_target(settings, &loaded, &asset_path) {
+        return fail(world, entity, e);
+    }
     let asset = match load_asset(world, settings, &loaded, &asset_path) {
         Ok(a) => a,
         Err(e) => return fail(world, entity, e),
@@ -419,9 +469,10 @@ fn read_if_changed(
     path: &Path,
     force: bool,
 ) -> Option<String> {
-    let bytes = match std::fs::read(path) {
+    let limit = settings.input.limits.max_text_bytes;
+    let bytes = match crate::io::read::read_regular(path, limit, &settings.input.scope) {
         Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound || path.is_dir() => {
+        Err(e) if e.is_not_found() || path.is_dir() => {
             constraint_removed(world, settings, entity);
             return None;
         }
@@ -449,9 +500,9 @@ fn read_if_changed(
     match String::from_utf8(bytes) {
         Ok(t) => Some(t),
         Err(e) => {
-            let err = crate::constraints::ConstraintFileError::Read {
+            let err = crate::constraints::ConstraintFileError::NotUtf8 {
                 path: path.to_path_buf(),
-                source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()),
+                at: e.utf8_error().valid_up_to(),
             };
             fail(world, entity, err.into());
             None
@@ -465,15 +516,51 @@ fn read_if_changed(
 fn unchanged(world: &mut World, settings: &WatchSettings, entity: Entity, watched: &WatchedFile) {
     world.get_mut::<WatchedFile>(entity).expect("watched").removed = false;
     if watched.removed {
-        let state = match world.get::<Exported>(entity).map(|e| e.0.status) {
-            Some(Status::Reached) => FileState::Reached,
-            Some(Status::Partial) => FileState::Partial,
-            Some(Status::Error) | None => FileState::Error,
-        };
+        let state = world
+            .get::<Exported>(entity)
+            .map_or(FileState::Error, |e| FileState::of(e.0.status));
         let name = display(&watched.path, &settings.cwd);
         world.resource_mut::<DaemonLog>().status.entry(&name).state = state;
     }
     world.resource_mut::<WatchRegistry>().counters.unchanged += 1;
+}
+
+/// Whether `path` was modified less than `settle` ago (a save may still be
+/// writing it; RON that does not parse yet may be half-written).
+fn still_being_written(path: &Path, settle: std::time::Duration) -> bool {
+    std::fs::metadata(path)
+        .and_then(|m| m.modified())
+        .ok()
+        .and_then(|t| t.elapsed().ok())
+        .is_some_and(|age| age < settle)
+}
+
+/// A constraint file that does not parse yet while it is still being
+/// written: read again once it has rested (its content is not taken as seen).
+fn recheck_later(world: &mut World, settings: &WatchSettings, entity: Entity, path: &Path) {
+    world.get_mut::<WatchedFile>(entity).expect("watched").hash = None;
+    let due = Instant::now() + settings.settle;
+    world
+        .resource_mut::<WatchRegistry>()
+        .rechecks
+        .push((due, path.to_path_buf()));
+}
+
+/// In place, only assets inside the watched folders are written.
+fn check_in_place_target(settings: &WatchSettings, loaded: &LoadedConstraints, asset_path: &Path) -> Result<(), Error> {
+    let inside = settings.roots.iter().any(|r| asset_path.starts_with(r.folder()));
+    if settings.output != OutputMode::InPlace || inside {
+        return Ok(());
+    }
+    Err(loaded
+        .asset_error(
+            "asset",
+            format!(
+                "in-place mode writes only assets inside the watched folders; {} is outside them",
+                display(asset_path, &settings.cwd)
+            ),
+        )
+        .into())
 }
 
 /// Remembers the asset the file names, and its folder when no watched root covers it.
@@ -504,9 +591,9 @@ fn load_asset(
         uv_set: loaded.file.uv_set,
     };
     let mut registry = world.resource_mut::<WatchRegistry>();
-    match registry.assets.load(asset_path, &selection) {
+    match registry.assets.load(asset_path, &selection, &settings.input) {
         Ok(a) => Ok(a),
-        Err(crate::io::AssetError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => Err(loaded
+        Err(crate::io::AssetError::Read { source, .. }) if source.is_not_found() => Err(loaded
             .asset_error(
                 "asset",
                 format!("{} does not exist", display(asset_path, &settings.cwd)),

@@ -6,7 +6,8 @@
 //! pointed at them, so every other object, extension, extra and unknown field
 //! is written back as read, and every existing accessor keeps its bytes.
 
-use super::{AssetError, AssetFormat, Container, SourceAsset, atomic, glb};
+use super::atomic::{self, Staged};
+use super::{AssetError, AssetFormat, Container, SourceAsset, glb};
 use crate::constraints::MeshSelector;
 use crate::mesh::weld::PrimitiveGeometry;
 use base64::Engine;
@@ -19,48 +20,86 @@ pub(super) fn load(
     bytes: &[u8],
     selector: Option<&MeshSelector>,
     uv_set: u32,
+    rules: &super::InputRules,
 ) -> Result<SourceAsset, AssetError> {
     let p = || path.to_path_buf();
+    let invalid = |message: String| AssetError::Gltf { path: p(), message };
     let (json_bytes, bin) = if format == AssetFormat::Glb || bytes.starts_with(b"glTF") {
         let g = glb::parse(bytes).map_err(|source| AssetError::Glb { path: p(), source })?;
         (g.json.to_vec(), g.bin.map(|b| b.to_vec()))
     } else {
         (bytes.to_vec(), None)
     };
-    let json: Value = serde_json::from_slice(&json_bytes).map_err(|e| AssetError::Gltf {
-        path: p(),
-        message: format!("JSON: {e}"),
-    })?;
-    let document = gltf::Gltf::from_slice(bytes)
-        .map_err(|e| AssetError::Gltf {
-            path: p(),
-            message: e.to_string(),
-        })?
-        .document;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = load_buffers(path, base, &document, bin.as_deref())?;
-    let mesh = select_mesh(path, &document, selector)?;
-    let primitives = mesh
-        .primitives()
-        .map(|prim| read_primitive(path, &prim, mesh.index(), &buffers, uv_set))
-        .collect::<Result<Vec<_>, _>>()?;
-    if primitives.is_empty() {
-        return Err(AssetError::MeshSelection {
-            path: p(),
-            message: format!("mesh {} has no primitives", mesh.index()),
-        });
-    }
+    let json: Value = serde_json::from_slice(&json_bytes).map_err(|e| invalid(format!("JSON: {e}")))?;
+    super::validate::validate(&json, &rules.limits, bin.is_some()).map_err(invalid)?;
+    let buffers = load_buffers(path, &json, bin.as_deref(), rules)?;
+    // The checks above cover what the reader indexes; a panic in the gltf
+    // crate on a file they missed is still an error naming the file.
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        read_document(path, bytes, &json, &buffers, selector, uv_set, rules)
+    }));
+    let (mesh_index, mesh_name, primitives, n_meshes) = match read {
+        Ok(result) => result?,
+        Err(_) => {
+            return Err(invalid(
+                "the glTF reader failed on this file (it breaks the glTF spec)".into(),
+            ));
+        }
+    };
     Ok(SourceAsset {
         path: p(),
         format,
-        mesh_index: mesh.index(),
-        mesh_name: mesh.name().map(str::to_string),
+        mesh_index,
+        mesh_name,
         primitives,
         uv_set,
         container: Container::Gltf { json, bin },
-        n_meshes: document.meshes().len(),
+        n_meshes,
+        rules: rules.clone(),
         decoded_texture: super::TextureCache::default(),
     })
+}
+
+/// The selected mesh read from a validated document: its index, name,
+/// TRIANGLES primitives, and the number of meshes in the file.
+type ReadMesh = (usize, Option<String>, Vec<PrimitiveGeometry>, usize);
+
+fn read_document(
+    path: &Path,
+    bytes: &[u8],
+    json: &Value,
+    buffers: &[Vec<u8>],
+    selector: Option<&MeshSelector>,
+    uv_set: u32,
+    rules: &super::InputRules,
+) -> Result<ReadMesh, AssetError> {
+    let document = gltf::Gltf::from_slice(bytes)
+        .map_err(|e| AssetError::Gltf {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?
+        .document;
+    let mesh = select_mesh(path, &document, selector)?;
+    super::validate::check_mesh_size(json, mesh.index(), &rules.limits).map_err(|message| AssetError::TooLarge {
+        path: path.to_path_buf(),
+        message,
+    })?;
+    let primitives = mesh
+        .primitives()
+        .map(|prim| read_primitive(path, &prim, mesh.index(), buffers, uv_set))
+        .collect::<Result<Vec<_>, _>>()?;
+    if primitives.is_empty() {
+        return Err(AssetError::MeshSelection {
+            path: path.to_path_buf(),
+            message: format!("mesh {} has no primitives", mesh.index()),
+        });
+    }
+    Ok((
+        mesh.index(),
+        mesh.name().map(str::to_string),
+        primitives,
+        document.meshes().len(),
+    ))
 }
 
 /// The mesh `selector` names (by index or name; default the first).
@@ -171,50 +210,78 @@ fn read_primitive(
     })
 }
 
+/// Every buffer's bytes: the GLB BIN chunk, a data URI, or a file relative
+/// to the asset's folder (read within `rules`); each at least its declared
+/// `byteLength` long.
 fn load_buffers(
     path: &Path,
-    base: &Path,
-    document: &gltf::Document,
+    json: &Value,
     bin: Option<&[u8]>,
+    rules: &super::InputRules,
 ) -> Result<Vec<Vec<u8>>, AssetError> {
-    let mut out = Vec::new();
-    for buffer in document.buffers() {
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = json
+        .get("buffers")
+        .and_then(Value::as_array)
+        .map_or(&[][..], Vec::as_slice);
+    let mut out = Vec::with_capacity(buffers.len());
+    for (index, buffer) in buffers.iter().enumerate() {
         let err = |message: String| AssetError::Buffer {
             path: path.to_path_buf(),
-            buffer: buffer.index(),
+            buffer: index,
             message,
         };
-        let data = match buffer.source() {
-            gltf::buffer::Source::Bin => bin
+        let declared = buffer.get("byteLength").and_then(Value::as_u64).unwrap_or(0) as usize;
+        let data = match buffer.get("uri").and_then(Value::as_str) {
+            None => bin
                 .ok_or_else(|| err("refers to the GLB BIN chunk, but there is none".into()))?
                 .to_vec(),
-            gltf::buffer::Source::Uri(uri) => read_uri(base, uri).map_err(err)?,
+            Some(uri) => read_uri(base, uri, rules).map_err(err)?,
         };
-        if data.len() < buffer.length() {
-            return Err(err(format!(
-                "has {} bytes, but byteLength is {}",
-                data.len(),
-                buffer.length()
-            )));
+        if data.len() < declared {
+            return Err(err(format!("has {} bytes, but byteLength is {declared}", data.len())));
         }
         out.push(data);
     }
     Ok(out)
 }
 
-/// Bytes of a buffer URI: a base64 data URI or a file relative to `base`.
-fn read_uri(base: &Path, uri: &str) -> Result<Vec<u8>, String> {
+/// The file a relative glTF URI names inside `base`.
+///
+/// # Errors
+/// An absolute path or a URI with a scheme (glTF asks for relative URIs).
+pub fn uri_path(base: &Path, uri: &str) -> Result<PathBuf, String> {
+    let decoded = percent_decode(uri);
+    let has_scheme = uri.split_once(':').is_some_and(|(scheme, _)| {
+        scheme.len() > 1 && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+    });
+    if has_scheme || Path::new(&decoded).is_absolute() {
+        return Err(format!(
+            "URI {} is not a relative path (only relative paths and data URIs are read)",
+            crate::ron_file::snippet(uri)
+        ));
+    }
+    Ok(base.join(decoded))
+}
+
+/// Bytes of a buffer or image URI: a base64 data URI, or a relative file
+/// read within `rules`.
+///
+/// # Errors
+/// A malformed data URI; a file that cannot be read under `rules`.
+pub fn read_uri(base: &Path, uri: &str, rules: &super::InputRules) -> Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (_, data) = rest.split_once(";base64,").ok_or("data URI without ;base64,")?;
         return base64::engine::general_purpose::STANDARD
             .decode(data)
             .map_err(|e| format!("bad base64: {e}"));
     }
-    let file = base.join(percent_decode(uri));
-    std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))
+    let file = uri_path(base, uri)?;
+    super::read::read_regular(&file, rules.limits.max_file_bytes, &rules.scope)
+        .map_err(|e| format!("cannot read {}: {e}", file.display()))
 }
 
-fn percent_decode(s: &str) -> String {
+pub(crate) fn percent_decode(s: &str) -> String {
     let b = s.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
@@ -311,10 +378,16 @@ fn push_uv_accessor(json: &mut Value, buffer: usize, offset: usize, uvs: &[[f32;
     accessors.len() - 1
 }
 
-/// Writes `asset` with `uvs` (one list per primitive of `asset.primitives`, in
-/// glTF texture coordinates) as its TEXCOORD_`uv_set`, to `out` (.glb for a
-/// .glb asset, .gltf + `<stem>.uvpin.bin` for a .gltf asset). Atomic.
-pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<(), AssetError> {
+/// The files of `asset` with `uvs` (one list per primitive of
+/// `asset.primitives`, in glTF texture coordinates) as its
+/// TEXCOORD_`uv_set`, written as `out` (.glb for a .glb asset; .gltf plus a
+/// buffer `<stem>.uvpin-<content>.bin` for a .gltf asset, renamed into place
+/// first, the earlier output's buffer removed after), staged.
+///
+/// # Errors
+/// An output of another type than the input; an external buffer of a GLB
+/// that cannot be read again.
+pub fn stage_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<Staged, AssetError> {
     let werr = |message: String| AssetError::Write {
         path: out.to_path_buf(),
         message,
@@ -333,8 +406,8 @@ pub fn write_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
         )));
     }
     match asset.format {
-        AssetFormat::Glb => write_glb(asset, original.clone(), bin.as_deref(), uvs, out),
-        AssetFormat::Gltf => write_gltf(asset, original.clone(), uvs, out),
+        AssetFormat::Glb => stage_glb(asset, original.clone(), bin.as_deref(), uvs, out),
+        AssetFormat::Gltf => stage_gltf(asset, original.clone(), uvs, out),
         AssetFormat::Obj => unreachable!("checked above"),
     }
 }
@@ -358,14 +431,64 @@ fn append_uvs(json: &mut Value, asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], buff
     pad4(blob);
 }
 
-/// A .glb: the UVs appended to the BIN chunk (made buffer 0 if the file has none).
-fn write_glb(
+/// Moves every external file buffer of a GLB's JSON into its BIN chunk
+/// `blob` (buffer 0), so the output is complete wherever it is written:
+/// their views are re-pointed and re-offset, the buffers list renumbered.
+fn embed_external_buffers(asset: &SourceAsset, json: &mut Value, blob: &mut Vec<u8>) -> Result<(), String> {
+    let base = asset.path.parent().unwrap_or(Path::new("."));
+    let buffers = array(json, "buffers").clone();
+    // Per old buffer index: its new index, or the offset it landed at in BIN.
+    let mut moved: Vec<Result<usize, u64>> = Vec::with_capacity(buffers.len());
+    let mut kept = 0usize;
+    for (i, b) in buffers.iter().enumerate() {
+        match b.get("uri").and_then(Value::as_str).filter(|u| !u.starts_with("data:")) {
+            Some(uri) if i != 0 => {
+                let bytes = read_uri(base, uri, &asset.rules)?;
+                while !blob.len().is_multiple_of(16) {
+                    blob.push(0);
+                }
+                moved.push(Err(blob.len() as u64));
+                blob.extend_from_slice(&bytes);
+            }
+            _ => {
+                moved.push(Ok(kept));
+                kept += 1;
+            }
+        }
+    }
+    for view in array(json, "bufferViews") {
+        let Some(b) = view.get("buffer").and_then(Value::as_u64) else {
+            continue;
+        };
+        match moved.get(b as usize) {
+            Some(Ok(new)) => view["buffer"] = json!(new),
+            Some(Err(at)) => {
+                let offset = view.get("byteOffset").and_then(Value::as_u64).unwrap_or(0);
+                view["buffer"] = json!(0);
+                view["byteOffset"] = json!(offset + at);
+            }
+            None => {}
+        }
+    }
+    let remaining: Vec<Value> = buffers
+        .into_iter()
+        .zip(&moved)
+        .filter(|(_, m)| m.is_ok())
+        .map(|(b, _)| b)
+        .collect();
+    json["buffers"] = Value::Array(remaining);
+    Ok(())
+}
+
+/// A .glb: the UVs appended to the BIN chunk (made buffer 0 if the file has
+/// none), external buffers embedded.
+fn stage_glb(
     asset: &SourceAsset,
     mut json: Value,
     bin: Option<&[u8]>,
     uvs: &[Vec<[f32; 2]>],
     out: &Path,
-) -> Result<(), AssetError> {
+) -> Result<Staged, AssetError> {
     let werr = |message: String| AssetError::Write {
         path: out.to_path_buf(),
         message,
@@ -386,10 +509,15 @@ fn write_glb(
     } else {
         Vec::new()
     };
+    embed_external_buffers(asset, &mut json, &mut blob).map_err(werr)?;
+    let (in_dir, out_dir) = (absolute_dir(&asset.path), absolute_dir(out));
+    rebase_uris(&mut json, &in_dir, &out_dir);
     append_uvs(&mut json, asset, uvs, 0, &mut blob);
     json["buffers"][0]["byteLength"] = json!(blob.len());
     let text = serde_json::to_vec(&json).map_err(|e| werr(e.to_string()))?;
-    atomic::write_atomically(out, &glb::build(&text, Some(&blob))).map_err(|e| werr(e.to_string()))
+    let mut staged = Staged::new();
+    staged.add(out, glb::build(&text, Some(&blob)));
+    Ok(staged)
 }
 
 /// Rewrites the relative URIs of `json`'s buffers and images so they stay
@@ -404,10 +532,12 @@ fn rebase_uris(json: &mut Value, in_dir: &Path, out_dir: &Path) -> Vec<PathBuf> 
             let Some(uri) = item.get("uri").and_then(Value::as_str).map(str::to_string) else {
                 continue;
             };
-            if uri.starts_with("data:") || uri.contains("://") {
+            let Ok(target) = uri_path(in_dir, &uri) else {
+                continue;
+            };
+            if uri.starts_with("data:") {
                 continue;
             }
-            let target = in_dir.join(percent_decode(&uri));
             referenced.push(target.clone());
             if in_dir != out_dir {
                 let rel = relative_path(out_dir, &target);
@@ -418,8 +548,18 @@ fn rebase_uris(json: &mut Value, in_dir: &Path, out_dir: &Path) -> Vec<PathBuf> 
     referenced
 }
 
-/// A .gltf: the UVs in a new buffer `<stem>.uvpin.bin` beside it.
-fn write_gltf(asset: &SourceAsset, mut json: Value, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<(), AssetError> {
+/// A short content hash for a buffer's file name.
+fn content_tag(bytes: &[u8]) -> String {
+    let h = bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    });
+    format!("{:016x}", h ^ bytes.len() as u64)
+}
+
+/// A .gltf: the UVs in a new buffer `<stem>.uvpin-<content>.bin` beside it,
+/// staged before the .gltf that names it; an earlier output's uvpin buffer
+/// that the new file no longer names is removed after.
+fn stage_gltf(asset: &SourceAsset, mut json: Value, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<Staged, AssetError> {
     let werr = |message: String| AssetError::Write {
         path: out.to_path_buf(),
         message,
@@ -430,20 +570,38 @@ fn write_gltf(asset: &SourceAsset, mut json: Value, uvs: &[Vec<[f32; 2]>], out: 
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
-    let mut bin_name = format!("{stem}.uvpin.bin");
-    let mut k = 1;
-    while referenced.iter().any(|r| *r == out_dir.join(&bin_name)) {
-        bin_name = format!("{stem}.uvpin-{k}.bin");
-        k += 1;
-    }
     let mut blob = Vec::new();
     let buffer = array(&mut json, "buffers").len();
     append_uvs(&mut json, asset, uvs, buffer, &mut blob);
+    let bin_name = format!("{stem}.uvpin-{}.bin", content_tag(&blob));
     array(&mut json, "buffers").push(json!({ "uri": percent_encode_path(&bin_name), "byteLength": blob.len() }));
     let text = serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?;
     let bin_path = out.with_file_name(&bin_name);
-    atomic::write_atomically(&bin_path, &blob).map_err(|e| werr(format!("{}: {e}", bin_path.display())))?;
-    atomic::write_atomically(out, &text).map_err(|e| werr(e.to_string()))
+    let mut staged = Staged::new();
+    staged.add(bin_path, blob);
+    staged.add(out, text);
+    for old in earlier_buffers(out, &stem) {
+        let named = referenced.contains(&old) || old.file_name() == Some(bin_name.as_ref());
+        if !named {
+            staged.remove_after(old);
+        }
+    }
+    Ok(staged)
+}
+
+/// uvpin's buffers of earlier outputs named `stem` beside `out`.
+fn earlier_buffers(out: &Path, stem: &str) -> Vec<PathBuf> {
+    let dir = absolute_dir(out);
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return Vec::new();
+    };
+    let prefix = format!("{stem}.uvpin");
+    entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(&prefix) && n.ends_with(".bin"))
+        .map(|n| dir.join(n))
+        .collect()
 }
 
 /// A fresh glTF document holding one mesh (positions, indices, optional
@@ -491,57 +649,82 @@ pub fn new_document(positions: &[[f32; 3]], indices: &[u32], uvs: Option<&[[f32;
     (json, blob)
 }
 
-/// Writes a fresh document as .glb, or as .gltf with an embedded data URI.
-pub fn write_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<(), AssetError> {
+/// A fresh document's bytes as .glb, or as .gltf with an embedded data URI.
+///
+/// # Errors
+/// An output that is neither .glb nor .gltf.
+pub fn encode_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<Vec<u8>, AssetError> {
     let werr = |message: String| AssetError::Write {
         path: out.to_path_buf(),
         message,
     };
-    let bytes = match AssetFormat::of(out) {
-        Some(AssetFormat::Glb) => glb::build(&serde_json::to_vec(json).map_err(|e| werr(e.to_string()))?, Some(blob)),
+    match AssetFormat::of(out) {
+        Some(AssetFormat::Glb) => Ok(glb::build(
+            &serde_json::to_vec(json).map_err(|e| werr(e.to_string()))?,
+            Some(blob),
+        )),
         Some(AssetFormat::Gltf) => {
             let mut json = json.clone();
             json["buffers"][0]["uri"] = json!(format!(
                 "data:application/octet-stream;base64,{}",
                 base64::engine::general_purpose::STANDARD.encode(blob)
             ));
-            serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?
+            serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))
         }
-        _ => {
-            return Err(werr("a new glTF document must be written as .glb or .gltf".into()));
-        }
-    };
-    atomic::write_atomically(out, &bytes).map_err(|e| werr(e.to_string()))
+        _ => Err(werr("a new glTF document must be written as .glb or .gltf".into())),
+    }
 }
 
-/// Writes the asset with new UVs in whatever form `out` asks for: the same
+/// Writes a fresh document as .glb, or as .gltf with an embedded data URI.
+///
+/// # Errors
+/// As [`encode_new_document`], and the write's.
+pub fn write_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<(), AssetError> {
+    let bytes = encode_new_document(json, blob, out)?;
+    atomic::write_atomically(out, &bytes).map_err(|e| AssetError::Write {
+        path: out.to_path_buf(),
+        message: e.message,
+    })
+}
+
+/// The texture coordinates to write: glTF's per primitive, and, for an OBJ
+/// asset, the OBJ `vt` of its one primitive.
+#[derive(Debug, Clone)]
+pub struct StoredUvs {
+    pub gltf: Vec<Vec<[f32; 2]>>,
+    pub obj_vt: Option<Vec<[f32; 2]>>,
+}
+
+/// The asset with new UVs in whatever form `out` asks for, staged: the same
 /// type as the input (everything else kept), or .glb/.gltf from an OBJ.
-pub fn write_asset(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<(), AssetError> {
-    match (&asset.container, AssetFormat::of(out)) {
-        (Container::Obj { text }, Some(AssetFormat::Obj)) => {
-            atomic::write_atomically(out, super::obj::with_uvs(text, &uvs[0]).as_bytes()).map_err(|e| {
-                AssetError::Write {
-                    path: out.to_path_buf(),
-                    message: e.to_string(),
-                }
-            })
+///
+/// # Errors
+/// An output type that cannot hold the input; as [`stage_with_uvs`].
+pub fn stage_asset(asset: &SourceAsset, uvs: &StoredUvs, out: &Path) -> Result<Staged, AssetError> {
+    let mut staged = Staged::new();
+    match (&asset.container, AssetFormat::of(out), &uvs.obj_vt) {
+        (Container::Obj { text }, Some(AssetFormat::Obj), Some(vt)) => {
+            staged.add(out, super::obj::with_tex_coords(text, vt).into_bytes());
         }
-        (Container::Obj { .. }, Some(AssetFormat::Glb | AssetFormat::Gltf)) => {
+        (Container::Obj { .. }, Some(AssetFormat::Glb | AssetFormat::Gltf), _) => {
             let prim = &asset.primitives[0];
             let name = asset
                 .path
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default();
-            let (json, blob) = new_document(&prim.positions, &prim.indices, Some(&uvs[0]), &name);
-            write_new_document(&json, &blob, out)
+            let (json, blob) = new_document(&prim.positions, &prim.indices, Some(&uvs.gltf[0]), &name);
+            staged.add(out, encode_new_document(&json, &blob, out)?);
         }
-        (Container::Gltf { .. }, _) => write_with_uvs(asset, uvs, out),
-        (Container::Obj { .. }, _) => Err(AssetError::Write {
-            path: out.to_path_buf(),
-            message: "write an OBJ input as .obj, .glb or .gltf".into(),
-        }),
+        (Container::Gltf { .. }, _, _) => return stage_with_uvs(asset, &uvs.gltf, out),
+        (Container::Obj { .. }, _, _) => {
+            return Err(AssetError::Write {
+                path: out.to_path_buf(),
+                message: "write an OBJ input as .obj, .glb or .gltf".into(),
+            });
+        }
     }
+    Ok(staged)
 }
 
 /// The external files of a glTF JSON's buffers (URIs that are not data URIs),
@@ -553,6 +736,6 @@ pub fn external_buffer_files(json: &Value, base: &Path) -> Vec<PathBuf> {
         .flatten()
         .filter_map(|b| b.get("uri").and_then(Value::as_str))
         .filter(|uri| !uri.starts_with("data:"))
-        .map(|uri| base.join(percent_decode(uri)))
+        .filter_map(|uri| uri_path(base, uri).ok())
         .collect()
 }

@@ -5,6 +5,10 @@ pub mod atomic;
 pub mod glb;
 pub mod gltf_file;
 pub mod obj;
+pub mod read;
+pub mod validate;
+
+pub use read::{InputLimits, ReadError, ReadScope};
 
 use crate::constraints::MeshSelector;
 use crate::mesh::weld::PrimitiveGeometry;
@@ -15,7 +19,9 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum AssetError {
     #[error("{path}: cannot read: {source}")]
-    Read { path: PathBuf, source: std::io::Error },
+    Read { path: PathBuf, source: ReadError },
+    #[error("{path}: more than the input limits allow: {message}")]
+    TooLarge { path: PathBuf, message: String },
     #[error("{path}: unsupported file type (use .glb, .gltf or .obj)")]
     UnknownFormat { path: PathBuf },
     #[error("{path}: corrupt GLB: {source}")]
@@ -118,29 +124,46 @@ pub struct SourceAsset {
     pub container: Container,
     /// Number of meshes in the file.
     pub n_meshes: usize,
+    /// The rules it was read under (its buffers' and images' reads follow them).
+    pub rules: InputRules,
     /// The base-colour texture, decoded on first use by
     /// [`crate::preview::texture::base_colour_texture`] and then shared by
     /// every picture of this asset (a sweep draws one per run).
     pub decoded_texture: TextureCache,
 }
 
-/// Reads mesh `mesh` of the asset at `path` with the existing UVs of TEXCOORD_`uv_set`.
+/// What input may be read: the size limits, and from where.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct InputRules {
+    pub limits: InputLimits,
+    pub scope: ReadScope,
+}
+
+/// Reads mesh `mesh` of the asset at `path` with the existing UVs of
+/// TEXCOORD_`uv_set`, within `rules`.
 ///
 /// # Errors
-/// Unreadable or corrupt files (truncated GLB, bad chunk lengths, invalid
-/// JSON, missing buffers), a mesh that does not exist, non-TRIANGLES
-/// primitives, non-finite positions, indices out of range.
-pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Result<SourceAsset, AssetError> {
+/// Unreadable or corrupt files (not a regular file, too large, truncated
+/// GLB, bad chunk lengths, invalid JSON, indices, types or byte ranges that
+/// break the glTF spec, missing buffers), a mesh that does not exist,
+/// non-TRIANGLES primitives, non-finite positions, indices out of range,
+/// more vertices or triangles than the limits.
+pub fn load_asset(
+    path: &Path,
+    mesh: Option<&MeshSelector>,
+    uv_set: u32,
+    rules: &InputRules,
+) -> Result<SourceAsset, AssetError> {
     let format = AssetFormat::of(path).ok_or_else(|| AssetError::UnknownFormat {
         path: path.to_path_buf(),
     })?;
-    let bytes = std::fs::read(path).map_err(|source| AssetError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        read::read_regular(path, rules.limits.max_file_bytes, &rules.scope).map_err(|source| AssetError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
     match format {
         AssetFormat::Obj => {
-            let text = String::from_utf8_lossy(&bytes).into_owned();
             if let Some(MeshSelector::Index(i)) = mesh
                 && *i != 0
             {
@@ -149,7 +172,8 @@ pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Resu
                     message: format!("an OBJ file holds one mesh (0); mesh {i} was asked for"),
                 });
             }
-            let prim = obj::parse(path, &text)?;
+            let text = String::from_utf8_lossy(&bytes).into_owned();
+            let prim = obj::parse(path, &text, &rules.limits)?;
             Ok(SourceAsset {
                 path: path.to_path_buf(),
                 format,
@@ -159,11 +183,44 @@ pub fn load_asset(path: &Path, mesh: Option<&MeshSelector>, uv_set: u32) -> Resu
                 uv_set,
                 container: Container::Obj { text },
                 n_meshes: 1,
+                rules: rules.clone(),
                 decoded_texture: TextureCache::default(),
             })
         }
-        AssetFormat::Glb | AssetFormat::Gltf => gltf_file::load(path, format, &bytes, mesh, uv_set),
+        AssetFormat::Glb | AssetFormat::Gltf => gltf_file::load(path, format, &bytes, mesh, uv_set, rules),
     }
+}
+
+/// Reads an OBJ file with its texture coordinates, for checking them: the
+/// asset (one vertex per distinct `v`/`vt` pair) and the `vt` values as
+/// stored (v up), or `None` when its faces have none.
+///
+/// # Errors
+/// As [`load_asset`].
+pub fn load_obj_with_tex_coords(
+    path: &Path,
+    rules: &InputRules,
+) -> Result<(SourceAsset, Option<obj::TexCoords>), AssetError> {
+    let bytes =
+        read::read_regular(path, rules.limits.max_file_bytes, &rules.scope).map_err(|source| AssetError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let text = String::from_utf8_lossy(&bytes).into_owned();
+    let (prim, vt) = obj::parse_with_tex_coords(path, &text, &rules.limits)?;
+    let asset = SourceAsset {
+        path: path.to_path_buf(),
+        format: AssetFormat::Obj,
+        mesh_index: 0,
+        mesh_name: None,
+        primitives: vec![prim],
+        uv_set: 0,
+        container: Container::Obj { text },
+        n_meshes: 1,
+        rules: rules.clone(),
+        decoded_texture: TextureCache::default(),
+    };
+    Ok((asset, vt))
 }
 
 impl SourceAsset {
@@ -198,6 +255,7 @@ impl SourceAsset {
                 bin: None,
             },
             n_meshes: 1,
+            rules: InputRules::default(),
             decoded_texture: TextureCache::default(),
         }
     }

@@ -1,15 +1,56 @@
 //! Wavefront OBJ as a convenience input: `v` positions and triangular `f`
 //! faces. Vertex ids in constraint files are 0-based `v` indices. Output keeps
 //! every line but `vt`, writes one `vt` per vertex and points `f` at them.
+//! OBJ texture coordinates have `v` up: a layout point `(x, y)` is stored as
+//! `vt x y`, each rounded to f32 (the guard checks that form too).
 
 use super::AssetError;
+use super::read::InputLimits;
 use crate::mesh::weld::PrimitiveGeometry;
+use std::collections::HashMap;
 use std::path::Path;
 
-/// Parses OBJ text into one primitive.
-pub fn parse(path: &Path, text: &str) -> Result<PrimitiveGeometry, AssetError> {
-    let mut positions = Vec::new();
-    let mut indices = Vec::new();
+/// One face corner: its `v` index and, if given, its `vt` index (0-based).
+type Corner = (u32, Option<u32>);
+
+/// What an OBJ file holds that uvpin reads.
+struct ObjData {
+    positions: Vec<[f32; 3]>,
+    tex_coords: Vec<[f32; 2]>,
+    corners: Vec<Corner>,
+}
+
+/// A 1-based (or negative, relative) OBJ index into a list of `n` as 0-based.
+fn resolve_index(text: &str, n: usize) -> Result<u32, String> {
+    let v: i64 = text.parse().map_err(|e| format!("bad face index {text:?}: {e}"))?;
+    let idx = if v > 0 { v - 1 } else { n as i64 + v };
+    if idx < 0 || idx as usize >= n || v == 0 {
+        return Err(format!("face index {v} out of range (1..={n})"));
+    }
+    Ok(idx as u32)
+}
+
+/// `count` finite numbers from `parts`.
+fn numbers<const N: usize>(parts: std::str::SplitWhitespace, what: &str) -> Result<[f32; N], String> {
+    let xs: Vec<f32> = parts
+        .take(N)
+        .map(str::parse::<f32>)
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("bad {what}: {e}"))?;
+    let xs: [f32; N] = xs.try_into().map_err(|_| format!("a {what} needs {N} numbers"))?;
+    if xs.iter().any(|x| !x.is_finite()) {
+        return Err(format!("a {what} has a non-finite coordinate"));
+    }
+    Ok(xs)
+}
+
+/// Reads the `v`, `vt` and triangular `f` lines, within `limits`.
+fn read(path: &Path, text: &str, limits: &InputLimits) -> Result<ObjData, AssetError> {
+    let mut data = ObjData {
+        positions: Vec::new(),
+        tex_coords: Vec::new(),
+        corners: Vec::new(),
+    };
     let err = |line: usize, message: String| AssetError::Obj {
         path: path.to_path_buf(),
         line,
@@ -19,67 +60,119 @@ pub fn parse(path: &Path, text: &str) -> Result<PrimitiveGeometry, AssetError> {
         let ln = ln + 1;
         let mut parts = line.split_whitespace();
         match parts.next() {
-            Some("v") => {
-                let xyz: Vec<f32> = parts
-                    .take(3)
-                    .map(|s| s.parse::<f32>())
-                    .collect::<Result<_, _>>()
-                    .map_err(|e| err(ln, format!("bad vertex: {e}")))?;
-                if xyz.len() != 3 {
-                    return Err(err(ln, "a vertex needs x y z".into()));
-                }
-                if xyz.iter().any(|x| !x.is_finite()) {
-                    return Err(err(
-                        ln,
-                        format!("vertex {} has a non-finite coordinate", positions.len()),
-                    ));
-                }
-                positions.push([xyz[0], xyz[1], xyz[2]]);
-            }
-            Some("f") => {
-                let corners: Vec<&str> = parts.collect();
-                if corners.len() != 3 {
-                    return Err(err(
-                        ln,
-                        format!("face with {} corners: only triangles are supported", corners.len()),
-                    ));
-                }
-                for c in corners {
-                    let v: i64 = c
-                        .split('/')
-                        .next()
-                        .unwrap_or("")
-                        .parse()
-                        .map_err(|e| err(ln, format!("bad face index {c:?}: {e}")))?;
-                    let idx = if v > 0 { v - 1 } else { positions.len() as i64 + v };
-                    if idx < 0 || idx as usize >= positions.len() {
-                        return Err(err(
-                            ln,
-                            format!("face index {v} out of range (1..={})", positions.len()),
-                        ));
-                    }
-                    indices.push(idx as u32);
-                }
-            }
+            Some("v") => data
+                .positions
+                .push(numbers::<3>(parts, "vertex").map_err(|m| err(ln, m))?),
+            Some("vt") => data
+                .tex_coords
+                .push(numbers::<2>(parts, "texture coordinate").map_err(|m| err(ln, m))?),
+            Some("f") => face(&mut data, parts).map_err(|m| err(ln, m))?,
             _ => {}
         }
+        if data.positions.len() > limits.max_vertices || data.corners.len() / 3 > limits.max_triangles {
+            return Err(AssetError::TooLarge {
+                path: path.to_path_buf(),
+                message: format!(
+                    "line {ln}: more than {} vertices or {} triangles",
+                    limits.max_vertices, limits.max_triangles
+                ),
+            });
+        }
     }
-    if indices.is_empty() {
+    if data.corners.is_empty() {
         return Err(err(0, "no triangles".into()));
     }
+    Ok(data)
+}
+
+/// One `f` line (a triangle) appended to `data`.
+fn face(data: &mut ObjData, parts: std::str::SplitWhitespace) -> Result<(), String> {
+    let fields: Vec<&str> = parts.collect();
+    if fields.len() != 3 {
+        return Err(format!(
+            "face with {} corners: only triangles are supported",
+            fields.len()
+        ));
+    }
+    for c in fields {
+        let mut f = c.split('/');
+        let v = resolve_index(f.next().unwrap_or(""), data.positions.len())?;
+        let vt = match f.next().filter(|s| !s.is_empty()) {
+            Some(t) => Some(resolve_index(t, data.tex_coords.len())?),
+            None => None,
+        };
+        data.corners.push((v, vt));
+    }
+    Ok(())
+}
+
+/// Parses OBJ text into one primitive (positions and triangles; `vt` is not
+/// used for solving).
+///
+/// # Errors
+/// Bad numbers or indices (with the line), non-triangular faces, no
+/// triangles, more than the limits.
+pub fn parse(path: &Path, text: &str, limits: &InputLimits) -> Result<PrimitiveGeometry, AssetError> {
+    let data = read(path, text, limits)?;
     Ok(PrimitiveGeometry {
         index: 0,
-        positions,
-        indices,
+        positions: data.positions,
+        indices: data.corners.iter().map(|c| c.0).collect(),
         uvs: None,
     })
 }
 
-/// The OBJ text with `uvs` (one per `v`) as `vt` lines and faces pointing at them.
-pub fn with_uvs(text: &str, uvs: &[[f32; 2]]) -> String {
+/// Parses OBJ text with its texture coordinates, for checking them: one
+/// vertex per distinct (`v`, `vt`) pair of the faces, its UVs in glTF's
+/// convention as f32 of `(u, 1 − v)` (see [`vt_as_stored`] for the exact
+/// stored values). `None` for the UVs when a face corner has no `vt`.
+///
+/// # Errors
+/// As [`parse`].
+pub fn parse_with_tex_coords(
+    path: &Path,
+    text: &str,
+    limits: &InputLimits,
+) -> Result<(PrimitiveGeometry, Option<TexCoords>), AssetError> {
+    let data = read(path, text, limits)?;
+    if data.corners.iter().any(|c| c.1.is_none()) {
+        return Ok((parse(path, text, limits)?, None));
+    }
+    let mut id_of: HashMap<Corner, u32> = HashMap::new();
+    let (mut positions, mut vt, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+    for &corner in &data.corners {
+        let id = *id_of.entry(corner).or_insert_with(|| {
+            positions.push(data.positions[corner.0 as usize]);
+            vt.push(data.tex_coords[corner.1.expect("checked") as usize]);
+            (positions.len() - 1) as u32
+        });
+        indices.push(id);
+    }
+    let uvs = vt.iter().map(|t| [t[0], 1.0 - t[1]]).collect();
+    let prim = PrimitiveGeometry {
+        index: 0,
+        positions,
+        indices,
+        uvs: Some(uvs),
+    };
+    Ok((prim, Some(vt)))
+}
+
+/// OBJ texture coordinates as stored (`vt`, f32, v up), one per vertex.
+pub type TexCoords = Vec<[f32; 2]>;
+
+/// How a layout point `(x, y)` is stored as an OBJ `vt`: `(x, y)` in f32.
+#[inline]
+pub fn vt_as_stored(x: f64, y: f64) -> [f32; 2] {
+    [x as f32, y as f32]
+}
+
+/// The OBJ text with `vt` (one per `v`, OBJ convention: v up, as given)
+/// lines and faces pointing at them.
+pub fn with_tex_coords(text: &str, vt: &[[f32; 2]]) -> String {
     let lines: Vec<&str> = text.lines().collect();
     let last_v = lines.iter().rposition(|l| l.split_whitespace().next() == Some("v"));
-    let mut out = String::with_capacity(text.len() + uvs.len() * 24);
+    let mut out = String::with_capacity(text.len() + vt.len() * 24);
     let mut n_v = 0i64;
     for (i, line) in lines.iter().enumerate() {
         let mut parts = line.split_whitespace();
@@ -106,11 +199,42 @@ pub fn with_uvs(text: &str, uvs: &[[f32; 2]]) -> String {
         }
         out.push('\n');
         if Some(i) == last_v {
-            for uv in uvs {
-                // OBJ texture coordinates have v up.
-                out.push_str(&format!("vt {} {}\n", uv[0], 1.0 - uv[1]));
+            for t in vt {
+                out.push_str(&format!("vt {} {}\n", t[0], t[1]));
             }
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texture_coordinates_are_read_per_corner_and_written_as_given() {
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0.5\nvt 0.75 0.5\nvt 0.25 1\nf 1/1 2/2 3/3\n";
+        let limits = InputLimits::DEFAULT;
+        let (prim, vt) = parse_with_tex_coords(Path::new("t.obj"), text, &limits).unwrap();
+        assert_eq!(vt.unwrap(), vec![[0.25, 0.5], [0.75, 0.5], [0.25, 1.0]]);
+        assert_eq!(prim.uvs.unwrap()[2], [0.25, 0.0]);
+        let written = with_tex_coords(text, &[[0.1, 0.2], [0.3, 0.4], [0.5, 0.6]]);
+        assert!(
+            written.contains("vt 0.1 0.2\n") && written.contains("f 1/1 2/2 3/3"),
+            "{written}"
+        );
+        let (_, none) =
+            parse_with_tex_coords(Path::new("t.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", &limits).unwrap();
+        assert!(none.is_none());
+        let small = InputLimits {
+            max_vertices: 2,
+            ..InputLimits::DEFAULT
+        };
+        assert!(matches!(
+            parse(Path::new("t.obj"), text, &small),
+            Err(AssetError::TooLarge { .. })
+        ));
+        assert!(parse(Path::new("t.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", &limits).is_err());
+        assert!(parse(Path::new("t.obj"), "v nan 0 0\n", &limits).is_err());
+    }
 }

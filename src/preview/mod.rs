@@ -1,7 +1,7 @@
 //! Pictures a person can judge at a glance: the UV layout
 //! ([`layout::draw_layout`]) and a flat-shaded render of the mesh with a
 //! checker or its texture mapped through the new UVs ([`render::render_mesh`]).
-//! Plain data in, pixels out; [`write_png`] writes them atomically.
+//! Plain data in, pixels out; [`render_chart`] gives the PNG files to write.
 
 pub mod layout;
 pub mod render;
@@ -52,31 +52,31 @@ pub struct Marker {
     pub reached: bool,
 }
 
-/// Draws the pictures of a solved chart that `pictures` asks for: the
-/// layout and the 3D render, from the chart, its outer loop, its final
-/// layout (layout coordinates) and the report's constraints.
+/// The pictures of a solved chart that `pictures` asks for, as PNG files to
+/// write: the layout and the 3D render, from the chart, its outer loop, its
+/// final layout (layout coordinates) and the report's constraints.
 ///
 /// # Errors
-/// A picture that cannot be encoded or written (message).
-pub fn draw_chart(
+/// A picture that cannot be encoded (message).
+pub fn render_chart(
     asset: &crate::io::SourceAsset,
     prepared: &crate::chart::PreparedChart,
     outer_loop: &[u32],
     layout: &[DVec2],
     report: &crate::report::Report,
     pictures: &Pictures,
-) -> Result<(), String> {
+) -> Result<Vec<(PathBuf, Vec<u8>)>, String> {
+    let mut out = Vec::new();
     if !pictures.any() {
-        return Ok(());
+        return Ok(out);
     }
-    let (layout_png, render_png) = (pictures.layout.as_deref(), pictures.render.as_deref());
-    let size = pictures.size.max(16);
+    let size = pictures.size.clamp(16, MAX_SIZE);
     let filled = &prepared.filled;
     let uvs: Vec<DVec2> = layout.iter().map(|&p| crate::param::xy_to_uv(p)).collect();
     let texture = texture::base_colour_texture(asset);
     let real_triangles = &filled.mesh.triangles[..filled.n_real_triangles];
     let real_positions = &prepared.chart.mesh.positions;
-    if let Some(path) = layout_png {
+    if let Some(path) = &pictures.layout {
         let stretch =
             crate::metrics::triangle_stretch(real_positions, &layout[..filled.n_real_vertices], real_triangles);
         let markers: Vec<Marker> = report
@@ -101,9 +101,9 @@ pub fn draw_chart(
         let pixmap = layout::draw_layout(&scene, size);
         let png = render::encode_png(&layout::to_image(&pixmap))
             .map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
-        write_png(path, &png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        out.push((path.clone(), png));
     }
-    if let Some(path) = render_png {
+    if let Some(path) = &pictures.render {
         let image = render::render_mesh(
             real_positions,
             real_triangles,
@@ -112,23 +112,37 @@ pub fn draw_chart(
             size,
         );
         let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
-        write_png(path, &png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        out.push((path.clone(), png));
     }
-    Ok(())
+    Ok(out)
 }
+
+/// Draws and writes the pictures `pictures` asks for (see [`render_chart`]).
+///
+/// # Errors
+/// A picture that cannot be encoded or written (message).
+pub fn draw_chart(
+    asset: &crate::io::SourceAsset,
+    prepared: &crate::chart::PreparedChart,
+    outer_loop: &[u32],
+    layout: &[DVec2],
+    report: &crate::report::Report,
+    pictures: &Pictures,
+) -> Result<(), String> {
+    let mut staged = crate::io::atomic::Staged::new();
+    for (path, png) in render_chart(asset, prepared, outer_loop, layout, report, pictures)? {
+        staged.add(path, png);
+    }
+    staged.commit().map_err(|e| e.to_string())
+}
+
+/// The largest picture drawn, in pixels a side.
+pub const MAX_SIZE: u32 = 8192;
 
 /// Marker colour of a reached constraint (RGB).
 pub const REACHED_COLOUR: [u8; 3] = [0, 140, 255];
 /// Marker colour of an unreached constraint (RGB).
 pub const UNREACHED_COLOUR: [u8; 3] = [230, 0, 0];
-
-/// Writes PNG bytes atomically (temp file + rename), creating parent folders.
-///
-/// # Errors
-/// The file system's.
-pub fn write_png(path: &std::path::Path, png: &[u8]) -> std::io::Result<()> {
-    crate::io::atomic::write_atomically(path, png)
-}
 
 /// The colour of a triangle of Sander L2 stretch `s`: pale green at 1
 /// (isometric), yellow at 2, red from 4; magenta for a flipped triangle.

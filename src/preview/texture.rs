@@ -1,7 +1,6 @@
 //! The base-colour texture of a glTF asset's material, decoded for pictures.
 
 use crate::io::{Container, SourceAsset};
-use base64::Engine;
 use serde_json::Value;
 
 /// The base-colour texture of the first material (of the asset's mesh) that
@@ -44,7 +43,20 @@ fn decode(asset: &SourceAsset) -> Option<image::RgbaImage> {
     } else {
         uri_bytes(image.get("uri")?.as_str()?, asset)?
     };
-    image::load_from_memory(&bytes).ok().map(|i| i.to_rgba8())
+    decode_within(&bytes, asset.rules.limits.max_image_pixels)
+}
+
+/// Decodes an image of at most `max_pixels` (width × height): the decoder
+/// checks its header against the limit before the pixels are allocated.
+fn decode_within(bytes: &[u8], max_pixels: u64) -> Option<image::RgbaImage> {
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .ok()?;
+    let mut limits = image::Limits::default();
+    // Up to 16 bytes a pixel (RGBA of 32-bit floats) while decoding.
+    limits.max_alloc = Some(max_pixels.saturating_mul(16));
+    reader.limits(limits);
+    reader.decode().ok().map(|i| i.to_rgba8())
 }
 
 fn buffer_bytes(json: &Value, bin: Option<&[u8]>, index: usize, asset: &SourceAsset) -> Option<Vec<u8>> {
@@ -55,12 +67,9 @@ fn buffer_bytes(json: &Value, bin: Option<&[u8]>, index: usize, asset: &SourceAs
     }
 }
 
+/// A buffer's or image's bytes, read within the asset's rules (only a
+/// regular file, within the size limit and the read scope).
 fn uri_bytes(uri: &str, asset: &SourceAsset) -> Option<Vec<u8>> {
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, data) = rest.split_once(";base64,")?;
-        return base64::engine::general_purpose::STANDARD.decode(data).ok();
-    }
     let base = asset.path.parent()?;
-    let files = crate::io::gltf_file::external_buffer_files(&serde_json::json!({ "buffers": [{ "uri": uri }] }), base);
-    std::fs::read(files.first()?).ok()
+    crate::io::gltf_file::read_uri(base, uri, &asset.rules).ok()
 }

@@ -97,17 +97,59 @@ fn thumbnail_size() -> u32 {
     160
 }
 
+/// Blend steps, jitter samples or settings of one sweep at most.
+pub const MAX_AXIS: usize = 1000;
+/// Thumbnail size at most, in pixels.
+pub const MAX_THUMBNAIL: u32 = 1024;
+/// Runs of one sweep at most.
+pub const MAX_RUNS: usize = 100_000;
+/// Pixels of the contact sheet at most (its runs × thumbnail area).
+pub const MAX_SHEET_PIXELS: u64 = 64_000_000;
+
 impl SweepFile {
     /// Reads a sweep file.
     ///
     /// # Errors
     /// Unreadable file; RON errors with line:column.
     pub fn load(path: &Path) -> Result<Self, super::SweepError> {
-        let text = std::fs::read_to_string(path).map_err(|source| super::SweepError::Read {
-            path: path.to_path_buf(),
-            source,
+        let limit = crate::io::InputLimits::DEFAULT.max_text_bytes;
+        let bytes = crate::io::read::read_regular(path, limit, &crate::io::ReadScope::Anywhere).map_err(|source| {
+            super::SweepError::Read {
+                path: path.to_path_buf(),
+                source,
+            }
         })?;
-        Ok(crate::ron_file::parse_ron(path, &text)?)
+        let sweep: SweepFile = crate::ron_file::parse_ron(path, &String::from_utf8_lossy(&bytes))?;
+        sweep.check_sizes().map_err(|message| super::SweepError::TooLarge {
+            path: path.to_path_buf(),
+            message,
+        })?;
+        Ok(sweep)
+    }
+
+    /// The grid's sizes are bounded: blends and jitter samples at most
+    /// [`MAX_AXIS`] each, thumbnails 16 to [`MAX_THUMBNAIL`] pixels.
+    fn check_sizes(&self) -> Result<(), String> {
+        if let Some(b) = self.blend
+            && b.steps as usize > MAX_AXIS
+        {
+            return Err(format!("blend.steps: {} is more than {MAX_AXIS}", b.steps));
+        }
+        if let Some(j) = self.jitter
+            && j.samples as usize > MAX_AXIS
+        {
+            return Err(format!("jitter.samples: {} is more than {MAX_AXIS}", j.samples));
+        }
+        if self.settings.len() > MAX_AXIS {
+            return Err(format!("settings: {} is more than {MAX_AXIS}", self.settings.len()));
+        }
+        if !(16..=MAX_THUMBNAIL).contains(&self.thumbnail_size) {
+            return Err(format!(
+                "thumbnail_size: {} is outside 16..={MAX_THUMBNAIL}",
+                self.thumbnail_size
+            ));
+        }
+        Ok(())
     }
 
     /// The blend values (default `[1.0]`).

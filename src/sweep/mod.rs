@@ -23,13 +23,18 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum SweepError {
     #[error("{path}: cannot read the sweep file: {source}")]
-    Read { path: PathBuf, source: std::io::Error },
+    Read {
+        path: PathBuf,
+        source: crate::io::ReadError,
+    },
+    #[error("{path}: the sweep is too large: {message}")]
+    TooLarge { path: PathBuf, message: String },
     #[error(transparent)]
     Syntax(#[from] crate::ron_file::RonSyntaxError),
     #[error("{sweep}: constraints pattern {pattern:?} matches no file")]
     NoFiles { sweep: PathBuf, pattern: String },
-    #[error("{path}: cannot write: {source}")]
-    Write { path: PathBuf, source: std::io::Error },
+    #[error("{path}: cannot write: {message}")]
+    Write { path: PathBuf, message: String },
     #[error("cannot start {jobs} worker threads: {message}")]
     Threads { jobs: usize, message: String },
 }
@@ -447,11 +452,14 @@ pub fn summary(rows: &[Row]) -> String {
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), SweepError> {
-    crate::io::atomic::write_atomically(path, bytes).map_err(|source| SweepError::Write {
+    crate::io::atomic::write_atomically(path, bytes).map_err(|e| SweepError::Write {
         path: path.to_path_buf(),
-        source,
+        message: e.message,
     })
 }
+
+/// Worker threads of one sweep at most.
+pub const MAX_JOBS: usize = 256;
 
 /// Runs the sweep in `sweep_path`.
 ///
@@ -469,6 +477,7 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepOutco
     let output = output_folder(base, &sweep.output);
     let jsonl_path = output.join("runs.jsonl");
     let runs = grid(&sweep, &names);
+    check_grid(&runs, &sweep, sweep_path)?;
     let mut done = if options.force {
         HashMap::new()
     } else {
@@ -476,13 +485,19 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepOutco
     };
     let pending: Vec<&Run> = runs.iter().filter(|r| !done.contains_key(&r.id)).collect();
     let thumbs = sweep.thumbnails.then(|| output.join("thumbs"));
-    std::fs::create_dir_all(thumbs.as_deref().unwrap_or(&output)).map_err(|source| SweepError::Write {
+    std::fs::create_dir_all(thumbs.as_deref().unwrap_or(&output)).map_err(|e| SweepError::Write {
         path: output.clone(),
-        source,
+        message: e.to_string(),
     })?;
     let jobs = options
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if !(1..=MAX_JOBS).contains(&jobs) {
+        return Err(SweepError::Threads {
+            jobs,
+            message: format!("--jobs must be between 1 and {MAX_JOBS}"),
+        });
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs.max(1))
         .build()
@@ -512,6 +527,28 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepOutco
         output,
         summary,
     })
+}
+
+/// The grid and its contact sheet stay within [`file::MAX_RUNS`] and
+/// [`file::MAX_SHEET_PIXELS`].
+fn check_grid(runs: &[Run], sweep: &SweepFile, sweep_path: &Path) -> Result<(), SweepError> {
+    let too_large = |message: String| SweepError::TooLarge {
+        path: sweep_path.to_path_buf(),
+        message,
+    };
+    if runs.len() > file::MAX_RUNS {
+        return Err(too_large(format!("{} runs, more than {}", runs.len(), file::MAX_RUNS)));
+    }
+    let pixels = runs.len() as u64 * u64::from(sweep.thumbnail_size).pow(2);
+    if sweep.thumbnails && pixels > file::MAX_SHEET_PIXELS {
+        return Err(too_large(format!(
+            "{} thumbnails of {} px make a contact sheet of {pixels} pixels, more than {}",
+            runs.len(),
+            sweep.thumbnail_size,
+            file::MAX_SHEET_PIXELS
+        )));
+    }
+    Ok(())
 }
 
 /// The constraint files the sweep's patterns name, each once.
@@ -560,7 +597,7 @@ fn load_inputs(files: &[PathBuf], names: &[String], pending: &[&Run]) -> HashMap
     needed
         .par_iter()
         .map(|&i| {
-            let loaded = crate::api::load(&files[i], &SolverOptions::DEFAULT)
+            let loaded = crate::api::load(&files[i], &SolverOptions::DEFAULT, &crate::io::InputRules::default())
                 .map(|(l, a)| (l, Arc::new(a)))
                 .map_err(|e| e.to_string());
             let input = Input {
@@ -649,9 +686,9 @@ fn run_pending(
         .create(true)
         .append(true)
         .open(jsonl_path)
-        .map_err(|source| SweepError::Write {
+        .map_err(|e| SweepError::Write {
             path: jsonl_path.to_path_buf(),
-            source,
+            message: e.to_string(),
         })?;
     if options.force {
         journal.set_len(0).ok();
@@ -701,7 +738,7 @@ fn write_outputs(
         let sheet = contact_sheet(runs, rows, dir, thumbnail_size);
         let png = crate::preview::render::encode_png(&sheet).map_err(|e| SweepError::Write {
             path: output.join("contact_sheet.png"),
-            source: std::io::Error::other(e),
+            message: e.to_string(),
         })?;
         write(&output.join("contact_sheet.png"), &png)?;
     }

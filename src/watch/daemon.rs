@@ -21,13 +21,15 @@ use notify_debouncer_full::{DebounceEventResult, Debouncer, RecommendedCache, ne
 use serde_json::json;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// What `uvpin watch` was asked to do.
 #[derive(Debug, Clone)]
 pub struct WatchOptions {
     pub config: WatchConfig,
     pub solver: SolverOptions,
+    /// How much input is accepted.
+    pub limits: crate::io::InputLimits,
     /// Process everything present, print a summary and exit.
     pub once: bool,
 }
@@ -66,6 +68,55 @@ fn roots(config: &WatchConfig, rules: &FileRules, cwd: &Path) -> Vec<WatchRoot> 
         .collect()
 }
 
+/// The configured sizes must be usable.
+fn check_sizes(config: &WatchConfig) -> anyhow::Result<()> {
+    let max = crate::preview::MAX_SIZE;
+    if config.previews && !(16..=max).contains(&config.preview_size) {
+        bail!(
+            "preview size {}: must be between 16 and {max} pixels",
+            config.preview_size
+        );
+    }
+    if config.debounce_ms > 60_000 {
+        bail!("debounce {} ms: at most 60000", config.debounce_ms);
+    }
+    Ok(())
+}
+
+/// Where the daemon may read: the watched folders and `allow_paths`.
+fn read_scope(config: &WatchConfig, roots: &[WatchRoot], cwd: &Path) -> crate::io::ReadScope {
+    let folders = roots
+        .iter()
+        .map(|r| r.folder().to_path_buf())
+        .chain(config.allow_paths.iter().map(|p| normalize(p, cwd)));
+    crate::io::ReadScope::within(folders)
+}
+
+/// Removes the temporary files a killed run left in the folders this daemon
+/// writes to (the output folder, or the watched folders in place).
+fn remove_stale_temporaries(config: &WatchConfig, roots: &[WatchRoot], cwd: &Path, logger: &Logger) {
+    let tops: Vec<PathBuf> = match &config.output {
+        OutputMode::Folder(dir) => vec![normalize(dir, cwd)],
+        OutputMode::InPlace => roots.iter().map(|r| r.folder().to_path_buf()).collect(),
+    };
+    let mut removed = 0;
+    let mut stack = tops;
+    while let Some(dir) = stack.pop() {
+        removed += crate::io::atomic::remove_stale_temporaries(&dir);
+        let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+        stack.extend(
+            entries
+                .flatten()
+                .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+                .map(|e| e.path()),
+        );
+    }
+    if removed > 0 {
+        let message = format!("removed {removed} temporary files an interrupted run left behind");
+        logger.info("cleanup", None, &message, json!({ "removed": removed }));
+    }
+}
+
 /// The event that makes the ECS scan an existing root.
 fn scan_event(root: &WatchRoot) -> FileEvent {
     if root.single_file {
@@ -92,12 +143,20 @@ pub fn run(options: WatchOptions) -> anyhow::Result<Outcome> {
     if roots.is_empty() {
         bail!("nothing to watch: give a folder or a constraint file, or set watch.paths in the configuration");
     }
+    check_sizes(config)?;
     let logger = Logger { format: config.log };
     let status_path = normalize(&config.status_path(), &cwd);
+    remove_stale_temporaries(config, &roots, &cwd, &logger);
     let mut world = World::new();
     init_watch_world(
         &mut world,
         WatchSettings {
+            input: crate::io::InputRules {
+                limits: options.limits,
+                scope: read_scope(config, &roots, &cwd),
+            },
+            // With --once nothing is read again later: no waiting for a save to settle.
+            settle: Duration::from_millis(if options.once { 0 } else { config.debounce_ms.max(1) }),
             roots: roots.clone(),
             output: config.output.clone(),
             rules: rules.clone(),
@@ -322,17 +381,25 @@ fn run_daemon(
         pending_events.extend(watches.arm(root, logger, cwd));
     }
     let mut asset_folders_watched: HashSet<PathBuf> = HashSet::new();
+    let mut rechecks: Vec<(Instant, PathBuf)> = Vec::new();
     loop {
         if pending_events.is_empty() && !is_busy(world) {
-            // Idle: block until a file event or a signal.
+            // Idle: block until a file event, a due re-read, or a signal.
+            let wait = rechecks
+                .iter()
+                .map(|(due, _)| due.saturating_duration_since(Instant::now()))
+                .min()
+                .unwrap_or(Duration::from_secs(3600));
             select! {
                 recv(event_rx) -> e => match e {
                     Ok(e) => pending_events.push(e),
                     Err(_) => bail!("the file watcher stopped"),
                 },
                 recv(shutdown_rx) -> _ => break,
+                default(wait) => {}
             }
         }
+        due_rechecks(&mut rechecks, &mut pending_events);
         drain(&event_rx, &mut pending_events);
         if shutdown_rx.try_recv().is_ok() {
             break;
@@ -350,6 +417,7 @@ fn run_daemon(
             }
         }
         schedule.run(world);
+        rechecks.append(&mut world.resource_mut::<WatchRegistry>().rechecks);
         let folders: Vec<PathBuf> = world
             .resource::<WatchRegistry>()
             .asset_folders
@@ -367,6 +435,18 @@ fn run_daemon(
     let mut log = world.resource_mut::<DaemonLog>();
     let _ = log.status.write_if_dirty();
     Ok(Outcome::Clean)
+}
+
+/// Moves the re-reads that are due into `events`.
+fn due_rechecks(rechecks: &mut Vec<(Instant, PathBuf)>, events: &mut Vec<FileEvent>) {
+    let now = Instant::now();
+    rechecks.retain(|(due, path)| {
+        let keep = *due > now;
+        if !keep {
+            events.push(FileEvent::ConstraintsChanged(path.clone()));
+        }
+        keep
+    });
 }
 
 fn drain(rx: &Receiver<FileEvent>, into: &mut Vec<FileEvent>) {

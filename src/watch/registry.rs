@@ -4,7 +4,7 @@
 
 use crate::config::OutputMode;
 use crate::constraints::MeshSelector;
-use crate::io::SourceAsset;
+use crate::io::{InputRules, ReadError, ReadScope, SourceAsset};
 use std::collections::HashMap;
 use std::hash::Hasher;
 use std::path::{Component, Path, PathBuf};
@@ -56,9 +56,16 @@ pub fn normalize(path: &Path, cwd: &Path) -> PathBuf {
     p
 }
 
-/// A path as shown in logs and the status file: relative to `cwd` when inside it.
+/// A path as shown in logs and the status file: relative to `cwd` when
+/// inside it, control characters (a newline in a file name) escaped so a
+/// name cannot forge a log line.
 pub fn display(path: &Path, cwd: &Path) -> String {
-    path.strip_prefix(cwd).unwrap_or(path).display().to_string()
+    let shown = path.strip_prefix(cwd).unwrap_or(path).display().to_string();
+    if shown.chars().any(char::is_control) {
+        shown.chars().flat_map(char::escape_debug).collect()
+    } else {
+        shown
+    }
 }
 
 /// One watched path.
@@ -180,12 +187,20 @@ impl AssetCache {
     ///
     /// # Errors
     /// A removed asset, and [`crate::io::load_asset`]'s errors.
-    pub fn load(&mut self, path: &Path, selection: &AssetSelection) -> Result<Arc<SourceAsset>, crate::io::AssetError> {
+    pub fn load(
+        &mut self,
+        path: &Path,
+        selection: &AssetSelection,
+        rules: &InputRules,
+    ) -> Result<Arc<SourceAsset>, crate::io::AssetError> {
         if let Some(cached) = self.assets.get(path) {
             if cached.missing {
                 return Err(crate::io::AssetError::Read {
                     path: path.to_path_buf(),
-                    source: std::io::Error::new(std::io::ErrorKind::NotFound, "the asset was removed"),
+                    source: ReadError::Io(std::io::Error::new(
+                        std::io::ErrorKind::NotFound,
+                        "the asset was removed",
+                    )),
                 });
             }
             if let Some(asset) = cached.get(selection) {
@@ -193,13 +208,18 @@ impl AssetCache {
             }
         }
         let main_hash =
-            std::fs::read(path)
+            read_for_hash(path)
                 .map(|b| content_hash(&b))
                 .map_err(|source| crate::io::AssetError::Read {
                     path: path.to_path_buf(),
                     source,
                 })?;
-        let asset = Arc::new(crate::io::load_asset(path, selection.mesh.as_ref(), selection.uv_set)?);
+        let asset = Arc::new(crate::io::load_asset(
+            path,
+            selection.mesh.as_ref(),
+            selection.uv_set,
+            rules,
+        )?);
         let files = asset.files();
         let hash = combined_hash(main_hash, &files[1..]);
         let entry = self.assets.entry(path.to_path_buf()).or_insert_with(|| CachedAsset {
@@ -223,11 +243,23 @@ impl AssetCache {
 
     /// The combined hash of an asset's files as they are now, in the same
     /// form as [`CachedAsset::hash`].
-    pub fn current_hash(files: &[PathBuf]) -> std::io::Result<u64> {
-        let (main, buffers) = files.split_first().ok_or_else(|| std::io::Error::other("no files"))?;
-        let main_hash = content_hash(&std::fs::read(main)?);
+    pub fn current_hash(files: &[PathBuf]) -> Result<u64, ReadError> {
+        let (main, buffers) = files
+            .split_first()
+            .ok_or_else(|| ReadError::Io(std::io::Error::other("no files")))?;
+        let main_hash = content_hash(&read_for_hash(main)?);
         Ok(combined_hash(main_hash, buffers))
     }
+}
+
+/// A file's bytes for its content hash: only a regular file, within the
+/// default size limit (a FIFO or a device is an error, never a blocking read).
+fn read_for_hash(path: &Path) -> Result<Vec<u8>, ReadError> {
+    crate::io::read::read_regular(
+        path,
+        crate::io::InputLimits::DEFAULT.max_file_bytes,
+        &ReadScope::Anywhere,
+    )
 }
 
 /// The hash of an asset: its main file's hash, then each buffer file's
@@ -236,7 +268,7 @@ fn combined_hash(main_hash: u64, buffers: &[PathBuf]) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
     h.write_u64(main_hash);
     for f in buffers {
-        h.write_u64(std::fs::read(f).map(|b| content_hash(&b)).unwrap_or(0));
+        h.write_u64(read_for_hash(f).map(|b| content_hash(&b)).unwrap_or(0));
     }
     h.finish()
 }

@@ -23,6 +23,17 @@ pub enum FileState {
     Removed,
 }
 
+impl FileState {
+    /// The state a finished solve of `status` leaves.
+    pub fn of(status: crate::report::Status) -> Self {
+        match status {
+            crate::report::Status::Reached => FileState::Reached,
+            crate::report::Status::Partial => FileState::Partial,
+            crate::report::Status::Error => FileState::Error,
+        }
+    }
+}
+
 /// One constraint's residual in the last solve.
 #[derive(Debug, Clone, Serialize)]
 pub struct ResidualEntry {
@@ -140,7 +151,7 @@ impl StatusBoard {
         }
         self.updated_ms = super::log::unix_ms();
         let text = serde_json::to_vec_pretty(self).map_err(std::io::Error::other)?;
-        crate::io::atomic::write_atomically(&self.path, &text)?;
+        crate::io::atomic::write_atomically(&self.path, &text).map_err(|e| std::io::Error::other(e.message))?;
         self.dirty = false;
         Ok(())
     }
