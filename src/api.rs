@@ -53,6 +53,15 @@ pub struct Options {
     pub input: io::InputRules,
 }
 
+impl Options {
+    /// These options, writing the asset to `output`.
+    #[must_use]
+    pub fn with_output(mut self, output: impl Into<PathBuf>) -> Self {
+        self.output = Some(output.into());
+        self
+    }
+}
+
 impl From<SolverOptions> for Options {
     /// Options with these solver settings, writing nothing.
     fn from(solver: SolverOptions) -> Self {

@@ -301,7 +301,12 @@ pub fn map_outer_boundary(
             match found {
                 Some(f) => f,
                 None => {
-                    let (c, t) = first.expect("a loop of >= 4 vertices has quarter corners");
+                    // No arc-length quarters at all (one edge longer than the
+                    // rest of the loop together): fall back to vertex-count quarters.
+                    let (c, t) = first.unwrap_or_else(|| {
+                        let c = [0, n / 4, n / 2, 3 * n / 4];
+                        (c, traps.count_trapped(n, &c))
+                    });
                     (c, CornerSource::Automatic { shift: n }, t)
                 }
             }
@@ -414,6 +419,21 @@ mod tests {
         let t = Topology::build(&m).unwrap();
         let c = TrapCandidates::find(&m, &t);
         (m, t, c)
+    }
+
+    /// One boundary vertex far away makes a single edge longer than the rest
+    /// of the loop together; corners then fall back to vertex-count quarters.
+    #[test]
+    fn one_huge_boundary_edge_still_gets_four_corners() {
+        let (mut m, _, _) = setup(7, 7);
+        m.positions[3].y = -1.7e16;
+        let t = Topology::build(&m).unwrap();
+        let c = TrapCandidates::find(&m, &t);
+        let b = map_outer_boundary(&m, &t, &c, None).unwrap();
+        let mut corners = b.corners;
+        corners.sort_unstable();
+        assert!(corners.windows(2).all(|w| w[0] < w[1]), "{:?}", b.corners);
+        assert!(b.positions.iter().all(|p| p.is_finite()));
     }
 
     #[test]

@@ -29,6 +29,23 @@ pub struct Logger {
     pub format: LogFormat,
 }
 
+/// `text` with its control characters escaped (`\n`, `\u{1b}`, …).
+fn escape_controls(text: &str) -> String {
+    if text.chars().any(char::is_control) {
+        text.chars()
+            .flat_map(|c| {
+                if c.is_control() {
+                    c.escape_debug().collect::<Vec<_>>()
+                } else {
+                    vec![c]
+                }
+            })
+            .collect()
+    } else {
+        text.to_string()
+    }
+}
+
 /// Milliseconds since the Unix epoch.
 pub fn unix_ms() -> u64 {
     SystemTime::now()
@@ -53,6 +70,9 @@ impl Logger {
     /// (a JSON object; added to the JSON line, ignored in human lines).
     pub fn log(&self, level: Level, event: &str, file: Option<&str>, message: &str, fields: Value) {
         let ts = unix_ms();
+        // One event, one line: control characters (a newline in a file
+        // name quoted by an error) are escaped.
+        let message = &escape_controls(message);
         let line = match self.format {
             LogFormat::Human => {
                 let tag = match level {

@@ -190,3 +190,72 @@ pub fn python_uvs(path: &Path, uv_set: u32) -> (Vec<[f64; 2]>, u64) {
     let bad = p["positive"].as_u64().unwrap() + p["zero"].as_u64().unwrap();
     (uvs, bad)
 }
+
+/// Address space a hostile-input run of the binary may use (bytes).
+pub const MEMORY_LIMIT: u64 = 1 << 30;
+/// Wall time a hostile-input run may take.
+pub const TIME_LIMIT: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// Runs the uvpin binary with `args` in `cwd` under an address-space limit of
+/// [`MEMORY_LIMIT`], killing it after twice [`TIME_LIMIT`]; asserts it
+/// finished within [`TIME_LIMIT`] and did not panic or abort.
+pub fn uvpin_limited(args: &[&str], cwd: &Path) -> Output {
+    use std::os::unix::process::CommandExt;
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_uvpin"));
+    cmd.args(args)
+        .current_dir(cwd)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    // SAFETY: setrlimit is async-signal-safe; nothing else runs in the child.
+    unsafe {
+        cmd.pre_exec(|| {
+            let limit = libc::rlimit {
+                rlim_cur: MEMORY_LIMIT,
+                rlim_max: MEMORY_LIMIT,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let t0 = std::time::Instant::now();
+    let mut child = cmd.spawn().expect("spawn uvpin");
+    while child.try_wait().expect("wait").is_none() {
+        if t0.elapsed() > 2 * TIME_LIMIT {
+            let _ = child.kill();
+            panic!("uvpin {args:?} hung (killed after {:?})", 2 * TIME_LIMIT);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let o = child.wait_with_output().expect("output");
+    let elapsed = t0.elapsed();
+    assert!(elapsed < TIME_LIMIT, "uvpin {args:?} took {elapsed:?}");
+    let err = stderr(&o);
+    assert!(
+        o.status.code().is_some() && o.status.code() != Some(101) && !err.contains("panicked"),
+        "uvpin {args:?} panicked or was killed ({:?}): {err}",
+        o.status
+    );
+    o
+}
+
+/// Every file below `dir` with its bytes (to tell that nothing was written).
+pub fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(&d) else { continue };
+        for e in entries.flatten() {
+            let Ok(t) = e.file_type() else { continue };
+            if t.is_dir() {
+                stack.push(e.path());
+            } else if t.is_file() {
+                out.push((e.path(), std::fs::read(e.path()).unwrap_or_default()));
+            }
+        }
+    }
+    out.sort();
+    out
+}

@@ -1,0 +1,637 @@
+//! Hostile and broken input, one test per category: every run of the binary
+//! is under an address-space limit of 1 GiB and must end within 5 s without
+//! a panic; refused inputs exit 1 with a clear message and change no file.
+
+mod common;
+use common::*;
+use serde_json::{Value, json};
+use std::path::Path;
+use std::process::Command;
+use uvpin::testing::grid_mesh;
+
+/// A 6 × 6 grid as glTF JSON and its binary buffer (positions, then u32 indices).
+/// One way of saving a bad asset over a good one.
+type Save = Box<dyn Fn(&Path)>;
+
+fn grid_document() -> (Value, Vec<u8>) {
+    let mesh = grid_mesh(6, 6);
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    uvpin::io::gltf_file::new_document(&positions, &indices, None, "grid")
+}
+
+fn write_glb(path: &Path, json: &Value, bin: &[u8]) {
+    std::fs::write(
+        path,
+        uvpin::io::glb::build(&serde_json::to_vec(json).unwrap(), Some(bin)),
+    )
+    .unwrap();
+}
+
+/// A folder with `grid.glb` (edited by `edit`), a constraint file naming
+/// it, and a previous output and report that must survive a refusal.
+fn setup(name: &str, edit: impl Fn(&mut Value, &mut Vec<u8>)) -> TempDir {
+    let tmp = TempDir::new(name);
+    let (mut json, mut bin) = grid_document();
+    edit(&mut json, &mut bin);
+    write_glb(&tmp.path("grid.glb"), &json, &bin);
+    write_constraints(&tmp.path("c.uvpin.ron"), Path::new("grid.glb"), &[(14, 0.45, 0.55)], "");
+    std::fs::write(tmp.path("out.glb"), b"previous output").unwrap();
+    std::fs::write(tmp.path("report.json"), b"previous report").unwrap();
+    tmp
+}
+
+/// `uvpin solve c.uvpin.ron -o out.glb --report report.json` must exit 1
+/// with every needle in its message, and leave every file as it was.
+fn assert_refused(tmp: &TempDir, needles: &[&str]) {
+    let before = snapshot(&tmp.0);
+    let o = uvpin_limited(
+        &["solve", "c.uvpin.ron", "-o", "out.glb", "--report", "report.json"],
+        &tmp.0,
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "expected {n:?} in: {err}");
+    }
+    assert!(err.lines().count() <= 3 && err.len() < 1000, "a short message: {err}");
+    assert_eq!(snapshot(&tmp.0), before, "nothing may be written");
+}
+
+fn gltf_indices_types_and_strides_are_checked_before_reading() {
+    type Edit = fn(&mut Value, &mut Vec<u8>);
+    let cases: [(&str, Edit, &str); 8] = [
+        (
+            "missing accessor",
+            |j, _| j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(99),
+            "accessors[99] does not exist",
+        ),
+        (
+            "signed indices",
+            |j, _| j["accessors"][1]["componentType"] = json!(5122),
+            "unsigned integers",
+        ),
+        (
+            "float indices",
+            |j, _| j["accessors"][1]["componentType"] = json!(5126),
+            "unsigned integers",
+        ),
+        (
+            "indices out of bounds",
+            |j, _| j["meshes"][0]["primitives"][0]["indices"] = json!(7),
+            "accessors[7] does not exist",
+        ),
+        (
+            "short stride",
+            |j, _| j["bufferViews"][0]["byteStride"] = json!(4),
+            "smaller than one VEC3",
+        ),
+        (
+            "VEC2 positions",
+            |j, _| j["accessors"][0]["type"] = json!("VEC2"),
+            "not allowed for POSITION",
+        ),
+        (
+            "byte positions",
+            |j, _| j["accessors"][0]["componentType"] = json!(5121),
+            "not allowed for POSITION",
+        ),
+        (
+            "view past its buffer",
+            |j, _| j["bufferViews"][1]["byteLength"] = json!(1 << 20),
+            "outside buffers[0]",
+        ),
+    ];
+    for (name, edit, needle) in cases {
+        let tmp = setup(&format!("h-gltf-{}", name.replace(' ', "-")), edit);
+        assert_refused(&tmp, &["grid.glb", "invalid glTF", needle]);
+        let o = uvpin_limited(&["check", "grid.glb"], &tmp.0);
+        assert_eq!(o.status.code(), Some(1), "check, {name}: {}", stderr(&o));
+    }
+}
+
+fn declared_sizes_are_checked_before_anything_is_allocated() {
+    type Edit = fn(&mut Value, &mut Vec<u8>);
+    let cases: [(&str, Edit, &str); 3] = [
+        (
+            "sparse 2^31",
+            |j, _| {
+                j["accessors"][0] = json!({"componentType": 5126, "count": 2147483648u64, "type": "VEC3",
+                "min": [0, 0, 0], "max": [1, 1, 1],
+                "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5125}, "values": {"bufferView": 0}}});
+            },
+            "input limits",
+        ),
+        (
+            "index count 2^32",
+            |j, _| j["accessors"][1]["count"] = json!(4294967296u64),
+            "input limits",
+        ),
+        (
+            "buffer of a terabyte",
+            |j, _| j["buffers"][0]["byteLength"] = json!(1u64 << 40),
+            "input limit",
+        ),
+    ];
+    for (name, edit, needle) in cases {
+        let tmp = setup(&format!("h-size-{}", name.replace(' ', "-")), edit);
+        assert_refused(&tmp, &["grid.glb", needle]);
+    }
+}
+
+/// Makes a FIFO at `path`.
+fn mkfifo(path: &Path) {
+    let c = std::ffi::CString::new(path.to_str().unwrap()).unwrap();
+    // SAFETY: a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+}
+
+fn fifos_and_devices_are_refused_at_once() {
+    // The asset itself a FIFO, or a link to a device.
+    for (name, make) in [
+        ("fifo", (|p: &Path| mkfifo(p)) as fn(&Path)),
+        ("zero", |p: &Path| std::os::unix::fs::symlink("/dev/zero", p).unwrap()),
+        ("urandom", |p: &Path| {
+            std::os::unix::fs::symlink("/dev/urandom", p).unwrap()
+        }),
+    ] {
+        let tmp = setup(&format!("h-special-{name}"), |_, _| {});
+        std::fs::remove_file(tmp.path("grid.glb")).unwrap();
+        make(&tmp.path("grid.glb"));
+        assert_refused(&tmp, &["grid.glb", "not a regular file"]);
+        let o = uvpin_limited(&["check", "grid.glb"], &tmp.0);
+        assert!(stderr(&o).contains("not a regular file"), "{}", stderr(&o));
+    }
+    // A .gltf whose buffer is a FIFO.
+    let tmp = TempDir::new("h-special-buffer");
+    let (mut json, _) = grid_document();
+    json["buffers"][0]["uri"] = json!("data.bin");
+    std::fs::write(tmp.path("grid.gltf"), serde_json::to_vec(&json).unwrap()).unwrap();
+    mkfifo(&tmp.path("data.bin"));
+    write_constraints(&tmp.path("c.uvpin.ron"), Path::new("grid.gltf"), &[], "");
+    let o = uvpin_limited(&["solve", "c.uvpin.ron", "-o", "out.gltf"], &tmp.0);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("buffer 0") && stderr(&o).contains("not a regular file"),
+        "{}",
+        stderr(&o)
+    );
+    // A texture image that is a FIFO: the solve goes on, the picture has no texture.
+    let tmp = setup("h-special-image", |j, _| textured(j, "tex.png"));
+    mkfifo(&tmp.path("tex.png"));
+    let o = uvpin_limited(
+        &["solve", "c.uvpin.ron", "-o", "out.glb", "--preview", "uv.png"],
+        &tmp.0,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(tmp.path("uv.png").is_file());
+    // A constraint file that is a FIFO.
+    std::fs::remove_file(tmp.path("c.uvpin.ron")).unwrap();
+    mkfifo(&tmp.path("c.uvpin.ron"));
+    let o = uvpin_limited(&["solve", "c.uvpin.ron"], &tmp.0);
+    assert!(stderr(&o).contains("not a regular file"), "{}", stderr(&o));
+}
+
+/// Gives the document a material whose base colour is the image at `uri`.
+fn textured(json: &mut Value, uri: &str) {
+    json["images"] = json!([{ "uri": uri }]);
+    json["textures"] = json!([{ "source": 0 }]);
+    json["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
+    json["meshes"][0]["primitives"][0]["material"] = json!(0);
+}
+
+fn exit_1_writes_nothing() {
+    // A report that cannot be written: the output is not replaced either.
+    let tmp = setup("h-exit-report", |_, _| {});
+    std::fs::write(tmp.path("blocker"), b"a file, not a folder").unwrap();
+    let before = snapshot(&tmp.0);
+    let o = uvpin_limited(
+        &["solve", "c.uvpin.ron", "-o", "out.glb", "--report", "blocker/r.json"],
+        &tmp.0,
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("nothing was replaced"), "{}", stderr(&o));
+    assert_eq!(snapshot(&tmp.0), before);
+    // Device nodes and FIFOs are never replaced.
+    for target in ["/dev/null", "fifo.json"] {
+        if target == "fifo.json" {
+            mkfifo(&tmp.path(target));
+        }
+        for flag in ["-o", "--report"] {
+            let o = uvpin_limited(&["solve", "c.uvpin.ron", flag, target], &tmp.0);
+            assert_eq!(o.status.code(), Some(1), "{flag} {target}: {}", stderr(&o));
+            assert!(stderr(&o).contains("refusing to replace it"), "{}", stderr(&o));
+        }
+    }
+    use std::os::unix::fs::FileTypeExt;
+    assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
+}
+
+fn gltf_outputs_name_their_buffer_and_glb_outputs_are_complete() {
+    // .gltf twice: one content-named buffer remains, the one the .gltf names.
+    let tmp = TempDir::new("h-gltf-bin");
+    let (mut json, bin) = grid_document();
+    json["buffers"][0]["uri"] = json!("geometry.bin");
+    std::fs::write(tmp.path("grid.gltf"), serde_json::to_vec(&json).unwrap()).unwrap();
+    std::fs::write(tmp.path("geometry.bin"), &bin).unwrap();
+    std::fs::create_dir_all(tmp.path("out")).unwrap();
+    for u in [0.45, 0.5] {
+        write_constraints(&tmp.path("c.uvpin.ron"), Path::new("grid.gltf"), &[(14, u, 0.55)], "");
+        let o = uvpin_limited(&["solve", "c.uvpin.ron", "-o", "out/r.gltf"], &tmp.0);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    let written: Value = serde_json::from_slice(&std::fs::read(tmp.path("out/r.gltf")).unwrap()).unwrap();
+    let named = written["buffers"].as_array().unwrap().last().unwrap()["uri"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let bins: Vec<String> = std::fs::read_dir(tmp.path("out"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".bin"))
+        .collect();
+    assert_eq!(bins, vec![named]);
+    // A GLB whose buffer is an external file, written to another folder, is complete.
+    let tmp = TempDir::new("h-glb-external");
+    let (mut json, bin) = grid_document();
+    json["buffers"][0]["uri"] = json!("geometry.bin");
+    std::fs::create_dir_all(tmp.path("in")).unwrap();
+    std::fs::write(tmp.path("in/geometry.bin"), &bin).unwrap();
+    std::fs::write(
+        tmp.path("in/grid.glb"),
+        uvpin::io::glb::build(&serde_json::to_vec(&json).unwrap(), None),
+    )
+    .unwrap();
+    write_constraints(
+        &tmp.path("in/c.uvpin.ron"),
+        Path::new("grid.glb"),
+        &[(14, 0.45, 0.55)],
+        "",
+    );
+    let o = uvpin_limited(&["solve", "in/c.uvpin.ron", "-o", "elsewhere/out.glb"], &tmp.0);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::remove_dir_all(tmp.path("in")).unwrap();
+    let o = uvpin_limited(&["check", "elsewhere/out.glb"], &tmp.0);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// A grid with one vertex pulled far out of its plane: long edges, thin
+/// triangles in the layout.
+fn far_out_obj(seed: u64) -> String {
+    let mut rng = uvpin::testing::Rng::new(seed);
+    let mut mesh = grid_mesh(8, 8);
+    let v = 9 + rng.below(40);
+    mesh.positions[v].z += 10f64.powf(rng.range(1.0, 4.0));
+    let mut text = String::new();
+    for p in &mesh.positions {
+        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+    }
+    for t in &mesh.triangles {
+        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    text
+}
+
+fn obj_outputs_are_fold_free_as_stored() {
+    let tmp = TempDir::new("h-obj");
+    // Seeds 59, 87 and 91 wrote flipped OBJ faces before the guard checked
+    // OBJ's storage (`vt` rounded to f32) as well as glTF's.
+    let mut solved = 0;
+    for seed in 40..100u64 {
+        std::fs::write(tmp.path("m.obj"), far_out_obj(seed)).unwrap();
+        let mut rng = uvpin::testing::Rng::new(seed + 1000);
+        // Interior vertices of the 8 × 8 grid.
+        let targets: Vec<(u32, f64, f64)> = [10u32, 27, 44]
+            .iter()
+            .map(|&v| (v, rng.range(0.2, 0.8), rng.range(0.2, 0.8)))
+            .collect();
+        write_constraints(&tmp.path("c.uvpin.ron"), Path::new("m.obj"), &targets, "");
+        let o = uvpin_limited(&["solve", "c.uvpin.ron", "-o", "out.obj", "-q"], &tmp.0);
+        match o.status.code() {
+            Some(0 | 2) => {
+                solved += 1;
+                let check = uvpin_limited(&["check", "out.obj"], &tmp.0);
+                let text = stdout(&check);
+                assert!(text.contains("flipped      0  zero-area      0"), "seed {seed}: {text}");
+                let _ = std::fs::remove_file(tmp.path("out.obj"));
+            }
+            Some(1) => assert!(!tmp.path("out.obj").exists(), "seed {seed}"),
+            other => panic!("seed {seed}: {other:?}"),
+        }
+    }
+    assert!(solved > 45, "{solved} of 60 solved");
+}
+
+fn mistakes_are_errors_up_front() {
+    // Two vertices, one target.
+    let tmp = setup("h-mistakes", |_, _| {});
+    write_constraints(
+        &tmp.path("c.uvpin.ron"),
+        Path::new("grid.glb"),
+        &[(14, 0.5, 0.5), (21, 0.5, 0.5)],
+        "",
+    );
+    assert_refused(
+        &tmp,
+        &[
+            "constraints[0] (vertex 14) and constraints[1] (vertex 21)",
+            "same target",
+        ],
+    );
+    write_constraints(
+        &tmp.path("c.uvpin.ron"),
+        Path::new("grid.glb"),
+        &[(14, 0.5, 0.5), (21, 0.5, 0.5000001)],
+        "",
+    );
+    assert_refused(&tmp, &["same target"]);
+    // Sizes.
+    write_constraints(&tmp.path("c.uvpin.ron"), Path::new("grid.glb"), &[(14, 0.45, 0.55)], "");
+    for size in ["4294967295", "100000", "0"] {
+        let o = uvpin_limited(
+            &["solve", "c.uvpin.ron", "--preview", "p.png", "--preview-size", size],
+            &tmp.0,
+        );
+        assert_eq!(o.status.code(), Some(1), "{size}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--preview-size"), "{}", stderr(&o));
+    }
+    std::fs::write(
+        tmp.path("big.sweep.ron"),
+        "(constraints: [\"c.uvpin.ron\"], output: \"sw\", blend: (from: 0.0, to: 1.0, steps: 4000000000))",
+    )
+    .unwrap();
+    let o = uvpin_limited(&["sweep", "big.sweep.ron", "-q"], &tmp.0);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("blend.steps"), "{}", stderr(&o));
+    // A byte-order mark and `corners: Auto` are accepted.
+    let text = std::fs::read_to_string(tmp.path("c.uvpin.ron")).unwrap();
+    let with = text.replacen("constraints:", "corners: Auto,\n    constraints:", 1);
+    std::fs::write(tmp.path("c.uvpin.ron"), format!("\u{feff}{with}")).unwrap();
+    let o = uvpin_limited(&["solve", "c.uvpin.ron", "-o", "ok.glb"], &tmp.0);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // A closed pipe ends the output quietly.
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "{} check ok.glb | head -c 10 > /dev/null; echo done",
+            env!("CARGO_BIN_EXE_uvpin")
+        ))
+        .current_dir(&tmp.0)
+        .output()
+        .unwrap();
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+}
+
+/// A small watched project: `assets/` with a grid and its constraint file.
+fn watched_project(name: &str) -> TempDir {
+    let tmp = TempDir::new(name);
+    std::fs::create_dir_all(tmp.path("assets")).unwrap();
+    let (json, bin) = grid_document();
+    write_glb(&tmp.path("assets/grid.glb"), &json, &bin);
+    write_constraints(
+        &tmp.path("assets/grid.uvpin.ron"),
+        Path::new("grid.glb"),
+        &[(14, 0.45, 0.55)],
+        "",
+    );
+    tmp
+}
+
+fn once(tmp: &TempDir, args: &[&str]) -> std::process::Output {
+    let mut all = vec!["watch", "--once", "--no-previews"];
+    all.extend_from_slice(args);
+    uvpin_limited(&all, &tmp.0)
+}
+
+fn paths_outside_are_neither_read_nor_written() {
+    // In place, an asset outside the watched folders is never written.
+    let tmp = watched_project("h-paths");
+    std::fs::create_dir_all(tmp.path("elsewhere")).unwrap();
+    std::fs::copy(tmp.path("assets/grid.glb"), tmp.path("elsewhere/x.glb")).unwrap();
+    let elsewhere = snapshot(&tmp.path("elsewhere"));
+    for asset in [
+        "../elsewhere/x.glb".to_string(),
+        tmp.path("elsewhere/x.glb").display().to_string(),
+    ] {
+        write_constraints(
+            &tmp.path("assets/grid.uvpin.ron"),
+            Path::new(&asset),
+            &[(14, 0.45, 0.55)],
+            "",
+        );
+        let o = once(&tmp, &["--in-place", "--allow", "elsewhere"]);
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains("in-place mode writes only assets inside the watched folders"),
+            "{}",
+            stderr(&o)
+        );
+        assert_eq!(snapshot(&tmp.path("elsewhere")), elsewhere);
+    }
+    // A texture outside the watched folders is not read into the pictures.
+    let tmp = watched_project("h-paths-image");
+    std::fs::write(tmp.path("secret.png"), red_png()).unwrap();
+    let (mut json, bin) = grid_document();
+    textured(&mut json, "../secret.png");
+    write_glb(&tmp.path("assets/grid.glb"), &json, &bin);
+    let o = uvpin_limited(&["watch", "--once"], &tmp.0);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let picture = image::open(tmp.path("out/grid.uv.png")).unwrap().to_rgba8();
+    let reddish = picture
+        .pixels()
+        .filter(|p| p[0] > 200 && p[1] < 60 && p[2] < 60)
+        .count();
+    assert!(
+        reddish < picture.pixels().len() / 50,
+        "the secret texture was drawn: {reddish} red pixels"
+    );
+    // A linked constraint file's target does not leak into the log.
+    let tmp = watched_project("h-paths-link");
+    std::fs::write(tmp.path("token"), "hunter2-secret-token").unwrap();
+    std::os::unix::fs::symlink(tmp.path("token"), tmp.path("assets/leak.uvpin.ron")).unwrap();
+    let o = once(&tmp, &[]);
+    assert!(!stderr(&o).contains("hunter2"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("leak.uvpin.ron") && stderr(&o).contains("outside the folders"),
+        "{}",
+        stderr(&o)
+    );
+    // A file name with a newline cannot forge a log line.
+    let tmp = watched_project("h-paths-newline");
+    std::fs::write(tmp.path("assets/a\n[00:00:00.000] forged.uvpin.ron"), "(broken").unwrap();
+    let o = once(&tmp, &[]);
+    assert!(
+        !stderr(&o).lines().any(|l| l.starts_with("[00:00:00.000] forged")),
+        "{}",
+        stderr(&o)
+    );
+    assert!(
+        stderr(&o).contains("a\\n[00:00:00.000] forged.uvpin.ron"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// An 8 × 8 PNG, pure red.
+fn red_png() -> Vec<u8> {
+    let image = image::RgbaImage::from_pixel(8, 8, image::Rgba([255, 0, 0, 255]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    image.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    out.into_inner()
+}
+
+fn daemon_survives_hostile_input_and_recovers() {
+    use std::io::{BufRead, BufReader};
+    let tmp = watched_project("h-daemon");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args(["watch", "--no-previews", "--log", "json", "--debounce-ms", "50"])
+        .current_dir(&tmp.0)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let lines = std::sync::Arc::new(std::sync::Mutex::new(Vec::<Value>::new()));
+    let sink = lines.clone();
+    let err = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for l in BufReader::new(err).lines().map_while(Result::ok) {
+            if let Ok(v) = serde_json::from_str(&l) {
+                sink.lock().unwrap().push(v);
+            }
+        }
+    });
+    let count = |event: &str| lines.lock().unwrap().iter().filter(|l| l["event"] == event).count();
+    let wait = |event: &str, n: usize| {
+        let t0 = std::time::Instant::now();
+        while count(event) < n {
+            assert!(
+                t0.elapsed().as_secs() < 20,
+                "waiting for {n} {event}: {:?}",
+                lines.lock().unwrap()
+            );
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    };
+    wait("solved", 1);
+    let good = std::fs::read(tmp.path("out/grid.glb")).unwrap();
+    let (json, bin) = grid_document();
+    let hostile: Vec<Save> = vec![
+        Box::new(|p| {
+            let (mut j, b) = grid_document();
+            j["accessors"][1]["componentType"] = json!(5126);
+            write_glb(p, &j, &b);
+        }),
+        Box::new(|p| {
+            let (mut j, b) = grid_document();
+            j["accessors"][0]["count"] = json!(1u64 << 33);
+            write_glb(p, &j, &b);
+        }),
+        Box::new(|p| std::fs::write(p, b"glTF\x02\0\0\0garbage").unwrap()),
+        Box::new(|p| {
+            std::fs::remove_file(p).unwrap();
+            mkfifo(p);
+        }),
+    ];
+    for (k, make) in hostile.iter().enumerate() {
+        make(&tmp.path("assets/grid.glb"));
+        wait("error", k + 1);
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the daemon died on hostile input {k}"
+        );
+        assert_eq!(
+            std::fs::read(tmp.path("out/grid.glb")).unwrap(),
+            good,
+            "the last good output is kept"
+        );
+        let _ = std::fs::remove_file(tmp.path("assets/grid.glb"));
+        write_glb(&tmp.path("assets/grid.glb"), &json, &bin);
+        std::thread::sleep(std::time::Duration::from_millis(300));
+    }
+    // A burst of truncate-and-write saves gives no error line.
+    let errors = count("error");
+    let solved = count("solved");
+    let text = std::fs::read_to_string(tmp.path("assets/grid.uvpin.ron")).unwrap();
+    for k in 0..50 {
+        let t = text.replace("0.45", &format!("{:.3}", 0.40 + 0.001 * k as f64));
+        let mut f = std::fs::File::create(tmp.path("assets/grid.uvpin.ron")).unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(10));
+        std::io::Write::write_all(&mut f, t.as_bytes()).unwrap();
+        drop(f);
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    wait("solved", solved + 1);
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    assert_eq!(count("error"), errors, "{:?}", lines.lock().unwrap());
+    // Deleting the asset and writing the same bytes back solves nothing.
+    let solving = count("solving");
+    let bytes = std::fs::read(tmp.path("assets/grid.glb")).unwrap();
+    std::fs::remove_file(tmp.path("assets/grid.glb")).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(400));
+    std::fs::write(tmp.path("assets/grid.glb"), &bytes).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(600));
+    assert_eq!(count("solving"), solving, "{:?}", lines.lock().unwrap());
+    assert!(child.try_wait().unwrap().is_none());
+    // SAFETY: signalling our own child.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    assert_eq!(child.wait().unwrap().code(), Some(0));
+}
+
+fn a_killed_daemons_temporaries_are_removed_at_start() {
+    let tmp = watched_project("h-stale");
+    std::fs::create_dir_all(tmp.path("out/sub")).unwrap();
+    let stale = tmp.path("out/sub/.grid.glb.uvpin-999999999.tmp");
+    std::fs::write(&stale, b"half").unwrap();
+    let o = once(&tmp, &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stale.exists());
+    assert!(stderr(&o).contains("removed 1 temporary files"), "{}", stderr(&o));
+}
+
+fn main() -> std::process::ExitCode {
+    run_cases(&[
+        (
+            "gltf_indices_types_and_strides_are_checked_before_reading",
+            &[],
+            gltf_indices_types_and_strides_are_checked_before_reading,
+        ),
+        (
+            "declared_sizes_are_checked_before_anything_is_allocated",
+            &[],
+            declared_sizes_are_checked_before_anything_is_allocated,
+        ),
+        (
+            "fifos_and_devices_are_refused_at_once",
+            &[],
+            fifos_and_devices_are_refused_at_once,
+        ),
+        ("exit_1_writes_nothing", &[], exit_1_writes_nothing),
+        (
+            "gltf_outputs_name_their_buffer_and_glb_outputs_are_complete",
+            &[],
+            gltf_outputs_name_their_buffer_and_glb_outputs_are_complete,
+        ),
+        (
+            "obj_outputs_are_fold_free_as_stored",
+            &[],
+            obj_outputs_are_fold_free_as_stored,
+        ),
+        ("mistakes_are_errors_up_front", &[], mistakes_are_errors_up_front),
+        (
+            "paths_outside_are_neither_read_nor_written",
+            &[],
+            paths_outside_are_neither_read_nor_written,
+        ),
+        (
+            "daemon_survives_hostile_input_and_recovers",
+            &[],
+            daemon_survives_hostile_input_and_recovers,
+        ),
+        (
+            "a_killed_daemons_temporaries_are_removed_at_start",
+            &[],
+            a_killed_daemons_temporaries_are_removed_at_start,
+        ),
+    ])
+}
