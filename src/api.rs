@@ -205,8 +205,8 @@ impl MeshStep1 {
 pub fn step1(mesh: &TriMesh, corners: Option<[u32; 4]>) -> Result<MeshStep1, Error> {
     let asset = SourceAsset::from_mesh(mesh);
     let pins = Pins {
-        targets: Vec::new(),
         corners,
+        ..Pins::default()
     };
     let source = ConstraintSource::Memory(Arc::new(pins));
     let prepared = chart::prepare(&source, &asset)?;

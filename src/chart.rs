@@ -3,6 +3,7 @@
 
 use crate::constraints::{ConstraintSource, ResolvedConstraint};
 use crate::error::Error;
+use crate::free::BoundarySetup;
 use crate::guard::{self, OrientationCounts};
 use crate::io::SourceAsset;
 use crate::mesh::topology::Topology;
@@ -31,6 +32,8 @@ pub struct PreparedChart {
     pub constraint_vertices: Vec<u32>,
     /// Given corners, chart-local.
     pub corners: Option<[u32; 4]>,
+    /// The outer boundary on the square, or free inside a region.
+    pub boundary: BoundarySetup,
     pub warnings: Vec<String>,
 }
 
@@ -73,7 +76,11 @@ pub fn prepare_reusing(
         .map(|c| chart.local_of(c.welded).expect("constraint in the chart"))
         .collect();
     let corners = welded_corners.map(|w| local_corners(w, &chart, source)).transpose()?;
-    let warnings = missing_uv_warning(asset, &welded, chart_id).into_iter().collect();
+    let mut warnings: Vec<String> = missing_uv_warning(asset, &welded, chart_id).into_iter().collect();
+    let boundary = crate::free::setup::decide(source, asset, &welded, &chart, &constraints)?;
+    if corners.is_some() && matches!(boundary, BoundarySetup::Free(_)) {
+        warnings.push("corners are ignored: the boundary is free".into());
+    }
     Ok(PreparedChart {
         welded,
         chart,
@@ -83,6 +90,7 @@ pub fn prepare_reusing(
         constraints,
         constraint_vertices,
         corners,
+        boundary,
         warnings,
     })
 }
@@ -209,6 +217,22 @@ pub fn step_problem(
         on_outer[v as usize] = Some(i);
     }
     let mut problem = StepProblem::default();
+    if prepared.boundary.free().is_some() {
+        // A free boundary moves: every constraint is the spline's and every
+        // vertex movable (hole centres too); the spline path still holds a sample of the
+        // outer loop (as the square does), so its field stays tame there.
+        for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
+            problem.constraint_vertices.push(v);
+            problem.targets.push(uv_to_xy(c.target_uv));
+        }
+        let anchors = pick_anchors(prepared.topology.outer_loop(), max_boundary_centres, &[]);
+        problem.anchors = anchors
+            .into_iter()
+            .filter(|v| !problem.constraint_vertices.contains(v))
+            .collect();
+        problem.movable = (0..n as u32).collect();
+        return Ok(problem);
+    }
     for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
         let target = uv_to_xy(c.target_uv);
         match on_outer[v as usize] {

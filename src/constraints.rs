@@ -14,6 +14,7 @@
 //! Every error names the file, line and column, and the field.
 
 use crate::error::Error;
+use crate::free::Region;
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use crate::options::SolverOptions;
 use crate::pins::{PinError, Pins};
@@ -136,6 +137,16 @@ impl<'de> Deserialize<'de> for Corners {
     }
 }
 
+/// The `boundary` field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BoundaryChoice {
+    /// The outer loop onto the texture's square (§III.B).
+    Square,
+    /// The outer loop and holes move freely inside the region; the layout
+    /// is globally injective.
+    Free,
+}
+
 /// The whole constraint file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -158,6 +169,15 @@ pub struct ConstraintFile {
     /// Corner vertices (default: chosen automatically at arc-length quarters).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corners: Option<Corners>,
+    /// How the outer boundary is laid out (default: `Free` inside the
+    /// chart's own island when it already has UVs, else `Square`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub boundary: Option<BoundaryChoice>,
+    /// With a free boundary, the rectangle of the texture the chart stays
+    /// inside (default: the whole texture, or the chart's island). Giving
+    /// one makes the boundary free unless `boundary: Square` says otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<Region>,
     /// Spline stepping limits (see [`SolverOptions`] for the defaults; a
     /// configuration file's `solver` applies when this is absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -197,6 +217,8 @@ pub struct LoadedConstraints {
     pub corners_position: (usize, usize),
     /// (line, column) of the `asset` value.
     pub asset_position: (usize, usize),
+    /// (line, column) of the `region` value, or of the file start.
+    pub region_position: (usize, usize),
     /// The solver options in force: the file's `solver`, else the defaults given at load.
     pub solver: SolverOptions,
 }
@@ -270,6 +292,7 @@ impl LoadedConstraints {
             item_positions: vec![(1, 1); file.constraints.len()],
             corners_position: (1, 1),
             asset_position: (1, 1),
+            region_position: (1, 1),
             file,
         };
         loaded.validate()?;
@@ -309,6 +332,7 @@ impl LoadedConstraints {
             item_positions,
             corners_position: scan.corners.unwrap_or((1, 1)),
             asset_position: scan.asset.unwrap_or((1, 1)),
+            region_position: scan.region.unwrap_or((1, 1)),
             file,
         };
         loaded.validate()?;
@@ -333,6 +357,18 @@ impl LoadedConstraints {
             line,
             column,
             field: format!("constraints[{index}].{field}"),
+            message: message.into(),
+        }
+    }
+
+    /// An error located at the `region` value.
+    pub fn region_error(&self, message: impl Into<String>) -> ConstraintFileError {
+        let (line, column) = self.region_position;
+        ConstraintFileError::Invalid {
+            path: self.path.clone(),
+            line,
+            column,
+            field: "region".into(),
             message: message.into(),
         }
     }
@@ -667,6 +703,22 @@ impl ConstraintSource {
         }
     }
 
+    /// The requested boundary layout and region.
+    pub fn boundary(&self) -> (Option<BoundaryChoice>, Option<Region>) {
+        match self {
+            ConstraintSource::File(l) => (l.file.boundary, l.file.region),
+            ConstraintSource::Memory(p) => (p.boundary, p.region),
+        }
+    }
+
+    /// An error about the region.
+    pub fn region_error(&self, message: String) -> Error {
+        match self {
+            ConstraintSource::File(l) => l.region_error(message).into(),
+            ConstraintSource::Memory(_) => PinError::Region { message }.into(),
+        }
+    }
+
     /// The field constraint `index`'s target is written in (`uv` or `px`).
     pub fn target_field(&self, index: usize) -> &'static str {
         match self {
@@ -691,6 +743,7 @@ struct ScannedPositions {
     constraints: Option<(usize, usize)>,
     items: Vec<(usize, usize)>,
     corners: Option<(usize, usize)>,
+    region: Option<(usize, usize)>,
 }
 
 /// A position in RON text, moved one character at a time (1-based line and column).
@@ -797,6 +850,7 @@ impl Scan {
         match field {
             "asset" => self.out.asset = Some(here),
             "corners" => self.out.corners = Some(here),
+            "region" => self.out.region = Some(here),
             "constraints" => {
                 self.out.constraints = Some(here);
                 if c == '[' {

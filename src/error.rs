@@ -33,6 +33,11 @@ pub enum Error {
         chart: u32,
         source: BarNetError,
     },
+    #[error(
+        "chart {chart} does not fit anywhere in its region (u {:.4}..{:.4}, v {:.4}..{:.4}): other islands fill it; give a larger `region`, or `boundary: Square`",
+        region.min.x, region.max.x, region.min.y, region.max.y
+    )]
+    NoRoom { chart: u32, region: crate::free::Region },
     /// A bug: a layout that would have been written failed the final check.
     #[error("internal error, nothing written: {0}")]
     Internal(String),

@@ -59,6 +59,13 @@ pub fn stage_chart(
         );
         return Staged::new();
     }
+    if let Some(violation) = overlap(prepared, layout) {
+        refuse(
+            report,
+            format!("the free layout is not one-to-one inside its region as stored ({violation}); nothing written"),
+        );
+        return Staged::new();
+    }
     let Some(out) = output else {
         return Staged::new();
     };
@@ -76,6 +83,21 @@ pub fn stage_chart(
             Staged::new()
         }
     }
+}
+
+/// For a free chart: why its layout, as glTF and OBJ store it, is not
+/// globally injective inside its region and clear of the other islands.
+fn overlap(prepared: &PreparedChart, layout: &[DVec2]) -> Option<crate::free::room::Violation> {
+    let crate::free::BoundarySetup::Free(setup) = &prepared.boundary else {
+        return None;
+    };
+    let f = &prepared.filled;
+    let room = crate::free::room::Room::new(
+        setup.clone(),
+        &prepared.topology,
+        &f.mesh.triangles[..f.n_real_triangles],
+    );
+    room.admits(layout).err()
 }
 
 /// Writes `staged`; on failure `report` becomes an error (nothing replaced).

@@ -2,7 +2,8 @@
 //! targets, checked as a constraint file's are, with errors naming the
 //! constraint's index instead of a line and column.
 
-use crate::constraints::ResolvedConstraint;
+use crate::constraints::{BoundaryChoice, ResolvedConstraint};
+use crate::free::Region;
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use glam::DVec2;
 use thiserror::Error;
@@ -16,6 +17,10 @@ use thiserror::Error;
 pub struct Pins {
     pub targets: Vec<(u32, DVec2)>,
     pub corners: Option<[u32; 4]>,
+    /// The boundary layout (default as a constraint file's `boundary`).
+    pub boundary: Option<BoundaryChoice>,
+    /// A free boundary's region (texture coordinates).
+    pub region: Option<Region>,
 }
 
 impl Pins {
@@ -23,8 +28,22 @@ impl Pins {
     pub fn new(targets: &[(u32, DVec2)]) -> Self {
         Pins {
             targets: targets.to_vec(),
-            corners: None,
+            ..Pins::default()
         }
+    }
+
+    /// The same pins with this boundary layout.
+    #[must_use]
+    pub fn with_boundary(mut self, boundary: BoundaryChoice) -> Self {
+        self.boundary = Some(boundary);
+        self
+    }
+
+    /// The same pins with a free boundary inside `region`.
+    #[must_use]
+    pub fn within(mut self, region: Region) -> Self {
+        self.region = Some(region);
+        self
     }
 
     /// The same pins with these corner vertices.
@@ -42,6 +61,8 @@ pub enum PinError {
     Constraint { index: usize, message: String },
     #[error("corners: {message}")]
     Corners { message: String },
+    #[error("region: {message}")]
+    Region { message: String },
 }
 
 impl Pins {

@@ -52,7 +52,18 @@ pub struct Attempts {
     stalled_rounds: u32,
     /// The closest layout any finished attempt reached, and its largest residual.
     best: Option<(f64, Vec<DVec2>)>,
+    /// The closest layout any round ended on without being distorted past
+    /// [`SANE_PSI`] on average, and its largest residual.
+    best_sane: Option<(f64, Vec<DVec2>)>,
+    /// The least distorted layout a round ended on, and its mean ψ.
+    least_distorted: Option<(f64, Vec<DVec2>)>,
 }
+
+/// A layout whose triangles score at most this on average (ψ per unit
+/// area; 4 = isometry, ~27 for a fivefold stretch) is usable when the
+/// targets cannot be reached: the kept layout is the closest such one, not
+/// the closest one, which the growing pull may have squeezed to nothing.
+pub const SANE_PSI: f64 = 50.0;
 
 impl Attempts {
     /// The attempts from `start`: arcs first when two constraints' straight
@@ -82,6 +93,19 @@ impl Attempts {
             last_round_residual: f64::INFINITY,
             stalled_rounds: 0,
             best: None,
+            best_sane: None,
+            least_distorted: None,
+        }
+    }
+
+    /// Records a round's end at `layout`: largest residual `residual`, mean
+    /// ψ (energy per unit rest area) `mean_psi`.
+    pub fn consider(&mut self, layout: &[DVec2], residual: f64, mean_psi: f64) {
+        if mean_psi <= SANE_PSI && self.best_sane.as_ref().is_none_or(|(r, _)| residual < *r) {
+            self.best_sane = Some((residual, layout.to_vec()));
+        }
+        if self.least_distorted.as_ref().is_none_or(|(e, _)| mean_psi < *e) {
+            self.least_distorted = Some((mean_psi, layout.to_vec()));
         }
     }
 
@@ -125,7 +149,8 @@ impl Attempts {
 
     /// Ends the current attempt at `layout` (largest residual `residual`) and
     /// moves on: the next attempt's start is copied into `layout` (`true`),
-    /// or, after the last, the closest layout any attempt reached (`false`).
+    /// or, after the last, the closest sane layout any round ended on (the
+    /// least distorted one if none was sane) (`false`).
     pub fn next_attempt(&mut self, layout: &mut [DVec2], residual: f64) -> bool {
         if self.best.as_ref().is_none_or(|(r, _)| residual < *r) {
             self.best = Some((residual, layout.to_vec()));
@@ -137,8 +162,13 @@ impl Attempts {
             self.current += 1;
             return true;
         }
-        if let Some((_, best)) = self.best.take() {
-            layout.copy_from_slice(&best);
+        let kept = match (self.best_sane.take(), self.least_distorted.take(), self.best.take()) {
+            (Some((_, sane)), _, _) => Some(sane),
+            (None, Some((_, least)), _) => Some(least),
+            (None, None, best) => best.map(|(_, b)| b),
+        };
+        if let Some(kept) = kept {
+            layout.copy_from_slice(&kept);
         }
         false
     }

@@ -146,6 +146,13 @@ pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 
             }
         }
     }
+    Some(pull_back(rest, value, &grad_f, &h))
+}
+
+/// One triangle's energy per unit area `value`, its gradient `grad_f` and
+/// Hessian `h` with respect to `F` (vec order a, b, c, d), as the weighted
+/// energy, gradient and Hessian with respect to the corners (`F = X R⁻¹`).
+fn pull_back(rest: &RestTriangle, value: f64, grad_f: &[f64; 4], h: &[f64; 16]) -> (f64, [f64; 6], [f64; 36]) {
     // vec(F) = B x: F_ij = Σ_k coef[k][j] · x_k,i (corner k, coordinate i),
     // so B's row (i, j) touches only the three x_·,i.
     let dm = rest.inv_rest;
@@ -176,7 +183,29 @@ pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 
             }
         }
     }
-    Some((w * value, grad, hess))
+    (w * value, grad, hess)
+}
+
+/// The least-squares conformal energy of one triangle (Lévy et al. 2002):
+/// `½ ‖F‖² − det F` per unit area, zero exactly when `F` is a similarity;
+/// quadratic in the corners, so its Hessian is constant and positive
+/// semi-definite. Defined for folded triangles too.
+pub fn conformal_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 6], [f64; 36])> {
+    let f = jacobian(rest, x);
+    let (a, b, c, d) = (f[0], f[1], f[2], f[3]);
+    let value = 0.5 * (a * a + b * b + c * c + d * d) - (a * d - b * c);
+    let cofactor = [d, -c, -b, a];
+    let grad_f = [a - cofactor[0], b - cofactor[1], c - cofactor[2], d - cofactor[3]];
+    // H = I − H_J, H_J: ∂²J/∂a∂d = 1, ∂²J/∂b∂c = −1.
+    let mut h = [0.0f64; 16];
+    for k in 0..4 {
+        h[k * 5] = 1.0;
+    }
+    h[3] = -1.0;
+    h[12] = -1.0;
+    h[6] = 1.0;
+    h[9] = 1.0;
+    Some(pull_back(rest, value, &grad_f, &h))
 }
 
 /// Progressive reference shapes (Liu et al. 2018, "Progressive
@@ -252,6 +281,27 @@ fn right_rotation_and_stretches(f: [f64; 4]) -> Option<(f64, f64, f64)> {
     let r = (g * g + h * h).sqrt();
     let (s1, s2) = (q + r, q - r);
     (s2 > 0.0).then(|| ((k.atan2(e) - h.atan2(g)) / 2.0, s1, s2))
+}
+
+/// The factor `μ` by which to scale the rest shapes' lengths so that
+/// `layout` scores least on average (energy per unit rest area): with the
+/// rest scaled by `μ`, `F` becomes `F / μ` and `ψ` per unit area
+/// `‖F‖²/μ² + μ²‖F⁻¹‖²`, least at `μ⁴ = Σ w‖F‖² / Σ w‖F⁻¹‖²`. Folded
+/// triangles are left out; 1 when nothing is left.
+pub fn best_fit_scale(rest: &[RestTriangle], layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
+    let (mut direct, mut inverse) = (0.0, 0.0);
+    for (t, r) in triangles.iter().zip(rest) {
+        let f = jacobian(r, t.map(|v| layout[v as usize]));
+        let j = f[0] * f[3] - f[1] * f[2];
+        if j <= 0.0 {
+            continue;
+        }
+        let i2 = f.iter().map(|x| x * x).sum::<f64>();
+        direct += r.weight * i2;
+        inverse += r.weight * i2 / (j * j);
+    }
+    let mu = (direct / inverse).sqrt().sqrt();
+    if mu.is_finite() && mu > 0.0 { mu } else { 1.0 }
 }
 
 #[cfg(test)]

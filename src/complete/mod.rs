@@ -25,7 +25,6 @@ pub mod pattern;
 pub mod polish;
 pub mod soft;
 
-use crate::guard;
 use crate::param::bar_net::FilledChart;
 use crate::rbf::stepping::StepProblem;
 use crate::sparse::SparseError;
@@ -68,22 +67,6 @@ pub fn newton_pattern(
     let mut free = vec![false; filled.mesh.n_vertices()];
     movable.iter().for_each(|&v| free[v as usize] = true);
     NewtonPattern::new(&filled.mesh.triangles, &free, order)
-}
-
-/// Puts every constrained vertex exactly on its target if that keeps every
-/// triangle positive (as stored, when `storable`: `layout` is); returns
-/// whether it did.
-pub fn try_snap(layout: &mut [DVec2], problem: &StepProblem, triangles: &[[u32; 3]], storable: bool) -> bool {
-    let mut candidate = layout.to_vec();
-    for (&v, &t) in problem.constraint_vertices.iter().zip(&problem.targets) {
-        candidate[v as usize] = t;
-    }
-    if guard::acceptable(&candidate, triangles, storable) {
-        layout.copy_from_slice(&candidate);
-        true
-    } else {
-        false
-    }
 }
 
 /// A certificate that no fold-free layout of this chart puts every

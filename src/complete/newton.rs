@@ -16,10 +16,12 @@
 //! keeps falling and the layout stays acceptable.
 
 use super::energy::{RestTriangle, triangle_terms};
-use crate::guard;
 use crate::sparse::{BlockedPattern, BlockedWorkspace, SparseError};
 use glam::DVec2;
 use std::sync::{Arc, Mutex};
+
+/// A triangle's weighted energy, gradient and (projected) Hessian.
+pub type Terms = fn(&RestTriangle, [DVec2; 3]) -> Option<(f64, [f64; 6], [f64; 36])>;
 
 /// How far a full Newton step may be stretched (doubling) while the energy falls.
 const MAX_STRETCH: f64 = 8.0;
@@ -46,6 +48,8 @@ pub struct NewtonPattern {
     slots: Vec<[u32; 36]>,
     /// Per free vertex, the slots of its two diagonal entries.
     diagonal: Vec<[u32; 2]>,
+    /// Per free vertex, the slot of its diagonal block's off-diagonal entry.
+    off_diagonal: Vec<u32>,
 }
 
 /// The Newton system of one solve: a shared [`NewtonPattern`] and the
@@ -160,9 +164,11 @@ impl NewtonPattern {
             .collect();
         // Per free vertex in elimination order, its two diagonal entries.
         let mut diagonal = vec![[0u32; 2]; n_free];
+        let mut off_diagonal = vec![0u32; n_free];
         for (i, &p) in placement.position.iter().enumerate().take(n_free) {
             let [c0, c1] = placement.diagonal[i];
             diagonal[p as usize] = [c0, c1 + 1];
+            off_diagonal[p as usize] = c0 + 1;
         }
         Ok(NewtonPattern {
             free_row,
@@ -170,6 +176,7 @@ impl NewtonPattern {
             pattern,
             slots,
             diagonal,
+            off_diagonal,
         })
     }
 
@@ -198,9 +205,15 @@ impl NewtonSystem {
         self.shape.n_free
     }
 
+    /// The pattern this system factors.
+    pub fn pattern(&self) -> &Arc<NewtonPattern> {
+        &self.shape
+    }
+
     /// Energy at `layout`, with its gradient and Hessian written into
     /// `buffers`; vertices with `held[v]` are treated as fixed (identity
     /// rows). `None` if a triangle is folded.
+    #[allow(clippy::too_many_arguments)]
     fn assemble(
         &self,
         buffers: &mut Buffers,
@@ -209,6 +222,7 @@ impl NewtonSystem {
         triangles: &[[u32; 3]],
         soft: Option<SoftTargets>,
         held: Option<&[bool]>,
+        terms: Terms,
     ) -> Option<f64> {
         let Buffers { values, grad, .. } = buffers;
         grad.clear();
@@ -218,7 +232,7 @@ impl NewtonSystem {
         let mut total = 0.0;
         let is_held = |v: u32| held.is_some_and(|h| h[v as usize]);
         for ((t, r), slots) in triangles.iter().zip(rest).zip(&self.shape.slots) {
-            let (e, g, h) = triangle_terms(r, t.map(|v| layout[v as usize]))?;
+            let (e, g, h) = terms(r, t.map(|v| layout[v as usize]))?;
             total += e;
             let live = t.map(|v| self.shape.free_row[v as usize].filter(|_| !is_held(v)));
             for (k, row) in live.iter().enumerate() {
@@ -241,6 +255,11 @@ impl NewtonSystem {
                 }
             }
         }
+        let n_patterned = self.shape.slots.len().min(triangles.len());
+        let extra = triangles[n_patterned..]
+            .iter()
+            .zip(rest.get(n_patterned..).unwrap_or_default());
+        total += self.assemble_extra(values, grad, layout, extra, &is_held, terms)?;
         if let Some(s) = soft {
             for (&v, &target) in s.vertices.iter().zip(s.targets) {
                 let d = layout[v as usize] - target;
@@ -262,6 +281,47 @@ impl NewtonSystem {
                         values[slot as usize] = 1.0;
                     }
                 }
+            }
+        }
+        Some(total)
+    }
+
+    /// Triangles past the pattern's (a free chart's scaffold): their energy
+    /// and gradient in full, their Hessian's diagonal 2 × 2 blocks only
+    /// (the pattern has no room for the couplings they make, and they
+    /// change with every triangulation; the line search sees the true
+    /// energy, so this only slows convergence near the border).
+    fn assemble_extra<'a>(
+        &self,
+        values: &mut [f64],
+        grad: &mut [f64],
+        layout: &[DVec2],
+        extra: impl Iterator<Item = (&'a [u32; 3], &'a RestTriangle)>,
+        is_held: &dyn Fn(u32) -> bool,
+        terms: Terms,
+    ) -> Option<f64> {
+        let mut total = 0.0;
+        for (t, r) in extra {
+            let (e, g, h) = terms(r, t.map(|v| layout[v as usize]))?;
+            total += e;
+            for (k, &v) in t.iter().enumerate() {
+                let Some(row) = self
+                    .shape
+                    .free_row
+                    .get(v as usize)
+                    .copied()
+                    .flatten()
+                    .filter(|_| !is_held(v))
+                else {
+                    continue;
+                };
+                let row = row as usize;
+                grad[2 * row] += g[2 * k];
+                grad[2 * row + 1] += g[2 * k + 1];
+                let [xx, yy] = self.shape.diagonal[row];
+                values[xx as usize] += h[(2 * k) * 6 + 2 * k];
+                values[self.shape.off_diagonal[row] as usize] += h[(2 * k + 1) * 6 + 2 * k];
+                values[yy as usize] += h[(2 * k + 1) * 6 + 2 * k + 1];
             }
         }
         Some(total)
@@ -294,11 +354,46 @@ impl NewtonSystem {
         None
     }
 
+    /// The minimiser of the least-squares conformal energy
+    /// ([`super::energy::conformal_terms`]) over the free vertices, the
+    /// vertices marked in `held` where `layout` has them: one exact Newton
+    /// step (the energy is quadratic), written into `layout`. `false` when
+    /// the system is singular (fewer than two held vertices).
+    pub fn solve_conformal(
+        &self,
+        layout: &mut [DVec2],
+        rest: &[RestTriangle],
+        triangles: &[[u32; 3]],
+        held: &[bool],
+    ) -> bool {
+        let mut buffers = self.workspace.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        let terms: Terms = super::energy::conformal_terms;
+        if self
+            .assemble(&mut buffers, layout, rest, triangles, None, Some(held), terms)
+            .is_none()
+        {
+            return false;
+        }
+        let reassemble = |buffers: &mut Buffers| {
+            self.assemble(buffers, layout, rest, triangles, None, Some(held), terms);
+        };
+        let Some(p) = self.direction(&mut buffers, reassemble) else {
+            return false;
+        };
+        for (v, r) in self.shape.free_row.iter().enumerate() {
+            if let (Some(r), false) = (r, held[v]) {
+                layout[v] += DVec2::new(p[2 * *r as usize], p[2 * *r as usize + 1]);
+            }
+        }
+        layout.iter().all(|p| p.is_finite())
+    }
+
     /// One projected Newton step from `layout` (updated in place), with the
     /// vertices marked in `held` kept where they are. The step counts as
     /// converged when the Newton decrement or the energy decrease is below
-    /// `tolerance` relative to the energy. `storable` says `layout` keeps
-    /// every triangle positive as stored (f32); the step then keeps it so.
+    /// `tolerance` relative to the energy. Every layout the step ends on
+    /// passes `accept` (which `layout` passes), as well as staying positive
+    /// in every triangle along the way.
     #[allow(clippy::too_many_arguments)]
     pub fn step(
         &self,
@@ -308,7 +403,7 @@ impl NewtonSystem {
         soft: Option<SoftTargets>,
         held: Option<&[bool]>,
         tolerance: f64,
-        storable: bool,
+        accept: &dyn Fn(&[DVec2]) -> bool,
     ) -> NewtonStep {
         let stuck = |e: f64| NewtonStep {
             energy_before: e,
@@ -320,11 +415,12 @@ impl NewtonSystem {
             return stuck(energy(layout, rest, triangles, soft));
         }
         let mut buffers = self.workspace.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-        let Some(total) = self.assemble(&mut buffers, layout, rest, triangles, soft, held) else {
+        let terms: Terms = triangle_terms;
+        let Some(total) = self.assemble(&mut buffers, layout, rest, triangles, soft, held, terms) else {
             return stuck(f64::INFINITY);
         };
         let reassemble = |buffers: &mut Buffers| {
-            self.assemble(buffers, layout, rest, triangles, soft, held);
+            self.assemble(buffers, layout, rest, triangles, soft, held, terms);
         };
         let Some(p) = self.direction(&mut buffers, reassemble) else {
             return stuck(total);
@@ -358,7 +454,7 @@ impl NewtonSystem {
         for _ in 0..60 {
             place(layout, alpha);
             let e = energy(layout, rest, triangles, soft);
-            if e <= total + 1e-4 * alpha * slope && guard::acceptable(layout, triangles, storable) {
+            if e <= total + 1e-4 * alpha * slope && accept(layout) {
                 // A full step with room before the barrier is stretched while
                 // the energy keeps falling: the PSD projection makes the model
                 // too stiff where the energy is nearly flat, so the tail of a
@@ -370,7 +466,7 @@ impl NewtonSystem {
                         a *= 2.0;
                         place(layout, a);
                         let ea = energy(layout, rest, triangles, soft);
-                        if ea < e && guard::acceptable(layout, triangles, storable) {
+                        if ea < e && accept(layout) {
                             (alpha, e) = (a, ea);
                         } else {
                             break;

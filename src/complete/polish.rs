@@ -44,19 +44,13 @@ pub struct Polish {
 
 impl Polish {
     /// The polish of `layout` toward `goal`, holding `problem`'s constrained vertices.
-    pub fn new(
-        newton: NewtonContext,
-        problem: &StepProblem,
-        layout: &[DVec2],
-        triangles: &[[u32; 3]],
-        goal: PolishGoal,
-    ) -> Self {
+    pub fn new(newton: NewtonContext, problem: &StepProblem, layout: &[DVec2], goal: PolishGoal) -> Self {
         let mut held = vec![false; layout.len()];
         problem
             .constraint_vertices
             .iter()
             .for_each(|&v| held[v as usize] = true);
-        let energy_start = newton.energy(layout, triangles);
+        let energy_start = newton.energy(layout);
         Polish {
             stats: PolishStats {
                 goal,
@@ -71,6 +65,10 @@ impl Polish {
         }
     }
 
+    pub fn newton(&self) -> &NewtonContext {
+        &self.newton
+    }
+
     /// The layout's energy after the last step.
     pub fn energy(&self) -> f64 {
         self.energy_now
@@ -79,7 +77,7 @@ impl Polish {
     /// One Newton step on `layout`; `true` when the polish is over (it
     /// stopped gaining, or ran out of steps, with the layout storable; or it
     /// is stuck).
-    pub fn step(&mut self, layout: &mut [DVec2], triangles: &[[u32; 3]], options: &SolverOptions) -> bool {
+    pub fn step(&mut self, layout: &mut [DVec2], options: &SolverOptions) -> bool {
         let repairing = !self.newton.is_storable();
         let request = StepRequest {
             reference: None,
@@ -87,8 +85,8 @@ impl Polish {
             held: Some(&self.held),
             tolerance: POLISH_TOLERANCE,
         };
-        let step = self.newton.step(layout, triangles, request);
-        self.energy_now = self.newton.energy(layout, triangles);
+        let step = self.newton.step(layout, request);
+        self.energy_now = self.newton.energy(layout);
         let steps = self.stats.steps;
         self.stats.steps += 1;
         self.stats.repair_steps += u32::from(repairing);

@@ -8,7 +8,7 @@ use super::context::{NewtonContext, StepRequest};
 use super::energy::{self, RestTriangle};
 use super::newton::SoftTargets;
 use super::obstruction::Obstruction;
-use super::{POLISH_TOLERANCE, PROGRESSIVE_CAP, REPAIR_STEPS, find_obstruction, try_snap};
+use super::{POLISH_TOLERANCE, PROGRESSIVE_CAP, REPAIR_STEPS, find_obstruction};
 use crate::options::SolverOptions;
 use crate::param::bar_net::FilledChart;
 use crate::rbf::stepping::StepProblem;
@@ -96,13 +96,16 @@ impl SoftCompletion {
         layout: &[DVec2],
         options: &SolverOptions,
     ) -> Self {
-        let triangles = &filled.mesh.triangles;
-        let energy_start = newton.energy(layout, triangles);
+        let energy_start = newton.energy(layout);
+        // The certificate pins the outer boundary: it says nothing of a free one.
+        let obstruction = (!newton.is_free())
+            .then(|| find_obstruction(filled, layout, problem))
+            .flatten();
         let stats = SoftStats {
             started_unstorable: !newton.is_storable(),
-            obstruction: find_obstruction(filled, layout, problem),
+            obstruction,
             energy_start,
-            worst_start: newton.worst_psi(layout, triangles, filled.n_real_triangles),
+            worst_start: newton.worst_psi(layout),
             ..SoftStats::default()
         };
         let stage = if newton.is_storable() {
@@ -125,44 +128,39 @@ impl SoftCompletion {
         self.energy_now
     }
 
+    pub fn newton(&self) -> &NewtonContext {
+        &self.newton
+    }
+
     /// The Newton machinery, for the polish that follows a snap.
     pub fn into_newton(self) -> NewtonContext {
         self.newton
     }
 
     /// One Newton step on `layout`, which stays fold-free.
-    pub fn step(
-        &mut self,
-        layout: &mut [DVec2],
-        filled: &FilledChart,
-        problem: &StepProblem,
-        options: &SolverOptions,
-    ) -> SoftProgress {
-        let triangles = &filled.mesh.triangles;
+    pub fn step(&mut self, layout: &mut [DVec2], problem: &StepProblem, options: &SolverOptions) -> SoftProgress {
         let progress = match self.stage {
             Stage::Repair { steps } => {
-                self.repair(layout, triangles, steps, options);
+                self.repair(layout, steps, options);
                 SoftProgress::Working
             }
-            Stage::Round { round, weight, steps } => {
-                self.round_step(layout, filled, problem, options, (round, weight, steps))
-            }
+            Stage::Round { round, weight, steps } => self.round_step(layout, problem, options, (round, weight, steps)),
         };
-        self.energy_now = self.newton.energy(layout, triangles);
+        self.energy_now = self.newton.energy(layout);
         progress
     }
 
     /// A step of SD alone, until the layout can be stored as f32 and the
     /// distortion has settled too (rounds from a layout that is merely
     /// storable crawl: tiny safe steps).
-    fn repair(&mut self, layout: &mut [DVec2], triangles: &[[u32; 3]], steps: u32, options: &SolverOptions) {
+    fn repair(&mut self, layout: &mut [DVec2], steps: u32, options: &SolverOptions) {
         let request = StepRequest {
             reference: None,
             soft: None,
             held: None,
             tolerance: POLISH_TOLERANCE,
         };
-        let step = self.newton.step(layout, triangles, request);
+        let step = self.newton.step(layout, request);
         self.stats.repair_steps += 1;
         let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
         let settled = step.converged || step.energy_after > (1.0 - REPAIR_GAIN) * step.energy_before;
@@ -178,12 +176,10 @@ impl SoftCompletion {
     fn round_step(
         &mut self,
         layout: &mut [DVec2],
-        filled: &FilledChart,
         problem: &StepProblem,
         options: &SolverOptions,
         (round, weight, steps): (u32, f64, u32),
     ) -> SoftProgress {
-        let triangles = &filled.mesh.triangles;
         let attempts = self.attempts.get_or_insert_with(|| {
             let a = Attempts::begin(layout, problem, self.stats.obstruction.is_some());
             self.stats.paths_cross = a.paths_cross();
@@ -192,7 +188,7 @@ impl SoftCompletion {
         let capped = energy::progressive_rest(
             self.newton.rest(),
             layout,
-            triangles,
+            self.newton.triangles(),
             PROGRESSIVE_CAP,
             &mut self.reference,
         );
@@ -209,11 +205,11 @@ impl SoftCompletion {
             held: None,
             tolerance: ROUND_TOLERANCE,
         };
-        let step = self.newton.step(layout, triangles, request);
+        let step = self.newton.step(layout, request);
         self.stats.newton_steps += 1;
         self.stats.rounds = round + 1;
-        if try_snap(layout, problem, triangles, self.newton.is_storable()) {
-            self.snapped(layout, filled, round);
+        if self.newton.try_snap(layout, problem) {
+            self.snapped(layout, round);
             return SoftProgress::Snapped;
         }
         // A round ends when its step converged, or was a full Newton step
@@ -228,20 +224,20 @@ impl SoftCompletion {
             };
             return SoftProgress::Working;
         }
-        self.end_round(layout, triangles, problem, options, (round, weight))
+        self.end_round(layout, problem, options, (round, weight))
     }
 
     /// The round is over: the next round, the next attempt, or the end.
     fn end_round(
         &mut self,
         layout: &mut [DVec2],
-        triangles: &[[u32; 3]],
         problem: &StepProblem,
         options: &SolverOptions,
         (round, weight): (u32, f64),
     ) -> SoftProgress {
         let attempts = self.attempts.as_mut().expect("rounds have attempts");
         let residual = problem.max_residual(layout);
+        attempts.consider(layout, residual, self.newton.mean_psi(layout));
         let last_round = round + 1 >= options.completion_rounds;
         if attempts.end_round(round, residual, last_round) == RoundEnd::Continue {
             self.stage = Stage::Round {
@@ -252,7 +248,7 @@ impl SoftCompletion {
             return SoftProgress::Working;
         }
         let another = attempts.next_attempt(layout, residual);
-        self.newton.recount(layout, triangles);
+        self.newton.recount(layout);
         if another {
             self.stage = first_round(options);
             SoftProgress::Working
@@ -262,13 +258,11 @@ impl SoftCompletion {
     }
 
     /// Records the snap onto the targets in round `round`.
-    fn snapped(&mut self, layout: &[DVec2], filled: &FilledChart, round: u32) {
-        let triangles = &filled.mesh.triangles;
-        self.newton.note_change(layout, triangles);
+    fn snapped(&mut self, layout: &[DVec2], round: u32) {
         self.stats.snapped_at_round = Some(round);
         self.stats.snapped_path = self.attempts.as_ref().map(Attempts::path);
-        self.stats.energy_snapped = Some(self.newton.energy(layout, triangles));
-        self.stats.worst_snapped = Some(self.newton.worst_psi(layout, triangles, filled.n_real_triangles));
+        self.stats.energy_snapped = Some(self.newton.energy(layout));
+        self.stats.worst_snapped = Some(self.newton.worst_psi(layout));
     }
 
     /// Whether the snapped layout is more distorted than the start: higher

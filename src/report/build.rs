@@ -1,7 +1,9 @@
 //! The report of a finished chart solve.
 
 use super::explain::explain_lines;
-use super::{BoundaryReport, CompletionStats, ConstraintReport, Counts, Report, StageTimes, Status};
+use super::{
+    BoundaryMode, BoundaryReport, CompletionStats, ConstraintReport, Counts, FreeReport, Report, StageTimes, Status,
+};
 use crate::chart::PreparedChart;
 use crate::complete::obstruction::Obstruction;
 use crate::metrics::{Stretch, sander_stretch};
@@ -108,7 +110,7 @@ fn status_and_message(s: &SolveSummary, all_reached: bool) -> (Status, Option<St
 /// them, if there is one (the soft rounds looked for it when they started;
 /// it depends only on the boundary and the targets), else none.
 fn certificate(s: &SolveSummary, any_unreached: bool) -> Option<Obstruction> {
-    if !any_unreached {
+    if !any_unreached || s.solver.free().is_some() {
         return None;
     }
     match &s.solver.record().soft {
@@ -216,6 +218,37 @@ pub fn build(s: &SolveSummary) -> Report {
             corner_source: s.boundary.corner_source,
             corners: s.boundary.corner_vertices().map(|v| gltf_id(p, v)),
         }),
+        boundary_mode: if s.solver.free().is_some() {
+            BoundaryMode::Free
+        } else {
+            BoundaryMode::Square
+        },
+        free: free_report(s),
         warnings: warnings(s),
     }
+}
+
+/// A free chart's region, start and global injectivity as written.
+fn free_report(s: &SolveSummary) -> Option<FreeReport> {
+    let free = s.solver.free()?;
+    let room = &free.domain.room;
+    let setup = room.setup();
+    let layout = s.solver.full_layout();
+    let boundary = room.boundary_vertices();
+    let scaffold = free
+        .domain
+        .scaffold
+        .triangulate(layout, boundary, &free.domain.edges, free.domain.offset);
+    Some(FreeReport {
+        region: setup.region,
+        region_source: setup.source,
+        start: free.start,
+        start_shrink: free.shrink,
+        relax_steps: free.relax_steps,
+        crossings: room.crossings(layout, usize::MAX),
+        island_triangles: setup.obstacles.triangles.len(),
+        scaffold_triangles: scaffold.map_or(0, |t| t.len()),
+        start_ms: free.start_ms,
+        scaffold_ms: s.solver.record().scaffold_ms,
+    })
 }

@@ -15,8 +15,9 @@ pub(super) fn explain_lines(
     (step1, last): (&Stretch, &Stretch),
     max_residual: f64,
 ) -> Vec<String> {
-    vec![
-        step1_line(s, step1),
+    let mut lines = vec![step1_line(s, step1)];
+    lines.extend(free_line(s));
+    lines.extend([
         spline_line(s),
         completion_line(s, c),
         polish_line(s, c, last),
@@ -25,7 +26,52 @@ pub(super) fn explain_lines(
             status_word(status),
             s.times.total_ms()
         ),
-    ]
+    ]);
+    lines
+}
+
+/// A free boundary's region and start.
+fn free_line(s: &SolveSummary) -> Option<String> {
+    let free = s.solver.free()?;
+    let setup = free.domain.room.setup();
+    let r = setup.region;
+    let source = match setup.source {
+        crate::free::RegionSource::Given => "the given region",
+        crate::free::RegionSource::Texture => "the texture",
+        crate::free::RegionSource::Island => "the chart's own island",
+    };
+    let start = match free.start {
+        crate::free::start::StartKind::Island => "its island as it was",
+        crate::free::start::StartKind::Conformal => "least-squares conformal",
+        crate::free::start::StartKind::StepOne => "step 1 (the conformal layout folded)",
+    };
+    let islands = setup.obstacles.triangles.len();
+    Some(format!(
+        "free boundary inside {source} (u {:.4}..{:.4}, v {:.4}..{:.4}{}): start {start}{}{}; {:.2} ms",
+        r.min.x,
+        r.max.x,
+        r.min.y,
+        r.max.y,
+        if islands > 0 {
+            format!(", clear of {islands} triangles of other islands")
+        } else {
+            String::new()
+        },
+        if free.shrink < 1.0 {
+            format!(", shrunk ×{} to fit", free.shrink)
+        } else {
+            String::new()
+        },
+        if free.relax_steps > 0 {
+            format!(
+                ", relaxed in {} Newton steps and fitted to the targets",
+                free.relax_steps
+            )
+        } else {
+            String::new()
+        },
+        free.start_ms
+    ))
 }
 
 fn status_word(status: Status) -> &'static str {
@@ -132,7 +178,12 @@ fn polish_line(s: &SolveSummary, c: &CompletionStats, last: &Stretch) -> String 
     let outcome = record.polish_outcome.unwrap_or(PolishOutcome::NothingToMove);
     match (outcome, record.stretch_before_polish) {
         (PolishOutcome::Ran, Some(before)) => format!(
-            "polish (constraints and boundary held): {} Newton steps{}; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}; {:.2} ms",
+            "polish ({}): {} Newton steps{}; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}; {:.2} ms",
+            if s.solver.free().is_some() {
+                "constraints held, boundary free, scaffold rebuilt each step"
+            } else {
+                "constraints and boundary held"
+            },
             c.polish_steps,
             if c.polish_repair_steps > 0 {
                 format!(

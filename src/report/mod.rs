@@ -262,7 +262,44 @@ pub struct Report {
     pub counts: Counts,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub boundary: Option<BoundaryReport>,
+    /// `square` (the outer loop on the square) or `free`.
+    pub boundary_mode: BoundaryMode,
+    /// A free boundary's region, start and global injectivity.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub free: Option<FreeReport>,
     pub warnings: Vec<String>,
+}
+
+/// The `boundary_mode` of a report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BoundaryMode {
+    Square,
+    Free,
+}
+
+/// What a free boundary's solve did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FreeReport {
+    /// The rectangle the chart stays inside (texture coordinates).
+    pub region: crate::free::Region,
+    pub region_source: crate::free::RegionSource,
+    /// The layout the solve started from.
+    pub start: crate::free::start::StartKind,
+    /// How much the start was shrunk to fit its room (1: not at all).
+    pub start_shrink: f64,
+    /// Newton steps that relaxed the start before the spline path.
+    pub relax_steps: u32,
+    /// Pairs of boundary edges of the written layout that cross (always 0).
+    pub crossings: usize,
+    /// Other islands' triangles near the region, kept clear of.
+    pub island_triangles: usize,
+    /// Scaffold triangles around the final layout.
+    pub scaffold_triangles: usize,
+    /// Milliseconds spent on the start (conformal solve, fit, relaxing)
+    /// and on triangulating scaffolds.
+    pub start_ms: f64,
+    pub scaffold_ms: f64,
 }
 
 impl Report {

@@ -15,12 +15,16 @@ pub mod policy;
 pub mod step1;
 
 use crate::chart::{self, PreparedChart};
-use crate::complete::context::NewtonContext;
-use crate::complete::pattern::PendingNewtonPattern;
+use crate::complete::context::{FreeDomain, NewtonContext};
+use crate::complete::pattern::{Build, PendingNewtonPattern};
 use crate::complete::polish::{Polish, PolishGoal, PolishStats};
 use crate::complete::soft::{SoftCompletion, SoftProgress, SoftStats};
 use crate::constraints::ConstraintSource;
 use crate::error::Error;
+use crate::free::room::Room;
+use crate::free::scaffold::Scaffold;
+use crate::free::start::{Fit, FreeStart, StartKind, free_start};
+use crate::free::{BoundarySetup, FreeSetup};
 use crate::guard;
 use crate::metrics::{Stretch, sander_stretch};
 use crate::options::SolverOptions;
@@ -76,6 +80,8 @@ pub struct SolveRecord {
     pub stretch_before_polish: Option<Stretch>,
     /// Whether the distortion polish ran, or why not (set when decided).
     pub polish_outcome: Option<PolishOutcome>,
+    /// Milliseconds a free chart's Newton phases spent triangulating its scaffold.
+    pub scaffold_ms: f64,
 }
 
 /// Everything a chart's solve starts from.
@@ -97,6 +103,28 @@ pub struct SolveStart<'a> {
     pub elapsed_ms: f64,
 }
 
+/// A free chart's solve: its room and scaffold, where it started.
+#[derive(Debug, Clone)]
+pub struct FreeSolve {
+    pub domain: FreeDomain,
+    pub start: StartKind,
+    /// The layout area the rest shapes are scaled to.
+    pub rest_area: f64,
+    /// How much the start was shrunk to fit its room (1: not at all).
+    pub shrink: f64,
+    /// Newton steps that relaxed the start before the spline path.
+    pub relax_steps: u32,
+    /// Milliseconds spent on the start (conformal solve, fitting) and on
+    /// triangulating scaffolds.
+    pub start_ms: f64,
+}
+
+/// Newton steps at most that relax a free start before the spline path.
+const RELAX_STEPS: u32 = 3;
+
+/// Relaxing stops once a step gains less than this (relative).
+const RELAX_GAIN: f64 = 0.05;
+
 /// The solve of one chart, from step 1's results to the final layout.
 #[derive(Debug, Clone)]
 pub struct ChartSolver {
@@ -104,7 +132,11 @@ pub struct ChartSolver {
     problem: StepProblem,
     options: SolverOptions,
     policy: Policy,
-    step1: Vec<DVec2>,
+    /// The layout the spline path and the completion start from: step 1's
+    /// (square), or the fitted free start with the scaffold's fixed points
+    /// appended (free).
+    start: Vec<DVec2>,
+    free: Option<FreeSolve>,
     /// The current layout: fold-free at all times (in double precision, and
     /// as stored once it is storable).
     layout: Vec<DVec2>,
@@ -151,6 +183,7 @@ impl ChartSolver {
             )));
         }
         let options = *start.options;
+        let free_setup = start.prepared.boundary.free();
         let problem = chart::step_problem(
             start.prepared,
             start.source,
@@ -158,13 +191,16 @@ impl ChartSolver {
             options.max_boundary_centres,
         )?;
         let policy = Policy::new(&options, filled.n_real_vertices);
-        let spline = SteppingState::start(&problem, start.step1, &options, policy.completion_follows_stall());
         let pattern = match start.pattern {
             Some(p) if p.serves(&problem.movable) => p.clone(),
             _ => {
                 // Step 1 ordered the same vertex graph: no second ordering.
                 let order = start.bar_net.and_then(BarNet::elimination_order).map(Arc::new);
-                let build = policy.pattern_build();
+                let build = if free_setup.is_some() {
+                    Build::Lazily
+                } else {
+                    policy.pattern_build()
+                };
                 Arc::new(PendingNewtonPattern::new(
                     filled.clone(),
                     problem.movable.clone(),
@@ -173,15 +209,25 @@ impl ChartSolver {
                 ))
             }
         };
+        let (layout, free) = match free_setup {
+            None => (start.step1.to_vec(), None),
+            Some(setup) => {
+                let (layout, solve) = start_free(start, setup, &problem, &pattern)?;
+                (layout, Some(solve))
+            }
+        };
+        let spline = SteppingState::start(&problem, &layout, &options, policy.completion_follows_stall());
+        let spline_storable = storable || free.is_some();
         Ok(ChartSolver {
             filled: filled.clone(),
             problem,
             options,
             policy,
-            step1: start.step1.to_vec(),
-            layout: start.step1.to_vec(),
+            start: layout.clone(),
+            layout,
+            free,
             spline,
-            spline_storable: storable,
+            spline_storable,
             spline_layout: None,
             phase: Phase::SplineStepping { full_step: None },
             pattern,
@@ -204,7 +250,17 @@ impl ChartSolver {
 
     /// The current layout of the filled chart (layout coordinates, y up).
     pub fn layout(&self) -> &[DVec2] {
+        &self.layout[..self.filled.mesh.n_vertices()]
+    }
+
+    /// The whole working layout: a free chart's scaffold points after the chart's.
+    pub fn full_layout(&self) -> &[DVec2] {
         &self.layout
+    }
+
+    /// A free chart's room, scaffold and start (`None`: a square chart).
+    pub fn free(&self) -> Option<&FreeSolve> {
+        self.free.as_ref()
     }
 
     pub fn problem(&self) -> &StepProblem {
@@ -292,7 +348,13 @@ impl ChartSolver {
         let triangles = &self.filled.mesh.triangles;
         let accepted = match (self.policy.paper_guard, full_step.as_ref()) {
             (true, Some(step)) => step.paper_guard_accepts(&self.layout, &self.problem, self.spline.t),
-            _ => guard::acceptable(candidate, triangles, self.spline_storable),
+            _ => {
+                guard::acceptable(candidate, triangles, self.spline_storable)
+                    && self
+                        .free
+                        .as_ref()
+                        .is_none_or(|f| f.domain.room.admits(candidate).is_ok())
+            }
         };
         if accepted {
             let residual = self.problem.max_residual(candidate);
@@ -321,17 +383,22 @@ impl ChartSolver {
             Phase::SplineStepping { .. } => {
                 let result = self.after_spline();
                 self.times.complete_ms += ms(t0);
+                if self.is_done() {
+                    self.fill_free_region();
+                }
                 return result;
             }
             Phase::Completion(soft) => {
-                let progress = soft.step(&mut self.layout, &self.filled, &self.problem, &self.options);
+                let progress = soft.step(&mut self.layout, &self.problem, &self.options);
                 self.record.energy_end = soft.energy();
+                self.record.scaffold_ms = soft.newton().scaffold_ms();
                 self.times.complete_ms += ms(t0);
                 self.after_soft_step(progress);
             }
             Phase::Polish(polish) => {
-                let over = polish.step(&mut self.layout, &self.filled.mesh.triangles, &self.options);
+                let over = polish.step(&mut self.layout, &self.options);
                 self.record.energy_end = polish.energy();
+                self.record.scaffold_ms = polish.newton().scaffold_ms();
                 self.record.polish = Some(polish.stats);
                 self.times.polish_ms += ms(t0);
                 if over {
@@ -341,7 +408,30 @@ impl ChartSolver {
             Phase::Done => return Ok(()),
         }
         self.check_budget();
+        if self.is_done() {
+            self.fill_free_region();
+        }
         Ok(())
+    }
+
+    /// A free chart that no two targets size, once done: scaled up to the
+    /// largest that fits its room ([`crate::free::start::fill_region`]).
+    /// An island keeps its size.
+    fn fill_free_region(&mut self) {
+        let Some(free) = &self.free else {
+            return;
+        };
+        if free.start == StartKind::Island || self.problem.targets.len() >= 2 {
+            return;
+        }
+        let n = self.filled.mesh.n_vertices();
+        let pivot = self.problem.targets.first().copied();
+        crate::free::start::fill_region(
+            &free.domain.room,
+            &mut self.layout[..n],
+            &self.filled.mesh.triangles,
+            pivot,
+        );
     }
 
     /// The Sander stretch of the current layout (real triangles).
@@ -359,7 +449,10 @@ impl ChartSolver {
             .pattern
             .get()
             .map_err(|e| Error::Internal(format!("completion system: {e}")))?;
-        Ok(NewtonContext::new(&self.filled, &self.problem, pattern, &self.layout))
+        Ok(match &self.free {
+            None => NewtonContext::new(&self.filled, &self.problem, pattern, &self.layout),
+            Some(f) => NewtonContext::free(&self.filled, pattern, &self.layout, f.domain.clone(), f.rest_area),
+        })
     }
 
     /// What follows the spline path ([`Policy::after_spline`]).
@@ -382,7 +475,7 @@ impl ChartSolver {
                 self.start_polish(context, goal);
             }
             AfterSpline::Complete => {
-                let spline = std::mem::replace(&mut self.layout, self.step1.clone());
+                let spline = std::mem::replace(&mut self.layout, self.start.clone());
                 self.spline_layout = Some(spline);
                 let context = self.newton_context()?;
                 let soft = SoftCompletion::new(context, &self.filled, &self.problem, &self.layout, &self.options);
@@ -393,8 +486,16 @@ impl ChartSolver {
         Ok(())
     }
 
-    fn start_polish(&mut self, context: NewtonContext, goal: PolishGoal) {
-        let polish = Polish::new(context, &self.problem, &self.layout, &self.filled.mesh.triangles, goal);
+    fn start_polish(&mut self, mut context: NewtonContext, goal: PolishGoal) {
+        // A free chart on its targets: its rest shapes take the scale its
+        // layout fits best, the scale the targets made, so the polish does
+        // not press it larger or smaller than they allow.
+        if let Some(free) = &mut self.free
+            && self.problem.targets.len() >= 2
+        {
+            free.rest_area = context.fit_rest_scale(&self.layout);
+        }
+        let polish = Polish::new(context, &self.problem, &self.layout, goal);
         self.record.energy_end = polish.energy();
         self.record.polish = Some(polish.stats);
         self.record.polish_outcome = Some(PolishOutcome::Ran);
@@ -452,4 +553,114 @@ impl ChartSolver {
             Phase::SplineStepping { .. } | Phase::Done => {}
         }
     }
+}
+
+/// A free chart's start ([`free_start`]) with its scaffold's fixed points
+/// appended, and its room.
+///
+/// # Errors
+/// The Newton pattern could not be built, or no placement fits the region
+/// (other islands fill it).
+fn start_free(
+    start: SolveStart,
+    setup: &FreeSetup,
+    problem: &StepProblem,
+    pattern: &PendingNewtonPattern,
+) -> Result<(Vec<DVec2>, FreeSolve), Error> {
+    let t0 = Instant::now();
+    let prepared = start.prepared;
+    let filled = &prepared.filled;
+    let triangles = &filled.mesh.triangles;
+    let BoundarySetup::Free(setup_arc) = &prepared.boundary else {
+        unreachable!("called for free charts")
+    };
+    debug_assert!(std::ptr::eq(setup_arc.as_ref(), setup));
+    let room = Arc::new(Room::new(setup_arc.clone(), &prepared.topology, triangles));
+    let n_real = filled.n_real_triangles;
+    let pattern = pattern
+        .get()
+        .map_err(|e| Error::Internal(format!("free-boundary system: {e}")))?;
+    let rest = crate::complete::energy::rest_shapes(
+        &filled.mesh.positions,
+        triangles,
+        n_real,
+        crate::complete::VIRTUAL_WEIGHT,
+    );
+    let system = crate::complete::newton::NewtonSystem::new(pattern);
+    let FreeStart {
+        mut layout,
+        kind,
+        rest_area,
+        shrink,
+    } = free_start(&room, filled, &rest, &system, start.step1, problem).ok_or_else(|| Error::NoRoom {
+        chart: prepared.chart.id,
+        region: setup.region,
+    })?;
+    let (lo, hi) = setup.region.layout_box();
+    let scaffold = Arc::new(Scaffold::new(lo, hi, &setup.obstacles, room.boundary_vertices().len()));
+    let offset = layout.len() as u32;
+    layout.extend_from_slice(scaffold.fixed_points());
+    let domain = FreeDomain::new(room, scaffold, offset);
+    let (mut rest_area, mut shrink, mut relax_steps) = (rest_area, shrink, 0);
+    if kind != StartKind::Island && problem.targets.len() >= 2 {
+        let relaxed = relax(filled, system.pattern(), &mut layout, &domain, rest_area, problem, kind);
+        if let Some((refit, steps)) = relaxed {
+            layout[..refit.layout.len()].copy_from_slice(&refit.layout);
+            (rest_area, shrink, relax_steps) = (refit.rest_area, refit.shrink, steps);
+        }
+    }
+    let solve = FreeSolve {
+        domain,
+        start: kind,
+        rest_area,
+        shrink,
+        relax_steps,
+        start_ms: ms(t0),
+    };
+    Ok((layout, solve))
+}
+
+/// Relaxes a free start toward its own low-distortion shape (symmetric
+/// Dirichlet, nothing held, [`RELAX_STEPS`] Newton steps at most), then fits
+/// it to the targets again: the spline path then only has to bend it a
+/// little, and the fit's scale is the one the targets ask for. `None` if no
+/// step gained or the refit does not fit the room.
+fn relax(
+    filled: &FilledChart,
+    pattern: &Arc<crate::complete::newton::NewtonPattern>,
+    layout: &mut [DVec2],
+    domain: &FreeDomain,
+    rest_area: f64,
+    problem: &StepProblem,
+    kind: StartKind,
+) -> Option<(FreeStart, u32)> {
+    let mut context = NewtonContext::free(filled, pattern.clone(), layout, domain.clone(), rest_area);
+    let mut steps = 0;
+    while steps < RELAX_STEPS {
+        let request = crate::complete::context::StepRequest {
+            reference: None,
+            soft: None,
+            held: None,
+            tolerance: RELAX_GAIN,
+        };
+        let step = context.step(layout, request);
+        steps += u32::from(step.alpha > 0.0);
+        if step.converged || step.alpha == 0.0 || step.energy_after > (1.0 - RELAX_GAIN) * step.energy_before {
+            break;
+        }
+    }
+    if steps == 0 {
+        return None;
+    }
+    let n = filled.mesh.n_vertices();
+    let shape = crate::free::start::Shape::of(filled);
+    let refit = crate::free::start::fit_into_room(
+        &domain.room,
+        &shape,
+        &layout[..n],
+        problem,
+        kind,
+        Fit::ToTargetsAsShaped,
+    )?;
+    Some((refit, steps))
 }

@@ -1,0 +1,201 @@
+//! The free boundary: the chart's outer loop and holes move freely inside a
+//! rectangle of the texture (its `region`), never crossing each other or
+//! another chart's triangles, so the layout is one-to-one as a whole.
+//!
+//! [`room`] decides exactly whether a layout is globally injective inside
+//! its region and clear of the other islands; [`scaffold`] triangulates the
+//! free space around the chart (Jiang, Schaefer and Panozzo 2017), whose
+//! triangles join the orientation guard and carry a small energy, so the
+//! Newton phases keep the boundary apart; [`start`] gives the start layout
+//! (least-squares conformal, or the island as it was) fitted to the targets.
+
+pub mod room;
+pub mod scaffold;
+pub mod setup;
+pub mod start;
+
+use glam::DVec2;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// The smallest side of a region (texture units).
+pub const MIN_REGION_SIDE: f64 = 1e-4;
+
+/// A rectangle of the texture in glTF texture coordinates ((0, 0) top-left, v down).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Region {
+    pub min: DVec2,
+    pub max: DVec2,
+}
+
+impl Region {
+    /// The whole texture.
+    pub const TEXTURE: Region = Region {
+        min: DVec2::ZERO,
+        max: DVec2::ONE,
+    };
+
+    /// Why `self` is not a usable region, if it is not.
+    pub fn problem(&self) -> Option<String> {
+        let finite = self.min.is_finite() && self.max.is_finite();
+        if !finite {
+            return Some("region corners must be finite numbers".into());
+        }
+        let size = self.max - self.min;
+        if size.x < MIN_REGION_SIDE || size.y < MIN_REGION_SIDE {
+            return Some(format!(
+                "region min ({}, {}) must be below max ({}, {}) by at least {MIN_REGION_SIDE} in u and v",
+                self.min.x, self.min.y, self.max.x, self.max.y
+            ));
+        }
+        None
+    }
+
+    /// Whether the texture point `uv` is inside (closed).
+    pub fn contains_uv(&self, uv: DVec2) -> bool {
+        uv.cmpge(self.min).all() && uv.cmple(self.max).all()
+    }
+
+    /// The rectangle in layout coordinates (x = u, y = 1 − v): (lower left, upper right).
+    pub fn layout_box(&self) -> (DVec2, DVec2) {
+        (
+            DVec2::new(self.min.x, 1.0 - self.max.y),
+            DVec2::new(self.max.x, 1.0 - self.min.y),
+        )
+    }
+
+    /// The smallest region holding `self` and the texture points `uvs`.
+    #[must_use]
+    pub fn grown_to(mut self, uvs: impl IntoIterator<Item = DVec2>) -> Region {
+        for p in uvs {
+            self.min = self.min.min(p);
+            self.max = self.max.max(p);
+        }
+        self
+    }
+
+    /// The bounding rectangle of the texture points `uvs` (`None` if empty).
+    pub fn bounding(uvs: impl IntoIterator<Item = DVec2>) -> Option<Region> {
+        let mut it = uvs.into_iter();
+        let first = it.next()?;
+        Some(Region { min: first, max: first }.grown_to(it))
+    }
+}
+
+/// Where a free chart's region came from (for the report).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RegionSource {
+    /// The constraint file's `region`.
+    Given,
+    /// The whole texture (`boundary: Free` without a region).
+    Texture,
+    /// The chart's own atlas island: its current bounding rectangle, grown
+    /// to hold the targets.
+    Island,
+}
+
+/// The other charts' triangles as they are stored: what a free chart must
+/// not overlap. Points are kept as each output format stores them (glTF's
+/// `(u, v)`, OBJ's `(u, 1 − v)`, both f32), and in layout coordinates.
+#[derive(Debug, Clone, Default)]
+pub struct Obstacles {
+    /// glTF texture coordinates as stored.
+    pub gltf: Vec<DVec2>,
+    /// OBJ `vt` as uvpin writes them (`1 − v` in f32).
+    pub obj: Vec<DVec2>,
+    /// Layout coordinates (x = u, y = 1 − v).
+    pub layout: Vec<DVec2>,
+    /// Triangles with positive area in the texture (indices into the points).
+    pub triangles: Vec<[u32; 3]>,
+    /// The triangles' boundary edges.
+    pub edges: Vec<[u32; 2]>,
+    /// One point inside each connected island (an index into `triangles`).
+    pub probes: Vec<u32>,
+}
+
+impl Obstacles {
+    /// The obstacles made of `triangles` over the stored texture
+    /// coordinates `uvs` (glTF convention, f32), keeping only triangles with
+    /// area whose bounding box meets `near` (a texture rectangle).
+    pub fn new(uvs: &[[f32; 2]], triangles: &[[u32; 3]], near: Region) -> Obstacles {
+        let uv = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
+        let mut compact = vec![u32::MAX; uvs.len()];
+        let mut out = Obstacles::default();
+        for t in triangles {
+            let [a, b, c] = t.map(uv);
+            let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+            let meets = lo.cmple(near.max).all() && hi.cmpge(near.min).all();
+            if !meets || crate::guard::orientation(a, b, c) == 0.0 {
+                continue;
+            }
+            let tri = t.map(|v| {
+                if compact[v as usize] == u32::MAX {
+                    compact[v as usize] = out.gltf.len() as u32;
+                    let [u, w] = uvs[v as usize];
+                    out.gltf.push(DVec2::new(u as f64, w as f64));
+                    out.obj.push(DVec2::new(u as f64, (1.0f32 - w) as f64));
+                    out.layout.push(DVec2::new(u as f64, 1.0 - w as f64));
+                }
+                compact[v as usize]
+            });
+            out.triangles.push(tri);
+        }
+        out.edges = crate::injective::boundary_edges(&out.triangles);
+        out.probes = island_probes(&out.triangles, out.gltf.len());
+        out
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+}
+
+/// The first triangle of each connected set of triangles (sharing vertices).
+fn island_probes(triangles: &[[u32; 3]], n: usize) -> Vec<u32> {
+    let mut uf = crate::mesh::topology::UnionFind::new(n);
+    for t in triangles {
+        uf.union(t[0] as usize, t[1] as usize);
+        uf.union(t[0] as usize, t[2] as usize);
+    }
+    let mut seen = vec![false; n];
+    let mut probes = Vec::new();
+    for (i, t) in triangles.iter().enumerate() {
+        let root = uf.find(t[0] as usize);
+        if !seen[root] {
+            seen[root] = true;
+            probes.push(i as u32);
+        }
+    }
+    probes
+}
+
+/// How a chart's boundary is laid out.
+#[derive(Debug, Clone)]
+pub enum BoundarySetup {
+    /// The outer loop on the unit square (§III.B).
+    Square,
+    /// Free inside a region, clear of other islands.
+    Free(Arc<FreeSetup>),
+}
+
+impl BoundarySetup {
+    pub fn free(&self) -> Option<&FreeSetup> {
+        match self {
+            BoundarySetup::Square => None,
+            BoundarySetup::Free(f) => Some(f),
+        }
+    }
+}
+
+/// A free chart's room: its region, where that came from, the other
+/// islands, and the chart's current layout when it had one (the island).
+#[derive(Debug, Clone)]
+pub struct FreeSetup {
+    pub region: Region,
+    pub source: RegionSource,
+    pub obstacles: Arc<Obstacles>,
+    /// The chart's stored UVs as layout coordinates (chart-local real
+    /// vertices), when it already had them: the start, if it is injective.
+    pub island: Option<Vec<DVec2>>,
+}

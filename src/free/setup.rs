@@ -1,0 +1,121 @@
+//! How a chart's boundary is laid out, decided from the constraint file's
+//! `boundary` and `region` and from the UVs the asset already has: a chart
+//! that has UVs stays free inside its own island unless told otherwise.
+
+use super::{BoundarySetup, FreeSetup, Obstacles, Region, RegionSource};
+use crate::constraints::{BoundaryChoice, ConstraintSource, ResolvedConstraint};
+use crate::error::Error;
+use crate::io::SourceAsset;
+use crate::mesh::weld::{Chart, WeldedMesh};
+use glam::DVec2;
+use std::sync::Arc;
+
+/// How far an island's region is grown past a target outside it, relative
+/// to the region's size: a target on the border could not be reached (the
+/// region is open).
+const GROWTH_MARGIN: f64 = 0.01;
+
+/// The boundary setup of `chart`: `Square` when asked for (or when the
+/// chart has no UVs and no region is given), else free inside the given
+/// region, the texture, or the chart's island, with every other chart that
+/// has UVs as an obstacle.
+///
+/// # Errors
+/// A region that is not a rectangle, or a target outside it (located at
+/// the `region` field or the constraint).
+pub fn decide(
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+    welded: &WeldedMesh,
+    chart: &Chart,
+    constraints: &[ResolvedConstraint],
+) -> Result<BoundarySetup, Error> {
+    let (choice, given) = source.boundary();
+    let uvs = welded_uvs(asset, welded);
+    let island: Option<Vec<DVec2>> = chart
+        .welded_ids
+        .iter()
+        .map(|&w| uvs[w as usize].map(|[u, v]| DVec2::new(u as f64, 1.0 - v as f64)))
+        .collect();
+    let (region, source_kind) = match (choice, given) {
+        (Some(BoundaryChoice::Square), _) => return Ok(BoundarySetup::Square),
+        (_, Some(region)) => (region, RegionSource::Given),
+        (Some(BoundaryChoice::Free), None) => (Region::TEXTURE, RegionSource::Texture),
+        (None, None) => match &island {
+            Some(layout) => (island_region(layout, constraints), RegionSource::Island),
+            None => return Ok(BoundarySetup::Square),
+        },
+    };
+    if let Some(problem) = region.problem() {
+        return Err(source.region_error(problem));
+    }
+    for c in constraints {
+        let t = c.target_uv;
+        let inside = t.cmpgt(region.min).all() && t.cmplt(region.max).all();
+        if !inside {
+            return Err(source.error_at(
+                c.index,
+                source.target_field(c.index),
+                format!(
+                    "target ({}, {}) is not inside the region u {}..{}, v {}..{} (a free chart stays strictly inside it)",
+                    t.x, t.y, region.min.x, region.max.x, region.min.y, region.max.y
+                ),
+            ));
+        }
+    }
+    let obstacles = other_islands(welded, chart.id, &uvs, region);
+    Ok(BoundarySetup::Free(Arc::new(FreeSetup {
+        region,
+        source: source_kind,
+        obstacles: Arc::new(obstacles),
+        island,
+    })))
+}
+
+/// Each welded vertex's stored UV (glTF convention), if its primitive has them.
+fn welded_uvs(asset: &SourceAsset, welded: &WeldedMesh) -> Vec<Option<[f32; 2]>> {
+    let mut out = vec![None; welded.mesh.n_vertices()];
+    for (prim, map) in asset.primitives.iter().zip(&welded.vertex_of) {
+        if let Some(uvs) = &prim.uvs {
+            for (i, &w) in map.iter().enumerate() {
+                out[w as usize] = Some(uvs[i]);
+            }
+        }
+    }
+    out
+}
+
+/// The island's bounding rectangle (texture coordinates), grown past any
+/// target outside it by [`GROWTH_MARGIN`] of its size.
+fn island_region(layout: &[DVec2], constraints: &[ResolvedConstraint]) -> Region {
+    let uv = |p: &DVec2| DVec2::new(p.x, 1.0 - p.y);
+    let bounds = Region::bounding(layout.iter().map(uv)).unwrap_or(Region::TEXTURE);
+    let grown = bounds.grown_to(constraints.iter().map(|c| c.target_uv));
+    let pad = GROWTH_MARGIN * (grown.max - grown.min).max(DVec2::splat(super::MIN_REGION_SIDE));
+    let mut region = grown;
+    // Pad only the sides a target pushed out (or sits on).
+    for k in 0..2 {
+        if grown.min[k] < bounds.min[k] || constraints.iter().any(|c| c.target_uv[k] <= bounds.min[k]) {
+            region.min[k] = grown.min[k] - pad[k];
+        }
+        if grown.max[k] > bounds.max[k] || constraints.iter().any(|c| c.target_uv[k] >= bounds.max[k]) {
+            region.max[k] = grown.max[k] + pad[k];
+        }
+    }
+    region
+}
+
+/// Every other chart's triangles that have UVs, near `region`.
+fn other_islands(welded: &WeldedMesh, chart: u32, uvs: &[Option<[f32; 2]>], region: Region) -> Obstacles {
+    let stored: Vec<[f32; 2]> = uvs.iter().map(|u| u.unwrap_or([0.0, 0.0])).collect();
+    let triangles: Vec<[u32; 3]> = welded
+        .mesh
+        .triangles
+        .iter()
+        .filter(|t| {
+            welded.chart_of_vertex[t[0] as usize] != Some(chart) && t.iter().all(|&v| uvs[v as usize].is_some())
+        })
+        .copied()
+        .collect();
+    Obstacles::new(&stored, &triangles, region)
+}

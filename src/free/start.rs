@@ -1,0 +1,364 @@
+//! A free chart's start: the island as it was when it fits, else a
+//! least-squares conformal layout (Lévy et al. 2002) if it is injective,
+//! else step 1's; moved by the similarity that best fits its constrained
+//! vertices to their targets, and shrunk until it fits its room.
+
+use super::room::Room;
+use crate::complete::energy::RestTriangle;
+use crate::complete::newton::NewtonSystem;
+use crate::guard;
+use crate::param::bar_net::FilledChart;
+use crate::rbf::stepping::StepProblem;
+use glam::{DVec2, DVec3};
+
+/// Which layout a free chart started from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StartKind {
+    /// The chart's own UVs (its atlas island), unchanged.
+    Island,
+    /// Least-squares conformal, fitted to the targets.
+    Conformal,
+    /// Step 1's square layout, fitted to the targets (the conformal one folded).
+    StepOne,
+}
+
+/// The start of a free chart's solve.
+#[derive(Debug, Clone)]
+pub struct FreeStart {
+    /// Layout of the filled chart (virtual hole vertices where step 1 had them).
+    pub layout: Vec<DVec2>,
+    pub kind: StartKind,
+    /// The layout area the chart's rest shapes are scaled to: the fitted
+    /// start's before any shrinking, the scale the targets ask for.
+    pub rest_area: f64,
+    /// How much the start was shrunk to fit its room (1: not at all).
+    pub shrink: f64,
+}
+
+/// A start without two targets to fit spans this much of the region's
+/// width or height: room for the polish to find its shape, which
+/// [`fill_region`] then scales up.
+const FIRST_FILL: f64 = 0.6;
+
+/// How much of the region a chart without two targets fills at the end (at most).
+const FINAL_FILL: f64 = 0.98;
+
+/// Shrink factors tried, in order, to fit a start into its room.
+const SHRINKS: [f64; 12] = [1.0, 1.0 - 1e-6, 0.99, 0.9, 0.75, 0.5, 0.25, 0.1, 0.03, 1e-2, 1e-3, 1e-4];
+
+/// The start of a free chart: see the module docs. `rest` are the filled
+/// chart's rest shapes (real area 1, virtual triangles light), `system` the
+/// Newton system over every vertex, `step1` step 1's layout. `None` when no
+/// placement fits (the region is full of other islands).
+pub fn free_start(
+    room: &Room,
+    filled: &FilledChart,
+    rest: &[RestTriangle],
+    system: &NewtonSystem,
+    step1: &[DVec2],
+    problem: &StepProblem,
+) -> Option<FreeStart> {
+    let shape = Shape::of(filled);
+    if let Some(island) = &room.setup().island {
+        let layout = island_layout(filled, island, step1);
+        if let Some(start) = fit_into_room(room, &shape, &layout, problem, StartKind::Island, Fit::InPlace) {
+            return Some(start);
+        }
+    }
+    let mut conformal = step1.to_vec();
+    let kind = if conformal_layout(&mut conformal, &shape, rest, system, room.boundary_vertices())
+        && room.embeds(&conformal)
+    {
+        StartKind::Conformal
+    } else {
+        conformal.copy_from_slice(step1);
+        StartKind::StepOne
+    };
+    fit_into_room(room, &shape, &conformal, problem, kind, Fit::ToTargets)
+}
+
+/// The chart's own UVs, each hole's virtual vertex at the mean of its loop.
+fn island_layout(filled: &FilledChart, island: &[DVec2], step1: &[DVec2]) -> Vec<DVec2> {
+    let mut layout = step1.to_vec();
+    let n = filled.n_real_vertices;
+    layout[..n].copy_from_slice(&island[..n]);
+    for (k, hole) in filled.holes.iter().enumerate() {
+        let centre = hole.iter().map(|&v| island[v as usize]).sum::<DVec2>() / hole.len().max(1) as f64;
+        layout[n + k] = centre;
+    }
+    layout
+}
+
+/// What the start's fitting needs of the chart.
+#[derive(Debug, Clone, Copy)]
+pub struct Shape<'a> {
+    pub positions: &'a [DVec3],
+    /// The filled chart's triangles (virtual ones last).
+    pub triangles: &'a [[u32; 3]],
+    pub n_real_triangles: usize,
+}
+
+impl<'a> Shape<'a> {
+    pub fn of(filled: &'a FilledChart) -> Self {
+        Shape {
+            positions: &filled.mesh.positions,
+            triangles: &filled.mesh.triangles,
+            n_real_triangles: filled.n_real_triangles,
+        }
+    }
+
+    /// The real triangles' 3D area.
+    fn area(&self) -> f64 {
+        self.triangles[..self.n_real_triangles]
+            .iter()
+            .map(|t| {
+                let [p, q, r] = t.map(|v| self.positions[v as usize]);
+                0.5 * (q - p).cross(r - p).length()
+            })
+            .sum()
+    }
+}
+
+/// How a start is placed before it is shrunk to fit its room.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fit {
+    /// Where it is (an island); its area is its rest area.
+    InPlace,
+    /// Moved by the similarity that fits it to the targets; the rest area
+    /// estimated from the targets' spread against their 3D distances.
+    ToTargets,
+    /// Moved by that similarity; its fitted area is its rest area (a start
+    /// already relaxed to its own shape).
+    ToTargetsAsShaped,
+}
+
+/// The least-squares conformal layout, two far-apart boundary vertices
+/// pinned at their 3D distance (in rest units), written into `layout`;
+/// `false` if it folds or the solve fails.
+fn conformal_layout(
+    layout: &mut [DVec2],
+    shape: &Shape,
+    rest: &[RestTriangle],
+    system: &NewtonSystem,
+    boundary: &[u32],
+) -> bool {
+    let positions = shape.positions;
+    let Some(&a) = boundary.first() else {
+        return false;
+    };
+    let pa = positions[a as usize];
+    let Some(&b) = boundary.iter().max_by(|&&x, &&y| {
+        pa.distance(positions[x as usize])
+            .total_cmp(&pa.distance(positions[y as usize]))
+    }) else {
+        return false;
+    };
+    let d = pa.distance(positions[b as usize]) / shape.area().sqrt().max(1e-300);
+    if a == b || !d.is_finite() || d <= 0.0 {
+        return false;
+    }
+    let mut held = vec![false; layout.len()];
+    held[a as usize] = true;
+    held[b as usize] = true;
+    layout[a as usize] = DVec2::ZERO;
+    layout[b as usize] = DVec2::new(d, 0.0);
+    system.solve_conformal(layout, rest, shape.triangles, &held) && guard::all_positive(layout, shape.triangles)
+}
+
+/// `base` placed as `fit` says, then shrunk about the targets' centre, or
+/// moved elsewhere in the region, until it fits its room.
+pub fn fit_into_room(
+    room: &Room,
+    shape: &Shape,
+    base: &[DVec2],
+    problem: &StepProblem,
+    kind: StartKind,
+    fit: Fit,
+) -> Option<FreeStart> {
+    let triangles = shape.triangles;
+    let placed: Vec<DVec2> = if fit == Fit::InPlace {
+        base.to_vec()
+    } else {
+        let t = similarity(room, base, problem);
+        base.iter().map(|&p| t.apply(p)).collect()
+    };
+    let estimate = (fit == Fit::ToTargets).then(|| target_scale(problem, shape)).flatten();
+    let rest_area = estimate.unwrap_or_else(|| layout_area(&placed, &triangles[..shape.n_real_triangles]));
+    let (lo, hi) = room.setup().region.layout_box();
+    let targets_centre =
+        (!problem.targets.is_empty()).then(|| problem.targets.iter().sum::<DVec2>() / problem.targets.len() as f64);
+    let (blo, bhi) = bounds(&placed);
+    let mut anchors: Vec<(DVec2, DVec2)> = Vec::new();
+    // Shrink about the targets' centre (constrained vertices stay near
+    // their targets), then about the layout's own centre placed at points
+    // spread over the region.
+    if let Some(c) = targets_centre {
+        anchors.push((c, c));
+    }
+    for j in 0..5 {
+        for i in 0..5 {
+            let at = lo + (hi - lo) * DVec2::new((2 * i + 1) as f64, (2 * j + 1) as f64) / 10.0;
+            anchors.push((0.5 * (blo + bhi), at));
+        }
+    }
+    anchors.insert(
+        usize::from(targets_centre.is_some()),
+        (0.5 * (blo + bhi), 0.5 * (lo + hi)),
+    );
+    for &shrink in &SHRINKS {
+        for &(from, to) in &anchors {
+            let layout: Vec<DVec2> = placed.iter().map(|&p| to + (p - from) * shrink).collect();
+            // The room first: it looks at the boundary only.
+            if room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles) {
+                return Some(FreeStart {
+                    layout,
+                    kind,
+                    rest_area,
+                    shrink,
+                });
+            }
+        }
+    }
+    None
+}
+
+/// The layout area the targets ask for: the chart's 3D area scaled by the
+/// square of how far apart the targets are relative to their vertices in
+/// 3D (sums over all pairs). `None` with fewer than two targets.
+fn target_scale(problem: &StepProblem, shape: &Shape) -> Option<f64> {
+    let k = problem.targets.len();
+    if k < 2 {
+        return None;
+    }
+    let (mut uv, mut xyz) = (0.0, 0.0);
+    for i in 0..k {
+        for j in i + 1..k {
+            uv += problem.targets[i].distance(problem.targets[j]);
+            let (a, b) = (problem.constraint_vertices[i], problem.constraint_vertices[j]);
+            xyz += shape.positions[a as usize].distance(shape.positions[b as usize]);
+        }
+    }
+    let s = uv / xyz;
+    let area = shape.area();
+    (s.is_finite() && s > 0.0 && area > 0.0).then_some(s * s * area)
+}
+
+fn bounds(points: &[DVec2]) -> (DVec2, DVec2) {
+    points
+        .iter()
+        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        })
+}
+
+/// Total signed area of the triangles in `layout`.
+pub fn layout_area(layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| layout[v as usize]);
+            0.5 * (b - a).perp_dot(c - a)
+        })
+        .sum()
+}
+
+/// The similarity (rotation, uniform scale, translation) taking the
+/// constrained vertices of `layout` closest to their targets; with fewer
+/// than two distinct ones, the scale that fills [`FIRST_FILL`] of the region and the
+/// translation onto the one target (or the region's centre).
+fn similarity(room: &Room, layout: &[DVec2], problem: &StepProblem) -> Similarity {
+    let from: Vec<DVec2> = problem
+        .constraint_vertices
+        .iter()
+        .map(|&v| layout[v as usize])
+        .collect();
+    let to = &problem.targets;
+    let k = from.len() as f64;
+    let (fc, tc) = if from.is_empty() {
+        (DVec2::ZERO, DVec2::ZERO)
+    } else {
+        (from.iter().sum::<DVec2>() / k, to.iter().sum::<DVec2>() / k)
+    };
+    // z = Σ conj(p̃) q̃ / Σ |p̃|² as a complex number (scale · rotation).
+    let (mut num, mut den) = (DVec2::ZERO, 0.0);
+    for (p, q) in from.iter().zip(to) {
+        let (p, q) = (*p - fc, *q - tc);
+        num += DVec2::new(p.dot(q), p.perp_dot(q));
+        den += p.length_squared();
+    }
+    let (blo, bhi) = bounds(layout);
+    let size = (bhi - blo).max(DVec2::splat(1e-300));
+    if from.len() >= 2 && den > 1e-24 * size.length_squared() && num.length() > 0.0 {
+        return Similarity {
+            z: num / den,
+            from: fc,
+            to: tc,
+        };
+    }
+    let (lo, hi) = room.setup().region.layout_box();
+    let s = FIRST_FILL * ((hi - lo) / size).min_element();
+    let centre = 0.5 * (blo + bhi);
+    let (pivot, at) = if from.is_empty() {
+        (centre, 0.5 * (lo + hi))
+    } else {
+        (fc, tc)
+    };
+    Similarity {
+        z: DVec2::new(s, 0.0),
+        from: pivot,
+        to: at,
+    }
+}
+
+/// `p ↦ to + z · (p − from)`, `z` a complex number (scale and rotation).
+#[derive(Debug, Clone, Copy)]
+struct Similarity {
+    z: DVec2,
+    from: DVec2,
+    to: DVec2,
+}
+
+impl Similarity {
+    fn apply(&self, p: DVec2) -> DVec2 {
+        let (z, d) = (self.z, p - self.from);
+        self.to + DVec2::new(z.x * d.x - z.y * d.y, z.y * d.x + z.x * d.y)
+    }
+}
+
+/// A finished layout without two targets to set its size, scaled up about
+/// `pivot` (its one target, or its own centre) as far as its room admits,
+/// up to [`FINAL_FILL`] of the region: the largest island that fits.
+pub fn fill_region(room: &Room, layout: &mut [DVec2], triangles: &[[u32; 3]], pivot: Option<DVec2>) {
+    let (lo, hi) = room.setup().region.layout_box();
+    let (blo, bhi) = bounds(layout);
+    let size = (bhi - blo).max(DVec2::splat(1e-300));
+    let most = FINAL_FILL * ((hi - lo) / size).min_element();
+    if most.is_nan() || most <= 1.0 {
+        return;
+    }
+    let centre = pivot.unwrap_or(0.5 * (blo + bhi));
+    // With no target, the centre may move to the region's centre.
+    let to = if pivot.is_some() { centre } else { 0.5 * (lo + hi) };
+    let scaled = |s: f64| -> Vec<DVec2> { layout.iter().map(|&p| to + (p - centre) * s).collect() };
+    let fits = |l: &[DVec2]| room.admits(l).is_ok() && guard::all_positive_as_stored(l, triangles);
+    let (mut good, mut bad) = (1.0, most);
+    let mut best = None;
+    if fits(&scaled(most)) {
+        best = Some(scaled(most));
+    } else {
+        for _ in 0..16 {
+            let mid = 0.5 * (good + bad);
+            let candidate = scaled(mid);
+            if fits(&candidate) {
+                good = mid;
+                best = Some(candidate);
+            } else {
+                bad = mid;
+            }
+        }
+    }
+    if let Some(b) = best {
+        layout.copy_from_slice(&b);
+    }
+}

@@ -1,0 +1,257 @@
+//! Global injectivity, decided exactly: boundary edges that meet, points
+//! inside loops or triangles. With every triangle positive (the
+//! [`crate::guard`]), a chart is one-to-one exactly when its boundary loops
+//! are disjoint simple curves, holes inside the outer loop; two charts
+//! overlap exactly when their boundaries cross or one lies inside the other.
+//! Every predicate is the exact orientation test on the given coordinates.
+
+use crate::guard::orientation;
+use glam::DVec2;
+
+/// What counts as two edges meeting.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Contact {
+    /// Interiors crossing at one point, or overlapping along a stretch of
+    /// both (what a checker of other tools' layouts reports: touching is not
+    /// overlapping).
+    Proper,
+    /// Any common point except a shared endpoint of adjacent edges (what the
+    /// solver's own layouts must avoid: it keeps everything apart).
+    Any,
+}
+
+fn sign(x: f64) -> i8 {
+    if x > 0.0 {
+        1
+    } else if x < 0.0 {
+        -1
+    } else {
+        0
+    }
+}
+
+/// `p` lies on the closed segment `a b`, given that the three are collinear.
+fn on_segment(a: DVec2, b: DVec2, p: DVec2) -> bool {
+    p.x >= a.x.min(b.x) && p.x <= a.x.max(b.x) && p.y >= a.y.min(b.y) && p.y <= a.y.max(b.y)
+}
+
+/// Whether the closed segments `a b` and `c d` meet as `contact` says:
+/// `Any`, a common point; `Proper`, interiors crossing at one point, or a
+/// common stretch of positive length.
+pub fn segments_meet(a: DVec2, b: DVec2, c: DVec2, d: DVec2, contact: Contact) -> bool {
+    let o1 = sign(orientation(a, b, c));
+    let o2 = sign(orientation(a, b, d));
+    let o3 = sign(orientation(c, d, a));
+    let o4 = sign(orientation(c, d, b));
+    if o1 * o2 < 0 && o3 * o4 < 0 {
+        return true;
+    }
+    if o1 == 0 && o2 == 0 {
+        return collinear_overlap(a, b, c, d) >= Overlap::Point
+            && (contact == Contact::Any || collinear_overlap(a, b, c, d) == Overlap::Stretch);
+    }
+    contact == Contact::Any
+        && ((o1 == 0 && on_segment(a, b, c))
+            || (o2 == 0 && on_segment(a, b, d))
+            || (o3 == 0 && on_segment(c, d, a))
+            || (o4 == 0 && on_segment(c, d, b)))
+}
+
+/// How much two collinear segments have in common.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Overlap {
+    Nothing,
+    Point,
+    Stretch,
+}
+
+fn collinear_overlap(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> Overlap {
+    // Project on an axis the segments are not perpendicular to: exact, as
+    // the points are collinear.
+    let vertical = a.x == b.x && c.x == d.x;
+    let axis = |p: DVec2| if vertical { p.y } else { p.x };
+    let lo = axis(a).min(axis(b)).max(axis(c).min(axis(d)));
+    let hi = axis(a).max(axis(b)).min(axis(c).max(axis(d)));
+    if hi > lo {
+        Overlap::Stretch
+    } else if hi == lo {
+        Overlap::Point
+    } else {
+        Overlap::Nothing
+    }
+}
+
+/// Edges `(from, to)` indexing `points`.
+pub type Edge = [u32; 2];
+
+/// Pairs of edges that meet (indices into `edges`), at most `limit` of
+/// them. Pairs that share a vertex index are adjacent along a loop and meet
+/// only if they fold back onto each other. `skip(i, j)` leaves out pairs
+/// that do not matter (two edges of the same obstacle, say).
+///
+/// A sweep over x: edges sorted by their left end, each tested against the
+/// edges that start before it ends (exactly, with the orientation test).
+pub fn meeting_pairs(
+    points: &[DVec2],
+    edges: &[Edge],
+    contact: Contact,
+    limit: usize,
+    skip: impl Fn(usize, usize) -> bool,
+) -> Vec<(usize, usize)> {
+    let span = |e: &Edge| {
+        let (a, b) = (points[e[0] as usize], points[e[1] as usize]);
+        (a.x.min(b.x), a.x.max(b.x), a.y.min(b.y), a.y.max(b.y))
+    };
+    let spans: Vec<(f64, f64, f64, f64)> = edges.iter().map(span).collect();
+    let mut order: Vec<usize> = (0..edges.len()).collect();
+    order.sort_unstable_by(|&i, &j| spans[i].0.total_cmp(&spans[j].0));
+    let mut out = Vec::new();
+    for (k, &i) in order.iter().enumerate() {
+        let (_, x1, y0, y1) = spans[i];
+        for &j in &order[k + 1..] {
+            let (jx0, _, jy0, jy1) = spans[j];
+            if jx0 > x1 {
+                break;
+            }
+            if jy0 > y1 || jy1 < y0 || skip(i, j) {
+                continue;
+            }
+            if edges_meet(points, edges[i], edges[j], contact) {
+                out.push((i.min(j), i.max(j)));
+                if out.len() >= limit {
+                    return out;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Whether two edges meet; edges sharing a vertex index meet only if they
+/// overlap along a stretch (an edge folded back onto its neighbour).
+fn edges_meet(points: &[DVec2], e: Edge, f: Edge, contact: Contact) -> bool {
+    let p = |v: u32| points[v as usize];
+    let shares = e[0] == f[0] || e[0] == f[1] || e[1] == f[0] || e[1] == f[1];
+    if shares {
+        if e == f || e == [f[1], f[0]] {
+            return true;
+        }
+        let (a, b, c, d) = (p(e[0]), p(e[1]), p(f[0]), p(f[1]));
+        return orientation(a, b, c) == 0.0
+            && orientation(a, b, d) == 0.0
+            && collinear_overlap(a, b, c, d) == Overlap::Stretch;
+    }
+    segments_meet(p(e[0]), p(e[1]), p(f[0]), p(f[1]), contact)
+}
+
+/// Winding number of the closed polylines `edges` around `q` (0 outside
+/// all of them; a point on an edge counts by the half-open rule).
+pub fn winding_number(q: DVec2, points: &[DVec2], edges: &[Edge]) -> i32 {
+    let mut w = 0;
+    for e in edges {
+        let (a, b) = (points[e[0] as usize], points[e[1] as usize]);
+        if a.y <= q.y {
+            if b.y > q.y && orientation(a, b, q) > 0.0 {
+                w += 1;
+            }
+        } else if b.y <= q.y && orientation(a, b, q) < 0.0 {
+            w -= 1;
+        }
+    }
+    w
+}
+
+/// Whether `q` lies strictly inside triangle `t` (either orientation).
+pub fn strictly_inside(q: DVec2, t: [DVec2; 3]) -> bool {
+    let s = [
+        sign(orientation(t[0], t[1], q)),
+        sign(orientation(t[1], t[2], q)),
+        sign(orientation(t[2], t[0], q)),
+    ];
+    s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0)
+}
+
+/// The boundary edges of a triangle set, directed as the triangles wind
+/// them: every directed edge whose reverse no triangle uses, each once
+/// (an edge used twice in one direction counts once).
+pub fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<Edge> {
+    let mut directed: Vec<Edge> = triangles
+        .iter()
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        .collect();
+    directed.sort_unstable();
+    directed.dedup();
+    directed
+        .iter()
+        .filter(|e| directed.binary_search(&[e[1], e[0]]).is_err())
+        .copied()
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(x: f64, y: f64) -> DVec2 {
+        DVec2::new(x, y)
+    }
+
+    #[test]
+    fn crossing_touching_and_collinear_segments() {
+        let (a, b) = (p(0.0, 0.0), p(1.0, 1.0));
+        assert!(segments_meet(a, b, p(0.0, 1.0), p(1.0, 0.0), Contact::Proper));
+        // T-junction: touching, not crossing.
+        assert!(!segments_meet(a, b, p(0.5, 0.5), p(1.0, 0.0), Contact::Proper));
+        assert!(segments_meet(a, b, p(0.5, 0.5), p(1.0, 0.0), Contact::Any));
+        // A common endpoint is a contact, not a crossing.
+        assert!(segments_meet(a, b, b, p(2.0, 0.0), Contact::Any));
+        assert!(!segments_meet(a, b, b, p(2.0, 0.0), Contact::Proper));
+        // Collinear: a stretch in common, one point in common, apart.
+        assert!(segments_meet(a, b, p(0.5, 0.5), p(2.0, 2.0), Contact::Proper));
+        assert!(!segments_meet(a, b, b, p(2.0, 2.0), Contact::Proper));
+        assert!(segments_meet(a, b, b, p(2.0, 2.0), Contact::Any));
+        assert!(!segments_meet(a, b, p(1.5, 1.5), p(2.0, 2.0), Contact::Any));
+        // Vertical collinear overlap (the y axis decides).
+        assert!(segments_meet(
+            p(0.0, 0.0),
+            p(0.0, 1.0),
+            p(0.0, 0.5),
+            p(0.0, 2.0),
+            Contact::Proper
+        ));
+        assert!(!segments_meet(
+            p(0.0, 0.0),
+            p(0.0, 1.0),
+            p(0.0, 1.5),
+            p(0.0, 2.0),
+            Contact::Any
+        ));
+    }
+
+    #[test]
+    fn meeting_pairs_finds_a_bow_tie_and_skips_neighbours() {
+        // A square traversed as a bow tie: edges 0-1-2-3 with 1 and 3 swapped.
+        let pts = [p(0.0, 0.0), p(1.0, 1.0), p(1.0, 0.0), p(0.0, 1.0)];
+        let edges = [[0, 1], [1, 2], [2, 3], [3, 0]];
+        let pairs = meeting_pairs(&pts, &edges, Contact::Any, 10, |_, _| false);
+        assert_eq!(pairs, vec![(0, 2)]);
+        let square = [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)];
+        assert!(meeting_pairs(&square, &edges, Contact::Any, 10, |_, _| false).is_empty());
+    }
+
+    #[test]
+    fn winding_and_triangles() {
+        let square = [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)];
+        let ccw = [[0, 1], [1, 2], [2, 3], [3, 0]];
+        assert_eq!(winding_number(p(0.5, 0.5), &square, &ccw), 1);
+        assert_eq!(winding_number(p(1.5, 0.5), &square, &ccw), 0);
+        let cw: Vec<Edge> = ccw.iter().map(|e| [e[1], e[0]]).collect();
+        assert_eq!(winding_number(p(0.5, 0.5), &square, &cw), -1);
+        assert!(strictly_inside(p(0.6, 0.2), [square[0], square[1], square[2]]));
+        assert!(!strictly_inside(p(0.5, 0.0), [square[0], square[1], square[2]]));
+        let tris = [[0, 1, 2], [0, 2, 3]];
+        let mut b = boundary_edges(&tris);
+        b.sort_unstable();
+        assert_eq!(b, vec![[0, 1], [1, 2], [2, 3], [3, 0]]);
+    }
+}
