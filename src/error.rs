@@ -34,7 +34,7 @@ pub enum Error {
         source: BarNetError,
     },
     #[error(
-        "chart {chart} does not fit anywhere in its region (u {:.4}..{:.4}, v {:.4}..{:.4}): other islands fill it; give a larger `region`, or `boundary: Square`",
+        "chart {chart} does not fit in its region (u {:.4}..{:.4}, v {:.4}..{:.4}) across a tenth of it or more: the targets ask for a chart far larger than it, or other islands fill it; give a larger `region`, or `boundary: Square`",
         region.min.x, region.max.x, region.min.y, region.max.y
     )]
     NoRoom { chart: u32, region: crate::free::Region },

@@ -98,6 +98,19 @@ pub fn meeting_pairs(
     limit: usize,
     skip: impl Fn(usize, usize) -> bool,
 ) -> Vec<(usize, usize)> {
+    meeting_pairs_within(points, edges, contact, limit, u64::MAX, skip).0
+}
+
+/// As [`meeting_pairs`], testing at most `budget` pairs (edges that overlap
+/// in x); `false` with the pairs when the budget ran out first.
+pub fn meeting_pairs_within(
+    points: &[DVec2],
+    edges: &[Edge],
+    contact: Contact,
+    limit: usize,
+    budget: u64,
+    skip: impl Fn(usize, usize) -> bool,
+) -> (Vec<(usize, usize)>, bool) {
     let span = |e: &Edge| {
         let (a, b) = (points[e[0] as usize], points[e[1] as usize]);
         (a.x.min(b.x), a.x.max(b.x), a.y.min(b.y), a.y.max(b.y))
@@ -106,6 +119,7 @@ pub fn meeting_pairs(
     let mut order: Vec<usize> = (0..edges.len()).collect();
     order.sort_unstable_by(|&i, &j| spans[i].0.total_cmp(&spans[j].0));
     let mut out = Vec::new();
+    let mut tested = 0u64;
     for (k, &i) in order.iter().enumerate() {
         let (_, x1, y0, y1) = spans[i];
         for &j in &order[k + 1..] {
@@ -113,18 +127,22 @@ pub fn meeting_pairs(
             if jx0 > x1 {
                 break;
             }
+            tested += 1;
+            if tested > budget {
+                return (out, false);
+            }
             if jy0 > y1 || jy1 < y0 || skip(i, j) {
                 continue;
             }
             if edges_meet(points, edges[i], edges[j], contact) {
                 out.push((i.min(j), i.max(j)));
                 if out.len() >= limit {
-                    return out;
+                    return (out, true);
                 }
             }
         }
     }
-    out
+    (out, true)
 }
 
 /// Whether two edges meet; edges sharing a vertex index meet only if they
@@ -188,6 +206,122 @@ pub fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<Edge> {
         .collect()
 }
 
+/// Where the charts of an atlas overlap (see [`atlas_overlaps`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AtlasOverlaps {
+    /// Per chart: pairs of its own boundary edges that cross.
+    pub self_crossings: Vec<usize>,
+    /// Pairs of charts `(a, b)`, `a < b`, whose triangles overlap.
+    pub overlapping: Vec<(u32, u32)>,
+    /// Every pair of boundary edges was looked at (false: the budget of
+    /// pair tests ran out, on a pathological atlas of long edges).
+    pub complete: bool,
+}
+
+/// Pair tests [`atlas_overlaps`] makes at most (about a second).
+pub const ATLAS_BUDGET: u64 = 100_000_000;
+
+/// Global injectivity of an atlas, exactly: `triangles` over `points`, each
+/// in chart `chart_of[t]` (charts share no vertex). Two charts overlap when
+/// boundary edges of theirs cross (touching does not count) or a point
+/// inside one lies strictly inside a triangle of the other; a chart crosses
+/// itself when two of its boundary edges cross. Crossing pairs beyond
+/// `limit` are not looked for.
+pub fn atlas_overlaps(
+    points: &[DVec2],
+    triangles: &[[u32; 3]],
+    chart_of: &[u32],
+    n_charts: usize,
+    limit: usize,
+) -> AtlasOverlaps {
+    let mut out = AtlasOverlaps {
+        self_crossings: vec![0; n_charts],
+        overlapping: Vec::new(),
+        complete: true,
+    };
+    let edges = boundary_edges(triangles);
+    // Every vertex is in one chart: the chart of an edge is its first vertex's.
+    let mut chart_of_vertex = vec![u32::MAX; points.len()];
+    for (t, &c) in triangles.iter().zip(chart_of) {
+        t.iter().for_each(|&v| chart_of_vertex[v as usize] = c);
+    }
+    let edge_chart = |e: &Edge| chart_of_vertex[e[0] as usize];
+    let (pairs, complete) = meeting_pairs_within(points, &edges, Contact::Proper, limit, ATLAS_BUDGET, |_, _| false);
+    out.complete = complete;
+    for (i, j) in pairs {
+        let (a, b) = (edge_chart(&edges[i]), edge_chart(&edges[j]));
+        if a == b {
+            out.self_crossings[a as usize] += 1;
+        } else {
+            out.overlapping.push((a.min(b), a.max(b)));
+        }
+    }
+    out.overlapping
+        .extend(containments(points, triangles, chart_of, n_charts));
+    out.overlapping.sort_unstable();
+    out.overlapping.dedup();
+    out
+}
+
+/// Pairs of charts one of which has a point strictly inside the other's
+/// triangles (one chart inside another, boundaries apart).
+fn containments(points: &[DVec2], triangles: &[[u32; 3]], chart_of: &[u32], n_charts: usize) -> Vec<(u32, u32)> {
+    let corners = |t: &[u32; 3]| t.map(|v| points[v as usize]);
+    // A probe per chart: the centroid of its first triangle with area.
+    let mut probe: Vec<Option<DVec2>> = vec![None; n_charts];
+    for (t, &c) in triangles.iter().zip(chart_of) {
+        let [a, b, d] = corners(t);
+        if probe[c as usize].is_none() && orientation(a, b, d) != 0.0 {
+            probe[c as usize] = Some((a + b + d) / 3.0);
+        }
+    }
+    // Probes bucketed by a uniform grid over their bounding box.
+    let probes: Vec<(u32, DVec2)> = probe
+        .iter()
+        .enumerate()
+        .filter_map(|(c, p)| p.map(|p| (c as u32, p)))
+        .collect();
+    let Some((lo, hi)) = probes
+        .iter()
+        .map(|&(_, p)| (p, p))
+        .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+    else {
+        return Vec::new();
+    };
+    let side = ((probes.len() as f64).sqrt().ceil() as usize).clamp(1, 1024);
+    let cell = ((hi - lo) / side as f64).max(DVec2::splat(1e-300));
+    let index = |p: DVec2| {
+        let q = ((p - lo) / cell).floor();
+        let clamp = |x: f64| (x.max(0.0) as usize).min(side - 1);
+        (clamp(q.x), clamp(q.y))
+    };
+    let mut cells: Vec<Vec<u32>> = vec![Vec::new(); side * side];
+    for (k, &(_, p)) in probes.iter().enumerate() {
+        let (x, y) = index(p);
+        cells[y * side + x].push(k as u32);
+    }
+    let mut out = Vec::new();
+    for (t, &c) in triangles.iter().zip(chart_of) {
+        let tri = corners(t);
+        let (tlo, thi) = (tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]));
+        if thi.cmplt(lo).any() || tlo.cmpgt(hi).any() {
+            continue;
+        }
+        let ((x0, y0), (x1, y1)) = (index(tlo), index(thi));
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                for &k in &cells[y * side + x] {
+                    let (other, p) = probes[k as usize];
+                    if other != c && strictly_inside(p, tri) {
+                        out.push((c.min(other), c.max(other)));
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,6 +371,33 @@ mod tests {
         assert_eq!(pairs, vec![(0, 2)]);
         let square = [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)];
         assert!(meeting_pairs(&square, &edges, Contact::Any, 10, |_, _| false).is_empty());
+    }
+
+    #[test]
+    fn atlas_overlaps_find_crossing_and_nested_charts() {
+        // Chart 0: a unit square; chart 1: a small square inside it; chart
+        // 2: a square half over chart 0's right edge; chart 3: far away.
+        let square = |o: DVec2, s: f64| [o, o + DVec2::new(s, 0.0), o + DVec2::splat(s), o + DVec2::new(0.0, s)];
+        let mut points = Vec::new();
+        let mut triangles = Vec::new();
+        let mut chart_of = Vec::new();
+        for (c, (o, s)) in [
+            (p(0.0, 0.0), 1.0),
+            (p(0.4, 0.4), 0.2),
+            (p(0.8, 0.3), 0.4),
+            (p(3.0, 3.0), 1.0),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let base = points.len() as u32;
+            points.extend(square(o, s));
+            triangles.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+            chart_of.extend([c as u32, c as u32]);
+        }
+        let found = atlas_overlaps(&points, &triangles, &chart_of, 4, 100);
+        assert_eq!(found.overlapping, vec![(0, 1), (0, 2)]);
+        assert_eq!(found.self_crossings, vec![0, 0, 0, 0]);
     }
 
     #[test]

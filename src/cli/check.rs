@@ -21,6 +21,10 @@ struct ChartCheck {
     mirrored: bool,
     stretch_l2: f64,
     stretch_linf: f64,
+    /// Pairs of its boundary edges that cross (it overlaps itself).
+    crossings: usize,
+    /// Other charts it overlaps.
+    overlaps: Vec<u32>,
 }
 
 #[derive(Debug, Serialize)]
@@ -31,6 +35,17 @@ struct ConstraintCheck {
     actual: DVec2,
     /// Distance from the stored UV to the target rounded to f32 (what glTF can hold).
     residual: f64,
+}
+
+/// The whole atlas: one-to-one or not.
+#[derive(Debug, Serialize)]
+struct Atlas {
+    /// No chart crosses itself or overlaps another (every pair looked at).
+    injective: bool,
+    /// Every pair of boundary edges was looked at.
+    complete: bool,
+    overlapping_pairs: usize,
+    crossings: usize,
 }
 
 /// The asset and its texture coordinates exactly as stored, per vertex of
@@ -83,8 +98,9 @@ fn load_checked(asset_path: &Path, uv_set: u32, mesh: Option<&str>) -> crate::Re
     })
 }
 
-/// Returns exit code 0 when every chart is fold-free and every constraint
-/// within tolerance, 2 otherwise.
+/// Returns exit code 0 when every chart is fold-free, the atlas one-to-one
+/// (no chart crosses itself or overlaps another) and every constraint within
+/// tolerance, 2 otherwise.
 pub fn run(
     asset_path: &Path,
     uv_set: u32,
@@ -95,19 +111,28 @@ pub fn run(
     let stored = load_checked(asset_path, uv_set, mesh)?;
     let welded = weld(&stored.asset.primitives);
     let uv_of = welded_uvs(&stored, &welded);
-    let charts: Vec<ChartCheck> = (0..welded.n_charts as u32)
+    let mut charts: Vec<ChartCheck> = (0..welded.n_charts as u32)
         .map(|c| check_chart(&welded, c, &uv_of, stored.axis))
         .collect();
+    let complete = check_overlaps(&welded, &uv_of, stored.axis, &mut charts);
     let (residuals, tolerance) = match constraints {
         Some(path) => check_constraints(path, &stored, &welded, &uv_of)?,
         None => (Vec::new(), crate::options::SolverOptions::DEFAULT.tolerance),
     };
-    let clean =
-        charts.iter().all(|c| c.flipped == 0 && c.zero_area == 0) && residuals.iter().all(|r| r.residual <= tolerance);
+    let injective = complete && charts.iter().all(|c| c.crossings == 0 && c.overlaps.is_empty());
+    let clean = injective
+        && charts.iter().all(|c| c.flipped == 0 && c.zero_area == 0)
+        && residuals.iter().all(|r| r.residual <= tolerance);
+    let atlas = Atlas {
+        injective,
+        complete,
+        overlapping_pairs: charts.iter().map(|c| c.overlaps.len()).sum::<usize>() / 2,
+        crossings: charts.iter().map(|c| c.crossings).sum(),
+    };
     if json {
-        print_json(&stored.asset, uv_set, &charts, &residuals);
+        print_json(&stored.asset, uv_set, &charts, &residuals, &atlas);
     } else {
-        print_lines(&stored.asset, uv_set, &charts, &residuals);
+        print_lines(&stored.asset, uv_set, &charts, &residuals, &atlas);
     }
     Ok(if clean { 0 } else { 2 })
 }
@@ -156,7 +181,30 @@ fn check_chart(welded: &WeldedMesh, c: u32, uv_of: &[[f32; 2]], axis: VAxis) -> 
         mirrored,
         stretch_l2: s.l2,
         stretch_linf: s.linf,
+        crossings: 0,
+        overlaps: Vec::new(),
     }
+}
+
+/// Global injectivity of the whole atlas as stored: each chart's boundary
+/// crossings and the charts it overlaps, written into `charts`; whether
+/// every pair of edges could be looked at.
+fn check_overlaps(welded: &WeldedMesh, uv_of: &[[f32; 2]], axis: VAxis, charts: &mut [ChartCheck]) -> bool {
+    let points: Vec<DVec2> = uv_of.iter().map(|&uv| layout_point(uv, axis)).collect();
+    let triangles = &welded.mesh.triangles;
+    let chart_of: Vec<u32> = triangles
+        .iter()
+        .map(|t| welded.chart_of_vertex[t[0] as usize].expect("used vertices have charts"))
+        .collect();
+    let found = crate::injective::atlas_overlaps(&points, triangles, &chart_of, welded.n_charts, usize::MAX);
+    for (c, n) in charts.iter_mut().zip(&found.self_crossings) {
+        c.crossings = *n;
+    }
+    for &(a, b) in &found.overlapping {
+        charts[a as usize].overlaps.push(b);
+        charts[b as usize].overlaps.push(a);
+    }
+    found.complete
 }
 
 /// Each constraint's residual, and the file's tolerance.
@@ -186,18 +234,31 @@ fn check_constraints(
     Ok((residuals, loaded.solver.tolerance))
 }
 
-fn print_json(asset: &crate::io::SourceAsset, uv_set: u32, charts: &[ChartCheck], residuals: &[ConstraintCheck]) {
+fn print_json(
+    asset: &crate::io::SourceAsset,
+    uv_set: u32,
+    charts: &[ChartCheck],
+    residuals: &[ConstraintCheck],
+    atlas: &Atlas,
+) {
     let out = serde_json::json!({
         "asset": asset.path.display().to_string(),
         "mesh": asset.mesh_index,
         "uv_set": uv_set,
         "charts": charts,
+        "atlas": atlas,
         "constraints": residuals,
     });
     super::print_out(&serde_json::to_string_pretty(&out).expect("json"));
 }
 
-fn print_lines(asset: &crate::io::SourceAsset, uv_set: u32, charts: &[ChartCheck], residuals: &[ConstraintCheck]) {
+fn print_lines(
+    asset: &crate::io::SourceAsset,
+    uv_set: u32,
+    charts: &[ChartCheck],
+    residuals: &[ConstraintCheck],
+    atlas: &Atlas,
+) {
     let mut lines = vec![format!(
         "{} mesh {} TEXCOORD_{uv_set}: {} charts",
         asset.path.display(),
@@ -206,17 +267,29 @@ fn print_lines(asset: &crate::io::SourceAsset, uv_set: u32, charts: &[ChartCheck
     )];
     lines.extend(charts.iter().map(|c| {
         format!(
-            "chart {:>4}: {:>7} vertices {:>7} triangles  flipped {:>6}  zero-area {:>6}  stretch L2 {:>9.4}  L∞ {:>10.4}{}",
+            "chart {:>4}: {:>7} vertices {:>7} triangles  flipped {:>6}  zero-area {:>6}  crossings {:>4}  stretch L2 {:>9.4}  L∞ {:>10.4}{}{}",
             c.chart,
             c.vertices,
             c.triangles,
             c.flipped,
             c.zero_area,
+            c.crossings,
             c.stretch_l2,
             c.stretch_linf,
-            if c.mirrored { "  (mirrored)" } else { "" }
+            if c.mirrored { "  (mirrored)" } else { "" },
+            overlap_words(&c.overlaps)
         )
     }));
+    lines.push(if atlas.injective {
+        "atlas: one-to-one (no chart crosses itself or overlaps another)".to_string()
+    } else if !atlas.complete {
+        "atlas: not fully checked (too many long overlapping edges); treated as overlapping".to_string()
+    } else {
+        format!(
+            "atlas: NOT one-to-one: {} boundary crossings inside charts, {} pairs of overlapping charts",
+            atlas.crossings, atlas.overlapping_pairs
+        )
+    });
     lines.extend(residuals.iter().map(|r| {
         format!(
             "constraints[{}] vertex {}: target ({:.6}, {:.6}) actual ({:.6}, {:.6}) residual {:.3e}",
@@ -224,4 +297,23 @@ fn print_lines(asset: &crate::io::SourceAsset, uv_set: u32, charts: &[ChartCheck
         )
     }));
     super::print_out(&lines.join("\n"));
+}
+
+/// `  overlaps charts 3, 7` (at most eight named), or nothing.
+fn overlap_words(overlaps: &[u32]) -> String {
+    if overlaps.is_empty() {
+        return String::new();
+    }
+    let named: Vec<String> = overlaps.iter().take(8).map(u32::to_string).collect();
+    let more = overlaps.len().saturating_sub(8);
+    format!(
+        "  overlaps chart{} {}{}",
+        if overlaps.len() > 1 { "s" } else { "" },
+        named.join(", "),
+        if more > 0 {
+            format!(" and {more} more")
+        } else {
+            String::new()
+        }
+    )
 }

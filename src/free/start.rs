@@ -47,6 +47,11 @@ const FINAL_FILL: f64 = 0.98;
 /// Shrink factors tried, in order, to fit a start into its room.
 const SHRINKS: [f64; 12] = [1.0, 1.0 - 1e-6, 0.99, 0.9, 0.75, 0.5, 0.25, 0.1, 0.03, 1e-2, 1e-3, 1e-4];
 
+/// A start must span at least this much of its region's diagonal: smaller
+/// ones (the gaps between other islands) would leave an absurdly small
+/// chart, so the chart does not fit.
+const MIN_SPAN: f64 = 0.1;
+
 /// The start of a free chart: see the module docs. `rest` are the filled
 /// chart's rest shapes (real area 1, virtual triangles light), `system` the
 /// Newton system over every vertex, `step1` step 1's layout. `None` when no
@@ -209,6 +214,9 @@ pub fn fit_into_room(
     for &shrink in &SHRINKS {
         for &(from, to) in &anchors {
             let layout: Vec<DVec2> = placed.iter().map(|&p| to + (p - from) * shrink).collect();
+            if (bhi - blo).length() * shrink < MIN_SPAN * (hi - lo).length() {
+                return None;
+            }
             // The room first: it looks at the boundary only.
             if room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles) {
                 return Some(FreeStart {

@@ -191,6 +191,14 @@ pub fn python_uvs(path: &Path, uv_set: u32) -> (Vec<[f64; 2]>, u64) {
     (uvs, bad)
 }
 
+/// Global injectivity of mesh 0's TEXCOORD_<set>, decided by the
+/// independent Python reader with exact arithmetic: `islands`,
+/// `crossings` (boundary edges of one island crossing), `overlapping_pairs`
+/// (islands overlapping each other), `min` and `max` of the UVs.
+pub fn python_injectivity(path: &Path, uv_set: u32) -> serde_json::Value {
+    python_reader(path, &[&uv_set.to_string(), "injectivity"])
+}
+
 /// Address space a hostile-input run of the binary may use (bytes).
 pub const MEMORY_LIMIT: u64 = 1 << 30;
 /// Wall time a hostile-input run may take.

@@ -1,16 +1,22 @@
 #!/usr/bin/env python3
 """Independent glTF reader for uvpin's tests (standard library only).
 
-Usage: read_gltf.py FILE.glb|FILE.gltf UV_SET [uvs]
+Usage: read_gltf.py FILE.glb|FILE.gltf UV_SET [uvs | injectivity]
 
 Parses the container, decodes accessors (float / normalised integer UVs,
 integer indices), and prints JSON per primitive of every mesh: vertex and
 triangle counts and the orientation of each triangle in TEXCOORD_<UV_SET>:
 `negative` is what a fold-free glTF layout has (front faces counter-clockwise
 as displayed, v down), `positive` is a flipped triangle, `zero` is degenerate.
-With `uvs`, each primitive also lists its texture coordinates.
+With `uvs`, each primitive also lists its texture coordinates. With
+`injectivity`, it prints for the whole mesh (all primitives, vertices welded
+by equal UV within a primitive) how many pairs of UV boundary edges properly
+cross, how many pairs of islands overlap (crossing boundaries, or one inside
+the other), and the UV bounding box, all decided with exact rational
+arithmetic.
 """
 import base64, json, os, struct, sys
+from fractions import Fraction
 
 def load(path):
     data = open(path, "rb").read()
@@ -59,9 +65,101 @@ def accessor(doc, buffers, index):
         out.append(vals)
     return out
 
+def orient(a, b, c):
+    """Sign of the doubled area of a b c, exact (floats are exact rationals)."""
+    d = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
+    bound = 1e-9 * (abs(b[0] - a[0]) + abs(c[0] - a[0])) * (abs(b[1] - a[1]) + abs(c[1] - a[1]))
+    if abs(d) > bound:
+        return 1 if d > 0 else -1
+    fa, fb, fc = [tuple(map(Fraction, p)) for p in (a, b, c)]
+    e = (fb[0] - fa[0]) * (fc[1] - fa[1]) - (fc[0] - fa[0]) * (fb[1] - fa[1])
+    return (e > 0) - (e < 0)
+
+def proper_crossing(a, b, c, d):
+    """Interiors cross at one point, or collinear segments share a stretch."""
+    o1, o2, o3, o4 = orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b)
+    if o1 * o2 < 0 and o3 * o4 < 0:
+        return True
+    if o1 == 0 and o2 == 0:
+        k = 0 if (a[0] != b[0] or c[0] != d[0]) else 1
+        lo = max(min(a[k], b[k]), min(c[k], d[k]))
+        hi = min(max(a[k], b[k]), max(c[k], d[k]))
+        return hi > lo
+    return False
+
+def inside(p, t):
+    s = [orient(t[0], t[1], p), orient(t[1], t[2], p), orient(t[2], t[0], p)]
+    return all(x > 0 for x in s) or all(x < 0 for x in s)
+
+def injectivity(doc, buffers, uv_set):
+    points, tris = {}, []
+    key = f"TEXCOORD_{uv_set}"
+    for mesh in doc.get("meshes", [])[:1]:
+        for pi, prim in enumerate(mesh["primitives"]):
+            if key not in prim["attributes"]:
+                continue
+            uv = accessor(doc, buffers, prim["attributes"][key])
+            n = len(uv)
+            idx = [i[0] for i in accessor(doc, buffers, prim["indices"])] if "indices" in prim else list(range(n))
+            ids = [points.setdefault((pi, tuple(uv[i])), len(points)) for i in range(n)]
+            tris += [tuple(ids[idx[3 * t + k]] for k in range(3)) for t in range(len(idx) // 3)]
+    pts = [None] * len(points)
+    for (pi, p), i in points.items():
+        pts[i] = p
+    parent = list(range(len(pts)))
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+    for t in tris:
+        for v in t[1:]:
+            parent[find(v)] = find(t[0])
+    directed = set()
+    for t in tris:
+        for k in range(3):
+            directed.add((t[k], t[(k + 1) % 3]))
+    edges = [e for e in directed if (e[1], e[0]) not in directed]
+    edges.sort(key=lambda e: min(pts[e[0]][0], pts[e[1]][0]))
+    crossings, pairs = 0, set()
+    for i, e in enumerate(edges):
+        a, b = pts[e[0]], pts[e[1]]
+        xmax = max(a[0], b[0])
+        for f in edges[i + 1:]:
+            c, d = pts[f[0]], pts[f[1]]
+            if min(c[0], d[0]) > xmax:
+                break
+            if len({e[0], e[1], f[0], f[1]}) < 4:
+                continue
+            if proper_crossing(a, b, c, d):
+                ia, ib = find(e[0]), find(f[0])
+                if ia == ib:
+                    crossings += 1
+                else:
+                    pairs.add((min(ia, ib), max(ia, ib)))
+    probes = {}
+    for t in tris:
+        r = find(t[0])
+        a, b, c = (pts[v] for v in t)
+        if r not in probes and orient(a, b, c) != 0:
+            probes[r] = tuple((a[k] + b[k] + c[k]) / 3 for k in range(2))
+    for t in tris:
+        r = find(t[0])
+        tri = [pts[v] for v in t]
+        for other, p in probes.items():
+            if other != r and inside(p, tri):
+                pairs.add((min(r, other), max(r, other)))
+    us = [p[0] for p in pts] or [0.0]
+    vs = [p[1] for p in pts] or [0.0]
+    return {"islands": len({find(v) for v in range(len(pts))}), "crossings": crossings,
+            "overlapping_pairs": len(pairs), "min": [min(us), min(vs)], "max": [max(us), max(vs)]}
+
 def main():
     path, uv_set = sys.argv[1], int(sys.argv[2])
     doc, buffers = load(path)
+    if len(sys.argv) > 3 and sys.argv[3] == "injectivity":
+        print(json.dumps(injectivity(doc, buffers, uv_set)))
+        return
     result = []
     for mi, mesh in enumerate(doc.get("meshes", [])):
         for pi, prim in enumerate(mesh["primitives"]):

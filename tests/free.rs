@@ -1,0 +1,393 @@
+//! The free boundary: witnessed cases reached exactly and globally
+//! injective (checked by the independent reader), random disks with holes
+//! never folding, crossing or leaving their region, atlas islands kept
+//! apart, the paper's crossing pair.
+
+mod common;
+use common::*;
+use glam::{DVec2, DVec3};
+use uvpin::free::Region;
+use uvpin::mesh::TriMesh;
+use uvpin::param::{uv_to_xy, xy_to_uv};
+use uvpin::testing::{Rng, grid_mesh, random_disk, smooth_warp, swirl};
+
+/// The outline of a witness disk.
+#[derive(Debug, Clone, Copy)]
+enum Outline {
+    Circle,
+    /// A star-shaped blob: radius `1 + 0.25 sin(3θ + φ) + 0.1 cos 5θ`.
+    Blob,
+}
+
+/// A planar disk with `outline`, triangulated in `rings` concentric rings
+/// (ring `i` has `6 i` vertices), lifted onto a bumpy height field: the
+/// mesh, and its planar positions inside the texture (the witness, a
+/// bijective layout with that outline).
+fn witness_disk(rings: usize, outline: Outline, seed: u64) -> (TriMesh, Vec<DVec2>) {
+    let mut rng = Rng::new(seed);
+    let (a, b) = (rng.range(0.1, 0.3), rng.range(1.0, 3.0));
+    let turn = rng.range(0.0, std::f64::consts::TAU);
+    let radius = |t: f64| match outline {
+        Outline::Circle => 1.0,
+        Outline::Blob => 1.0 + 0.25 * (3.0 * t + turn).sin() + 0.1 * (5.0 * t).cos(),
+    };
+    let mut witness = vec![DVec2::ZERO];
+    let mut start = vec![0usize];
+    for i in 1..=rings {
+        start.push(witness.len());
+        for k in 0..6 * i {
+            let t = std::f64::consts::TAU * k as f64 / (6 * i) as f64;
+            witness.push(DVec2::from_angle(t) * (i as f64 / rings as f64) * radius(t));
+        }
+    }
+    let angle = |i: usize, k: usize| k as f64 / (6 * i).max(1) as f64;
+    let mut triangles = Vec::new();
+    for i in 0..rings {
+        let (n_in, n_out) = (if i == 0 { 1 } else { 6 * i }, 6 * (i + 1));
+        let inner = |k: usize| (start[i] + k % n_in) as u32;
+        let outer = |k: usize| (start[i + 1] + k % n_out) as u32;
+        let (mut p, mut q) = (0usize, 0usize);
+        while (p < n_in && i > 0) || q < n_out {
+            let next_inner = if i == 0 { f64::INFINITY } else { angle(i, p + 1) };
+            if q < n_out && (p >= n_in || angle(i + 1, q + 1) <= next_inner) {
+                triangles.push([inner(p), outer(q), outer(q + 1)]);
+                q += 1;
+            } else {
+                triangles.push([inner(p), outer(q), inner(p + 1)]);
+                p += 1;
+            }
+        }
+    }
+    let witness: Vec<DVec2> = witness.iter().map(|&d| DVec2::splat(0.5) + d * 0.3).collect();
+    let positions = witness
+        .iter()
+        .map(|w| DVec3::new(w.x, w.y, a * (b * w.x).sin() * (b * w.y).cos()))
+        .collect();
+    (TriMesh { positions, triangles }, witness)
+}
+
+/// Whether `layout` keeps every triangle positive.
+fn fold_free(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool {
+    uvpin::guard::all_positive(layout, triangles)
+}
+
+/// Solves `mesh` with `constraints` (texture coordinates) through the CLI
+/// under `extra` (constraint-file fields), checks the written file with the
+/// independent reader, and returns the report.
+fn solve_file(
+    name: &str,
+    mesh: &TriMesh,
+    constraints: &[(u32, DVec2)],
+    extra: &str,
+) -> (serde_json::Value, serde_json::Value) {
+    let tmp = TempDir::new(name);
+    let glb = tmp.path("m.glb");
+    write_mesh_glb(&glb, mesh);
+    let c: Vec<(u32, f64, f64)> = constraints.iter().map(|(v, t)| (*v, t.x, t.y)).collect();
+    let ron = tmp.path("m.uvpin.ron");
+    write_constraints(&ron, &glb, &c, extra);
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert!(matches!(o.status.code(), Some(0 | 2)), "{name}: {}", stderr(&o));
+    let check = python_injectivity(&out, 0);
+    let orientation = python_uv_orientation(&out, 0);
+    assert_eq!(orientation[0]["positive"], 0, "{name}: flipped as read back");
+    assert_eq!(orientation[0]["zero"], 0, "{name}: zero-area as read back");
+    (report, check)
+}
+
+fn pick(rng: &mut Rng, n: usize, k: usize) -> Vec<u32> {
+    let mut out: Vec<u32> = Vec::new();
+    while out.len() < k {
+        let v = rng.below(n) as u32;
+        if !out.contains(&v) {
+            out.push(v);
+        }
+    }
+    out
+}
+
+fn witnessed_free_cases_are_reached_exactly_and_one_to_one() {
+    let warps: [(&str, &dyn Fn(DVec2) -> DVec2); 3] = [
+        ("as laid out", &|p| p),
+        ("smooth warp", &|p| smooth_warp(p, 0.15)),
+        ("swirl", &|p| swirl(p, 1.5)),
+    ];
+    let mut cases = 0;
+    for outline in [Outline::Circle, Outline::Blob] {
+        for (seed, k) in [(1u64, 6usize), (2, 25)] {
+            let (mesh, witness) = witness_disk(9, outline, seed);
+            assert!(fold_free(&witness, &mesh.triangles), "the witness itself");
+            for (warp_name, warp) in &warps {
+                let warped: Vec<DVec2> = witness.iter().map(|&w| warp(w)).collect();
+                if !fold_free(&warped, &mesh.triangles) {
+                    continue;
+                }
+                let mut rng = Rng::new(seed + 10);
+                let constraints: Vec<(u32, DVec2)> = pick(&mut rng, mesh.positions.len(), k)
+                    .into_iter()
+                    .map(|v| (v, xy_to_uv(warped[v as usize])))
+                    .collect();
+                let name = format!("free {outline:?} seed {seed} k {k} {warp_name}");
+                let (report, check) = solve_file(&name, &mesh, &constraints, "    boundary: Free,\n");
+                assert_eq!(report["status"], "reached", "{name}: {report}");
+                assert!(report["max_residual"].as_f64().unwrap() <= 1e-9, "{name}");
+                assert_eq!(report["boundary_mode"], "free", "{name}");
+                assert_eq!(report["free"]["crossings"], 0, "{name}");
+                assert_eq!(check["crossings"], 0, "{name}: {check}");
+                assert_eq!(check["overlapping_pairs"], 0, "{name}: {check}");
+                let (lo, hi) = (&check["min"], &check["max"]);
+                assert!(
+                    lo[0].as_f64().unwrap() > 0.0 && lo[1].as_f64().unwrap() > 0.0,
+                    "{name}: {check}"
+                );
+                assert!(
+                    hi[0].as_f64().unwrap() < 1.0 && hi[1].as_f64().unwrap() < 1.0,
+                    "{name}: {check}"
+                );
+                cases += 1;
+            }
+        }
+    }
+    assert!(cases >= 10, "only {cases} witnessed cases");
+}
+
+/// A random region inside the texture, at least a third of it on each side.
+fn random_region(rng: &mut Rng) -> Region {
+    let (w, h) = (rng.range(0.35, 0.9), rng.range(0.35, 0.9));
+    let min = DVec2::new(rng.range(0.0, 1.0 - w), rng.range(0.0, 1.0 - h));
+    Region {
+        min,
+        max: min + DVec2::new(w, h),
+    }
+}
+
+fn random_free_solves_never_fold_cross_or_leave_their_region() {
+    let options: uvpin::Options = uvpin::options::SolverOptions::DEFAULT.into();
+    let mut rng = Rng::new(77);
+    let mut reached = 0;
+    for case in 0..24 {
+        let (n, holes) = (10 + rng.below(8), rng.below(3));
+        let mesh = random_disk(&mut rng, n, holes);
+        let region = random_region(&mut rng);
+        let k = rng.below(12);
+        let vertices = pick(&mut rng, mesh.positions.len(), k.min(mesh.positions.len()));
+        let targets: Vec<(u32, DVec2)> = vertices
+            .into_iter()
+            .map(|v| {
+                let t = DVec2::new(rng.range(0.05, 0.95), rng.range(0.05, 0.95));
+                (v, region.min + (region.max - region.min) * t)
+            })
+            .collect();
+        let pins = uvpin::Pins::new(&targets).within(region);
+        let name = format!(
+            "case {case} ({} vertices, {k} targets, {region:?})",
+            mesh.positions.len()
+        );
+        let solution = match uvpin::solve_mesh(&mesh, &pins, &options) {
+            Ok(s) => s,
+            Err(e) => panic!("{name}: {e}"),
+        };
+        let r = &solution.report;
+        assert!(r.orientation.is_clean(), "{name}: {:?}", r.orientation);
+        assert_eq!(r.free.as_ref().map(|f| f.crossings), Some(0), "{name}");
+        let layout: Vec<DVec2> = solution
+            .uvs
+            .iter()
+            .map(|uv| uv_to_xy(DVec2::new(uv[0] as f64, uv[1] as f64)))
+            .collect();
+        assert!(fold_free(&layout, &mesh.triangles), "{name}");
+        for uv in &solution.uvs {
+            let p = DVec2::new(uv[0] as f64, uv[1] as f64);
+            assert!(region.contains_uv(p), "{name}: {p} outside");
+        }
+        assert!(r.stretch_final.l2 < 50.0, "{name}: squeezed, L2 {}", r.stretch_final.l2);
+        reached += usize::from(r.status == uvpin::Status::Reached);
+    }
+    // Random targets are mostly unreachable; some must still be reached.
+    assert!(reached >= 3, "only {reached} of 24 reached");
+}
+
+/// Two charts with UVs side by side; the left one constrained.
+fn two_islands() -> (TriMesh, Vec<[f32; 2]>) {
+    let a = grid_mesh(8, 8);
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    let mut uvs = Vec::new();
+    for (k, (u0, u1)) in [(0.05f64, 0.45f64), (0.55, 0.95)].into_iter().enumerate() {
+        let base = positions.len() as u32;
+        for p in &a.positions {
+            positions.push(DVec3::new(p.x + 2.0 * k as f64, p.y, 0.2 * (3.0 * p.x).sin()));
+            uvs.push([(u0 + (u1 - u0) * p.x) as f32, (0.05 + 0.9 * (1.0 - p.y)) as f32]);
+        }
+        triangles.extend(a.triangles.iter().map(|t| t.map(|v| v + base)));
+    }
+    (TriMesh { positions, triangles }, uvs)
+}
+
+fn an_island_is_solved_inside_itself_and_the_other_stays_bit_identical() {
+    let (mesh, uvs) = two_islands();
+    let tmp = TempDir::new("free-atlas");
+    let glb = tmp.path("atlas.glb");
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let (json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, Some(&uvs), "atlas");
+    uvpin::io::gltf_file::write_new_document(&json, &blob, &glb).unwrap();
+    // Left island: pull three vertices about, one a little past its right edge.
+    let constraints = [(9u32, 0.12, 0.8), (27, 0.25, 0.55), (47, 0.47, 0.32)];
+    let ron = tmp.path("atlas.uvpin.ron");
+    write_constraints(&ron, &glb, &constraints, "");
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(report["boundary_mode"], "free");
+    assert_eq!(report["free"]["region_source"], "island");
+    let region = &report["free"]["region"];
+    let (rmin, rmax) = (region["min"][0].as_f64().unwrap(), region["max"][0].as_f64().unwrap());
+    assert!(
+        rmin >= 0.05 - 1e-6 && rmax < 0.5,
+        "the region grew only to the target: {region}"
+    );
+    let (written, bad) = python_uvs(&out, 0);
+    assert_eq!(bad, 0);
+    let half = uvs.len() / 2;
+    for (i, (w, u)) in written.iter().zip(&uvs).enumerate() {
+        if i >= half {
+            assert_eq!(
+                (w[0] as f32).to_bits(),
+                u[0].to_bits(),
+                "vertex {i} of the other island moved"
+            );
+            assert_eq!(
+                (w[1] as f32).to_bits(),
+                u[1].to_bits(),
+                "vertex {i} of the other island moved"
+            );
+        } else {
+            assert!(w[0] > rmin && w[0] < rmax, "vertex {i} left its island's region: {w:?}");
+        }
+    }
+    let check = python_injectivity(&out, 0);
+    assert_eq!(check["islands"], 2);
+    assert_eq!(check["crossings"], 0, "{check}");
+    assert_eq!(check["overlapping_pairs"], 0, "{check}");
+    // `boundary: Square` lays the same island over the whole texture, on
+    // top of the other one: the request is honoured, and `check` says so.
+    write_constraints(&ron, &glb, &constraints[..2], "    boundary: Square,\n");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(report["boundary_mode"], "square");
+    let checked = uvpin(&["check", out.to_str().unwrap()]);
+    assert_eq!(checked.status.code(), Some(2), "{}", stdout(&checked));
+    assert!(stdout(&checked).contains("NOT one-to-one"), "{}", stdout(&checked));
+}
+
+fn the_papers_crossing_pair_is_reached_with_a_free_boundary() {
+    let mut mesh = grid_mesh(41, 41);
+    for p in &mut mesh.positions {
+        p.z = 0.2 * (2.0 * p.x).sin() * (3.0 * p.y).cos();
+    }
+    let (a, b) = (15 + 41 * 20, 25 + 41 * 20);
+    let at = |v: u32| {
+        let p = mesh.positions[v as usize];
+        xy_to_uv(DVec2::new(p.x, p.y) * 0.8 + 0.1)
+    };
+    let constraints = [(a, at(b)), (b, at(a))];
+    let (report, check) = solve_file("free crossing pair", &mesh, &constraints, "    boundary: Free,\n");
+    assert_eq!(report["status"], "reached", "{report}");
+    assert_eq!(check["crossings"], 0);
+}
+
+fn duck_body_stays_in_its_island_and_overlaps_no_other() {
+    let asset = shared_mesh("Duck.glb");
+    let source = uvpin::io::load_asset(&asset, None, 0, &Default::default()).unwrap();
+    let welded = uvpin::mesh::weld::weld(&source.primitives);
+    let sizes = welded.chart_sizes();
+    let body = (0..sizes.len()).max_by_key(|&c| sizes[c].1).unwrap() as u32;
+    let before = python_injectivity(&asset, 0);
+    // Three body vertices, each pulled a little from where it is.
+    let prim = &source.primitives[0];
+    let uvs = prim.uvs.as_ref().unwrap();
+    let mut rng = Rng::new(5);
+    let mut constraints = Vec::new();
+    while constraints.len() < 3 {
+        let i = rng.below(prim.positions.len());
+        if welded.chart_of_vertex[welded.vertex_of[0][i] as usize] == Some(body) {
+            let uv = DVec2::new(uvs[i][0] as f64, uvs[i][1] as f64);
+            let t = uv + DVec2::new(rng.range(-0.02, 0.02), rng.range(-0.02, 0.02));
+            constraints.push((i as u32, t.x, t.y));
+        }
+    }
+    let tmp = TempDir::new("free-duck");
+    let ron = tmp.path("duck.uvpin.ron");
+    write_constraints(&ron, &asset, &constraints, "");
+    let out = tmp.path("duck.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert!(matches!(o.status.code(), Some(0 | 2)), "{}", stderr(&o));
+    assert_eq!(report["free"]["region_source"], "island", "{report}");
+    assert_eq!(report["free"]["crossings"], 0);
+    let after = python_injectivity(&out, 0);
+    // The body's own folds are gone and it overlaps nothing; the other
+    // islands keep their own overlaps (mirrored pairs share texture).
+    assert_eq!(
+        after["crossings"].as_u64().unwrap(),
+        2,
+        "only chart 8's own crossings remain: {after} (before {before})"
+    );
+    let written = uvpin::io::load_asset(&out, None, 0, &Default::default()).unwrap();
+    let new_uvs = written.primitives[0].uvs.clone().unwrap();
+    let region = &report["free"]["region"];
+    let lo = DVec2::new(region["min"][0].as_f64().unwrap(), region["min"][1].as_f64().unwrap());
+    let hi = DVec2::new(region["max"][0].as_f64().unwrap(), region["max"][1].as_f64().unwrap());
+    for (i, (&w, &u)) in welded.vertex_of[0].iter().zip(&new_uvs).enumerate() {
+        let p = DVec2::new(u[0] as f64, u[1] as f64);
+        if welded.chart_of_vertex[w as usize] == Some(body) {
+            assert!(
+                p.cmpgt(lo).all() && p.cmplt(hi).all(),
+                "body vertex {i} at {p} left its island"
+            );
+        } else {
+            assert_eq!(
+                u.map(f32::to_bits),
+                uvs[i].map(f32::to_bits),
+                "vertex {i} of another island moved"
+            );
+        }
+    }
+    let checked = uvpin(&["check", out.to_str().unwrap(), "--json"]);
+    let json: serde_json::Value = serde_json::from_slice(&checked.stdout).unwrap();
+    let body_check = &json["charts"][body as usize];
+    assert_eq!(body_check["flipped"], 0, "{body_check}");
+    assert_eq!(body_check["crossings"], 0, "{body_check}");
+    assert_eq!(body_check["overlaps"], serde_json::json!([]), "{body_check}");
+}
+
+fn main() -> std::process::ExitCode {
+    run_cases(&[
+        (
+            "witnessed_free_cases_are_reached_exactly_and_one_to_one",
+            &[],
+            witnessed_free_cases_are_reached_exactly_and_one_to_one,
+        ),
+        (
+            "random_free_solves_never_fold_cross_or_leave_their_region",
+            &[],
+            random_free_solves_never_fold_cross_or_leave_their_region,
+        ),
+        (
+            "an_island_is_solved_inside_itself_and_the_other_stays_bit_identical",
+            &[],
+            an_island_is_solved_inside_itself_and_the_other_stays_bit_identical,
+        ),
+        (
+            "the_papers_crossing_pair_is_reached_with_a_free_boundary",
+            &[],
+            the_papers_crossing_pair_is_reached_with_a_free_boundary,
+        ),
+        (
+            "duck_body_stays_in_its_island_and_overlaps_no_other",
+            &[Needs::SharedMeshes],
+            duck_body_stays_in_its_island_and_overlaps_no_other,
+        ),
+    ])
+}
