@@ -4,12 +4,17 @@
 //! boundary drawn, unreached constraints red.
 //!
 //! `cargo run --release --example draw_layout -- assets/face.uvpin.ron docs/face-layout.svg`
+//!
+//! With a third argument `free`, the two panels are the final layouts with
+//! the square boundary and with a free one (the other charts' islands, if
+//! any, in grey):
+//! `cargo run --release --example draw_layout -- assets/face.uvpin.ron docs/free-layout.svg free`
 
 use glam::DVec2;
 use std::fmt::Write;
 use std::path::Path;
 use std::sync::Arc;
-use uvpin::constraints::ConstraintSource;
+use uvpin::constraints::{BoundaryChoice, ConstraintSource};
 use uvpin::options::SolverOptions;
 
 const SIZE: f64 = 460.0;
@@ -98,13 +103,78 @@ fn panel(
     }
 }
 
+/// Solves `ron` with its boundary setting replaced by `boundary` (if given).
+fn solve(ron: &Path, boundary: Option<BoundaryChoice>) -> uvpin::api::SolvedChart {
+    let (mut loaded, asset) = uvpin::load(ron, &SolverOptions::DEFAULT, &Default::default()).expect("load");
+    if boundary.is_some() {
+        loaded.file.boundary = boundary;
+    }
+    let options = loaded.solver;
+    let source = ConstraintSource::File(Arc::new(loaded));
+    uvpin::api::solve_chart(&source, &asset, &options).expect("solve")
+}
+
+/// The final layout's panel title.
+fn final_title(what: &str, report: &uvpin::Report) -> String {
+    format!(
+        "{what}: {} of {} on target, {} flipped, L2 {:.2}",
+        report.constraints.iter().filter(|c| c.reached).count(),
+        report.constraints.len(),
+        report.orientation.flipped,
+        report.stretch_final.l2
+    )
+}
+
+/// Square against free: the two final layouts side by side.
+fn compare(ron: &Path) -> String {
+    let mut svg = String::new();
+    for (k, (boundary, what)) in [(BoundaryChoice::Square, "square"), (BoundaryChoice::Free, "free")]
+        .into_iter()
+        .enumerate()
+    {
+        let solved = solve(ron, Some(boundary));
+        let layout = solved.solver.layout();
+        let data = &solved.prepared;
+        let outer = data.topology.outer_loop().to_vec();
+        let marks: Vec<(DVec2, DVec2, bool)> = solved
+            .report
+            .constraints
+            .iter()
+            .zip(&data.constraint_vertices)
+            .map(|(c, &v)| (layout[v as usize], uvpin::param::uv_to_xy(c.target), c.reached))
+            .collect();
+        let title = final_title(what, &solved.report);
+        panel(
+            &mut svg,
+            k as f64 * (SIZE + 2.0 * MARGIN),
+            &title,
+            layout,
+            data,
+            &outer,
+            &marks,
+        );
+    }
+    svg
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let (ron, out) = (Path::new(&args[1]), Path::new(&args[2]));
-    let (loaded, asset) = uvpin::load(ron, &SolverOptions::DEFAULT, &Default::default()).expect("load");
-    let options = loaded.solver;
-    let source = ConstraintSource::File(Arc::new(loaded));
-    let solved = uvpin::api::solve_chart(&source, &asset, &options).expect("solve");
+    let width = 2.0 * (SIZE + 2.0 * MARGIN);
+    let height = SIZE + 2.0 * MARGIN + 24.0;
+    let header = format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}">
+<defs><marker id="arrow" viewBox="0 0 10 10" refX="9" refY="5" markerWidth="6" markerHeight="6" orient="auto-start-reverse"><path d="M0,0L10,5L0,10z" fill="#1a9850"/></marker></defs>
+<rect width="100%" height="100%" fill="white"/>
+"##
+    );
+    if args.get(3).map(String::as_str) == Some("free") {
+        let svg = header + &compare(ron) + "</svg>\n";
+        std::fs::write(out, svg).expect("write svg");
+        println!("wrote {}", out.display());
+        return;
+    }
+    let solved = solve(ron, None);
     let report = &solved.report;
     let data = &solved.prepared;
     let step1 = &solved.step1.layout;
@@ -122,14 +192,7 @@ fn main() {
         .zip(&data.constraint_vertices)
         .map(|(c, &v)| (layout[v as usize], uvpin::param::uv_to_xy(c.target), c.reached))
         .collect();
-    let width = 2.0 * (SIZE + 2.0 * MARGIN);
-    let height = SIZE + 2.0 * MARGIN + 24.0;
-    let mut svg = format!(
-        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}">
-<defs><marker id="arrow" viewBox="0 0 10 10" refX="9" refY="5" markerWidth="6" markerHeight="6" orient="auto-start-reverse"><path d="M0,0L10,5L0,10z" fill="#1a9850"/></marker></defs>
-<rect width="100%" height="100%" fill="white"/>
-"##
-    );
+    let mut svg = header;
     panel(
         &mut svg,
         0.0,

@@ -67,7 +67,7 @@ pub struct SolverOptions {
     /// Polish: Newton steps at most (default 20).
     pub polish_iterations: u32,
     /// Polish charts up to this many vertices, where it is cheap (default
-    /// 20000). Above it the polish follows only a completion whose snap left
+    /// 50000). Above it the polish follows only a completion whose snap left
     /// the layout more distorted than step 1.
     pub polish_max_vertices: usize,
     /// Stop the completion and polish after this many milliseconds of solving
@@ -91,7 +91,7 @@ impl SolverOptions {
         weight_growth: 10.0,
         polish: true,
         polish_iterations: 20,
-        polish_max_vertices: 20_000,
+        polish_max_vertices: 50_000,
         time_budget_ms: None,
     };
 }

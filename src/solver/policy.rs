@@ -174,8 +174,8 @@ mod tests {
 
     #[test]
     fn the_polish_rule_follows_the_size_and_the_switches() {
-        assert_eq!(policy(20_000, |_| {}).polish, PolishRule::Always);
-        assert_eq!(policy(20_001, |_| {}).polish, PolishRule::IfSnapDistorts);
+        assert_eq!(policy(50_000, |_| {}).polish, PolishRule::Always);
+        assert_eq!(policy(50_001, |_| {}).polish, PolishRule::IfSnapDistorts);
         assert_eq!(policy(10, |o| o.polish = false).polish, PolishRule::Off);
         assert_eq!(policy(10, |o| o.guard = Guard::Paper).polish, PolishRule::Off);
     }
@@ -190,7 +190,7 @@ mod tests {
             small.after_spline(true, false, true),
             Done(PolishOutcome::NothingToMove)
         );
-        let large = policy(30_000, |_| {});
+        let large = policy(60_000, |_| {});
         let after = Reached::SplinePath;
         assert_eq!(
             large.after_spline(true, true, true),
@@ -221,7 +221,7 @@ mod tests {
     fn after_the_snap() {
         let small = policy(10, |_| {});
         assert_eq!(small.after_snap(false, true), Ok(PolishGoal::Distortion));
-        let large = policy(30_000, |_| {});
+        let large = policy(60_000, |_| {});
         assert_eq!(large.after_snap(true, true), Ok(PolishGoal::Distortion));
         assert_eq!(
             large.after_snap(false, true),
@@ -240,8 +240,8 @@ mod tests {
         assert!(!policy(10, |o| o.completion = Completion::Never).completion_follows_stall());
         assert!(!policy(10, |o| o.guard = Guard::Paper).completion_follows_stall());
         assert_eq!(policy(10, |_| {}).pattern_build(), Build::InBackground);
-        assert_eq!(policy(30_000, |_| {}).pattern_build(), Build::Lazily);
-        let always = policy(30_000, |o| o.completion = Completion::Always);
+        assert_eq!(policy(60_000, |_| {}).pattern_build(), Build::Lazily);
+        let always = policy(60_000, |o| o.completion = Completion::Always);
         assert_eq!(always.pattern_build(), Build::InBackground);
     }
 }

@@ -1,0 +1,299 @@
+//! The free boundary against the square one and step 1 on the shared
+//! meshes, with SLIM (libigl's, from PyPI) run in the same session on the
+//! same cases: stretch, how far the landmarks land from their targets, and
+//! time. `cargo bench --bench free [FILTER]`.
+//!
+//! Each case is witnessed: uvpin's own free layout of the mesh without
+//! landmarks (globally injective), pushed through a smooth bijective warp of
+//! the texture; 24 or 40 interior vertices get their warped positions as
+//! targets, so a fold-free, one-to-one layout meeting them exists. SLIM
+//! (symmetric Dirichlet, free boundary, landmarks as soft constraints with
+//! libigl's default penalty) starts from Tutte's embedding on a circle.
+
+mod common;
+use glam::DVec2;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use uvpin::constraints::BoundaryChoice;
+use uvpin::mesh::TriMesh;
+use uvpin::metrics::sander_stretch;
+use uvpin::options::SolverOptions;
+use uvpin::param::{uv_to_xy, xy_to_uv};
+use uvpin::testing::{Rng, smooth_warp};
+
+/// SLIM iterations per solve.
+const SLIM_ITERATIONS: usize = 100;
+
+/// One method's result on one case.
+#[derive(Debug, Clone, Default)]
+struct Outcome {
+    l2: Vec<f64>,
+    linf: Vec<f64>,
+    residual: Vec<f64>,
+    ms: Vec<f64>,
+    /// Flipped triangles, and pairs of boundary edges that cross (last run).
+    flips: usize,
+    crossings: usize,
+    reached: bool,
+}
+
+impl Outcome {
+    fn cells(&self) -> String {
+        if self.ms.is_empty() {
+            return "– | – | – | –".into();
+        }
+        let m = |v: &[f64]| common::median(v.to_vec());
+        let broken = match (self.flips, self.crossings) {
+            (0, 0) => String::new(),
+            (f, c) => format!(" ({f} flipped, {c} crossings)"),
+        };
+        format!(
+            "{:.3} | {:.2} | {:.1e}{broken} | {:.0}",
+            m(&self.l2),
+            m(&self.linf),
+            m(&self.residual),
+            m(&self.ms)
+        )
+    }
+}
+
+/// A witnessed case: targets, and the factor that scales the mesh to their
+/// layout's area (for SLIM, whose isometry is at the mesh's own scale).
+struct Case {
+    constraints: Vec<(u32, DVec2)>,
+    scale: f64,
+}
+
+/// Witnessed targets for `k` interior vertices of `mesh`; `None` when the
+/// witness does not hold up (the unconstrained free layout failed, or the
+/// warp folds it).
+fn witnessed_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Case> {
+    let pins = uvpin::Pins::new(&[]).with_boundary(BoundaryChoice::Free);
+    let free = uvpin::solve_mesh(mesh, &pins, &SolverOptions::DEFAULT.into()).ok()?;
+    let one_to_one = free.report.free.as_ref().is_some_and(|f| f.crossings == 0);
+    if !one_to_one || !free.report.orientation.is_clean() {
+        return None;
+    }
+    // Shrunk to leave the region's border alone, then warped.
+    let warped: Vec<DVec2> = free
+        .uvs
+        .iter()
+        .map(|uv| {
+            let p = uv_to_xy(DVec2::new(uv[0] as f64, uv[1] as f64));
+            smooth_warp(DVec2::splat(0.5) + (p - 0.5) * 0.8, 0.12)
+        })
+        .collect();
+    if !uvpin::guard::all_positive(&warped, &mesh.triangles) {
+        return None;
+    }
+    let topology = uvpin::mesh::topology::Topology::build(mesh).ok()?;
+    let mut on_boundary = vec![false; mesh.positions.len()];
+    topology
+        .loops
+        .iter()
+        .flatten()
+        .for_each(|&v| on_boundary[v as usize] = true);
+    let mut rng = Rng::new(seed);
+    let mut out: Vec<(u32, DVec2)> = Vec::new();
+    while out.len() < k {
+        let v = rng.below(mesh.positions.len()) as u32;
+        if !on_boundary[v as usize] && out.iter().all(|(w, _)| *w != v) {
+            out.push((v, xy_to_uv(warped[v as usize])));
+        }
+    }
+    let area = |l: &[DVec2]| uvpin::free::start::layout_area(l, &mesh.triangles);
+    let area_3d: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    Some(Case {
+        constraints: out,
+        scale: (area(&warped) / area_3d).sqrt(),
+    })
+}
+
+/// uvpin with `boundary`, one run: stretch, residual, time.
+fn run_uvpin(mesh: &TriMesh, constraints: &[(u32, DVec2)], boundary: BoundaryChoice, out: &mut Outcome) {
+    let pins = uvpin::Pins::new(constraints).with_boundary(boundary);
+    let t0 = std::time::Instant::now();
+    let s = uvpin::solve_mesh(mesh, &pins, &SolverOptions::DEFAULT.into()).expect("solve");
+    out.ms.push(t0.elapsed().as_secs_f64() * 1e3);
+    out.l2.push(s.report.stretch_final.l2);
+    out.linf.push(s.report.stretch_final.linf);
+    out.residual.push(s.report.max_residual);
+    out.flips = s.report.orientation.flipped + s.report.orientation.zero_area;
+    out.crossings = s.report.free.as_ref().map_or(0, |f| f.crossings);
+    out.reached = s.report.status == uvpin::Status::Reached;
+}
+
+/// Step 1 alone: its stretch, how far the landmarks are from their targets.
+fn run_step1(mesh: &TriMesh, constraints: &[(u32, DVec2)], out: &mut Outcome) {
+    let t0 = std::time::Instant::now();
+    let s = uvpin::step1(mesh, None).expect("step 1");
+    out.ms.push(t0.elapsed().as_secs_f64() * 1e3);
+    let layout: Vec<DVec2> = s
+        .vertex_layout()
+        .into_iter()
+        .map(|p| p.unwrap_or(DVec2::ZERO))
+        .collect();
+    let stretch = sander_stretch(&mesh.positions, &layout, &mesh.triangles);
+    out.l2.push(stretch.l2);
+    out.linf.push(stretch.linf);
+    let residual = constraints
+        .iter()
+        .map(|(v, t)| xy_to_uv(layout[*v as usize]).distance(*t))
+        .fold(0.0, f64::max);
+    out.residual.push(residual);
+}
+
+/// A Python with libigl: `target/bench-venv`, made (and libigl installed
+/// from PyPI) on first use. `None` (with why) when it cannot be had.
+fn slim_python() -> Result<PathBuf, String> {
+    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench-venv");
+    let python = venv.join("bin/python");
+    let has_igl = |p: &Path| {
+        Command::new(p)
+            .args(["-c", "import igl"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if has_igl(&python) {
+        return Ok(python);
+    }
+    let made = Command::new("python3").args(["-m", "venv"]).arg(&venv).status();
+    if !made.is_ok_and(|s| s.success()) {
+        return Err("python3 -m venv failed".into());
+    }
+    let pip = Command::new(&python)
+        .args(["-m", "pip", "install", "--quiet", "libigl", "numpy"])
+        .status();
+    if !pip.is_ok_and(|s| s.success()) || !has_igl(&python) {
+        return Err("pip install libigl failed".into());
+    }
+    Ok(python)
+}
+
+/// SLIM on the case, one run; `scale` takes the mesh to the targets' scale.
+fn run_slim(python: &Path, mesh: &TriMesh, case: &Case, tmp: &Path, out: &mut Outcome) {
+    let (constraints, scale) = (&case.constraints, case.scale);
+    let case = serde_json::json!({
+        "v": mesh.positions.iter().map(|p| [p.x * scale, p.y * scale, p.z * scale]).collect::<Vec<_>>(),
+        "f": mesh.triangles,
+        "b": constraints.iter().map(|(v, _)| v).collect::<Vec<_>>(),
+        "bc": constraints.iter().map(|(_, t)| { let p = uv_to_xy(*t); [p.x, p.y] }).collect::<Vec<_>>(),
+    });
+    let file = tmp.join("slim-case.json");
+    std::fs::write(&file, case.to_string()).expect("write case");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/helpers/slim.py");
+    let o = Command::new(python)
+        .arg(script)
+        .arg(&file)
+        .arg(SLIM_ITERATIONS.to_string())
+        .output()
+        .expect("run SLIM");
+    assert!(o.status.success(), "SLIM: {}", String::from_utf8_lossy(&o.stderr));
+    let result: serde_json::Value = serde_json::from_slice(&o.stdout).expect("SLIM JSON");
+    let layout: Vec<DVec2> = result["uv"]
+        .as_array()
+        .expect("uv")
+        .iter()
+        .map(|p| DVec2::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+        .collect();
+    out.ms.push(result["ms"].as_f64().unwrap());
+    let stretch = sander_stretch(&mesh.positions, &layout, &mesh.triangles);
+    out.l2.push(stretch.l2);
+    out.linf.push(stretch.linf);
+    let residual = constraints
+        .iter()
+        .map(|(v, t)| xy_to_uv(layout[*v as usize]).distance(*t))
+        .fold(0.0, f64::max);
+    out.residual.push(residual);
+    out.flips = uvpin::guard::count_orientations(&layout, &mesh.triangles).flipped
+        + uvpin::guard::count_orientations(&layout, &mesh.triangles).zero_area;
+    let edges = uvpin::injective::boundary_edges(&mesh.triangles);
+    out.crossings =
+        uvpin::injective::meeting_pairs(&layout, &edges, uvpin::injective::Contact::Proper, 10_000, |_, _| false).len();
+}
+
+fn main() {
+    let filter = common::filter();
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
+    if !shared.is_dir() {
+        eprintln!("(../shared/meshes not found: nothing to measure)");
+        return;
+    }
+    let python = slim_python();
+    if let Err(why) = &python {
+        eprintln!("(SLIM skipped: {why})");
+    }
+    let tmp = std::env::temp_dir().join(format!("uvpin-bench-free-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).expect("tmp");
+    let mut rows = Vec::new();
+    for (file, runs) in [
+        ("woody.glb", 5),
+        ("halftunnel.glb", 5),
+        ("alligator.glb", 5),
+        ("lion.glb", 3),
+        ("camelhead.glb", 3),
+        ("face.glb", 5),
+    ] {
+        for k in [24usize, 40] {
+            let name = format!("{file}, {k} landmarks");
+            if filter.as_ref().is_some_and(|f| !name.contains(f.as_str())) {
+                continue;
+            }
+            let asset = uvpin::io::load_asset(&shared.join(file), None, 0, &Default::default()).expect("mesh");
+            let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
+            let Some(case) = witnessed_case(&mesh, k, 7) else {
+                eprintln!("{name}: no witness");
+                continue;
+            };
+            let (mut step1, mut square, mut free, mut slim) = Default::default();
+            // Side by side: one run of each per round.
+            for round in 0..runs {
+                let constraints = &case.constraints;
+                run_step1(&mesh, constraints, &mut step1);
+                run_uvpin(&mesh, constraints, BoundaryChoice::Square, &mut square);
+                run_uvpin(&mesh, constraints, BoundaryChoice::Free, &mut free);
+                if let Ok(python) = &python
+                    && (round < 2 || mesh.positions.len() < 10_000)
+                {
+                    run_slim(python, &mesh, &case, &tmp, &mut slim);
+                }
+            }
+            eprintln!("{name}: free {}", free.cells());
+            rows.push((name, mesh.positions.len(), step1, square, free, slim));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+    let mut body = format!(
+        "Sander L2 and L∞ stretch (1 = isometry), largest distance of a landmark from its target (texture units), \
+         median milliseconds (`cargo bench --bench free`). Targets witnessed by a one-to-one free layout through a \
+         smooth warp; uvpin runs with its defaults (polish included). SLIM: libigl {} iterations from Tutte's \
+         embedding on a circle, landmarks as soft constraints; it keeps triangles from flipping, not the boundary \
+         from crossing itself.\n\n\
+         | case | vertices | step 1: L2 | L∞ | residual | ms | square: L2 | L∞ | residual | ms | free: L2 | L∞ | residual | ms | SLIM: L2 | L∞ | residual | ms |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        SLIM_ITERATIONS
+    );
+    for (name, n, step1, square, free, slim) in &rows {
+        let mark = |o: &Outcome| if o.reached { "" } else { " (partial)" };
+        body += &format!(
+            "| {name} | {n} | {} | {}{} | {}{} | {} |\n",
+            step1.cells(),
+            square.cells(),
+            mark(square),
+            free.cells(),
+            mark(free),
+            slim.cells()
+        );
+    }
+    if python.is_err() {
+        body += "\nSLIM was not run (no Python with libigl).\n";
+    }
+    common::publish("free", "Free boundary", &body);
+}
