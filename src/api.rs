@@ -271,10 +271,34 @@ fn solve_chart_timed(
     options: &SolverOptions,
     load_ms: f64,
 ) -> Result<SolvedChart, Error> {
+    let solved = solve_chart_reusing(source, asset, options, None, &|| false, load_ms)?;
+    Ok(solved.expect("never stopped"))
+}
+
+/// As [`solve_chart`], reusing what `previous` (a solve of the same asset
+/// content) computed that still applies: the weld, the chart's topology
+/// and hole fill, step 1 when the corners are the same, and the Newton
+/// pattern. `stop` is asked between ticks; when it says so the solve is
+/// dropped (`Ok(None)`). The editor solves dragged targets this way.
+///
+/// # Errors
+/// As [`solve_chart`].
+pub fn solve_chart_reusing(
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+    options: &SolverOptions,
+    previous: Option<&SolvedChart>,
+    stop: &dyn Fn() -> bool,
+    load_ms: f64,
+) -> Result<Option<SolvedChart>, Error> {
     let t0 = Instant::now();
-    let prepared = chart::prepare(source, asset)?;
+    let prepared = chart::prepare_reusing(source, asset, previous.map(|p| &p.prepared))?;
     let topology_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let step1 = step1::step1(&prepared, source, &asset.path)?;
+    let same = previous.filter(|p| prepared.same_geometry(&p.prepared));
+    let step1 = match same.filter(|p| p.prepared.corners == prepared.corners) {
+        Some(p) => p.step1.clone(),
+        None => step1::step1(&prepared, source, &asset.path)?,
+    };
     let t = step1.times;
     let times = StageTimes {
         load_ms,
@@ -291,10 +315,15 @@ fn solve_chart_timed(
         boundary: &step1.boundary,
         step1: &step1.layout,
         bar_net: Some(&step1.bar_net),
-        pattern: None,
+        pattern: same.map(|p| p.solver.pattern()),
         elapsed_ms: times.total_ms(),
     })?;
-    solver.run()?;
+    while !solver.is_done() {
+        if stop() {
+            return Ok(None);
+        }
+        solver.tick()?;
+    }
     let report = report::build(&report::SolveSummary {
         constraint_file: source.name(),
         asset,
@@ -304,12 +333,12 @@ fn solve_chart_timed(
         solver: &solver,
         times: times.with_solver(solver.times()),
     });
-    Ok(SolvedChart {
+    Ok(Some(SolvedChart {
         prepared,
         step1,
         solver,
         report,
-    })
+    }))
 }
 
 impl SolvedChart {

@@ -15,6 +15,7 @@
 
 use crate::error::Error;
 use crate::free::Region;
+use crate::mesh::nearest::{nearest_vertices, too_far};
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use crate::options::SolverOptions;
 use crate::pins::{PinError, Pins};
@@ -165,6 +166,11 @@ pub struct ConstraintFile {
     /// Image size in pixels (width, height), for `px` targets.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub image_size: Option<(u32, u32)>,
+    /// An image to place the targets on in the editor (PNG or JPEG,
+    /// relative to the constraint file; default: the material's
+    /// base-colour texture).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image: Option<String>,
     pub constraints: Vec<ConstraintSpec>,
     /// Corner vertices (default: chosen automatically at arc-length quarters).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -398,7 +404,7 @@ impl LoadedConstraints {
     }
 
     /// Target of constraint `c` in texture coordinates (after validation).
-    fn target_uv(&self, c: &ConstraintSpec) -> DVec2 {
+    pub fn target_uv(&self, c: &ConstraintSpec) -> DVec2 {
         match (c.uv, c.px, self.file.image_size) {
             (Some(uv), _, _) => uv,
             (None, Some(px), Some((w, h))) => DVec2::new(px.x / w as f64, px.y / h as f64),
@@ -492,28 +498,17 @@ impl LoadedConstraints {
                     (p, v, None)
                 }
                 (None, Some(point)) => {
-                    let candidates: Vec<usize> = match c.primitive {
-                        Some(pi) => vec![self.primitive_position(primitives, pi, Some(i))?],
-                        None => (0..primitives.len()).collect(),
-                    };
-                    let mut best = (usize::MAX, 0u32, f64::INFINITY);
-                    for p in candidates {
-                        let prim = &primitives[p];
-                        let used = used_vertices(prim);
-                        for (v, pos) in prim.positions.iter().enumerate() {
-                            if !used[v] {
-                                continue;
-                            }
-                            let d = DVec3::new(pos[0] as f64, pos[1] as f64, pos[2] as f64).distance(point);
-                            if d < best.2 {
-                                best = (p, v as u32, d);
-                            }
-                        }
+                    if let Some(pi) = c.primitive {
+                        self.primitive_position(primitives, pi, Some(i))?;
                     }
-                    if best.0 == usize::MAX {
+                    let Some(best) = nearest_vertices(primitives, c.primitive, point, 1).pop() else {
                         return Err(self.error_at(i, "near", "the mesh has no vertices to snap to"));
+                    };
+                    if let Some(why) = too_far(primitives, c.primitive, point) {
+                        return Err(self.error_at(i, "near", why));
                     }
-                    (best.0, best.1, Some(best.2))
+                    let p = self.primitive_position(primitives, best.primitive, Some(i))?;
+                    (p, best.vertex, Some(best.distance))
                 }
                 (None, None) => unreachable!("validated"),
             };
@@ -726,14 +721,6 @@ impl ConstraintSource {
             ConstraintSource::Memory(_) => "uv",
         }
     }
-}
-
-fn used_vertices(prim: &PrimitiveGeometry) -> Vec<bool> {
-    let mut used = vec![false; prim.positions.len()];
-    for &i in &prim.indices {
-        used[i as usize] = true;
-    }
-    used
 }
 
 /// Source positions found by [`scan_positions`].

@@ -510,3 +510,84 @@ fn a_time_budget_stops_the_completion_with_the_best_fold_free_layout() {
     let o = uvpin(&["check", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
 }
+
+#[test]
+fn inspect_lists_charts_the_outer_loop_in_order_and_the_nearest_vertices() {
+    let face = repo().join("assets/face.glb");
+    let o = uvpin(&[
+        "inspect",
+        face.to_str().unwrap(),
+        "--boundary",
+        "--near",
+        "0,0.1,0.55",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["charts"].as_array().unwrap().len(), 1);
+    assert_eq!(v["charts"][0]["boundary_loops"], 4);
+    let outer: Vec<u64> = v["charts"][0]["outer_loop"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p[1].as_u64().unwrap())
+        .collect();
+    // The sample's corners follow each other along the loop in this order.
+    let at = |id: u64| outer.iter().position(|&w| w == id).expect("a corner on the loop");
+    let n = outer.len();
+    let from_top_left = |id: u64| (at(id) + n - at(1711)) % n;
+    assert!(from_top_left(168) < from_top_left(199) && from_top_left(199) < from_top_left(1742));
+    let nearest = v["near"]["nearest"].as_array().unwrap();
+    assert_eq!(nearest.len(), 5);
+    assert!(v["near"]["too_far"].is_null());
+    let text = uvpin(&["inspect", face.to_str().unwrap()]);
+    assert!(
+        stdout(&text).contains("4 boundary loops (1 outer, 3 holes)"),
+        "{}",
+        stdout(&text)
+    );
+    let missing = uvpin(&["inspect", "no/such.glb"]);
+    assert_eq!(missing.status.code(), Some(1));
+}
+
+#[test]
+fn a_near_point_off_the_mesh_is_an_error_that_suggests_the_y_up_reading() {
+    let tmp = TempDir::new("near-far");
+    std::fs::copy(repo().join("assets/face.glb"), tmp.path("face.glb")).unwrap();
+    // Vertex 820 (the nose tip) of the sample is at (0, y, z) in glTF's Y-up;
+    // a Z-up tool shows it as (0, -z, y).
+    let asset = uvpin::io::load_asset(&tmp.path("face.glb"), None, 0, &Default::default()).unwrap();
+    let p = asset.primitives[0].positions[820];
+    let ron = tmp.path("far.uvpin.ron");
+    let text = format!(
+        "(asset: \"face.glb\", constraints: [(near: ({}, {}, {}), uv: (0.5, 0.6))])",
+        p[0], -p[2], p[1]
+    );
+    std::fs::write(&ron, text).unwrap();
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        tmp.path("out.glb").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("far.uvpin.ron:1:") && err.contains("from the mesh"),
+        "{err}"
+    );
+    assert!(err.contains("Z-up tool such as Blender"), "{err}");
+    assert!(!tmp.path("out.glb").exists());
+    // On the mesh, it snaps and says how far.
+    std::fs::write(
+        &ron,
+        format!(
+            "(asset: \"face.glb\", constraints: [(near: ({}, {}, {}), uv: (0.5, 0.58))])",
+            p[0], p[1], p[2]
+        ),
+    )
+    .unwrap();
+    let (o, report) = solve_json(&ron, &tmp.path("out.glb"));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(report["constraints"][0]["vertex"], 820);
+}

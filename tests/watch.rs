@@ -3,12 +3,11 @@
 
 mod common;
 
+use common::daemon::{Daemon, WAIT};
 use common::*;
 use serde_json::Value;
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::{Arc, Mutex};
+use std::process::Command;
 use std::time::{Duration, Instant};
 use uvpin::testing::grid_mesh;
 
@@ -16,89 +15,8 @@ const N: usize = 12;
 /// Interior grid vertices used as constraints.
 const A: u32 = (6 + 6 * N) as u32;
 const B: u32 = (4 + 3 * N) as u32;
-const WAIT: Duration = Duration::from_secs(60);
 /// Longer than the debounce window (100 ms) plus a debouncer tick, with margin.
 const SETTLE: Duration = Duration::from_millis(700);
-
-/// A running `uvpin watch --log json` and the log lines it printed.
-struct Daemon {
-    child: Child,
-    lines: Arc<Mutex<Vec<Value>>>,
-}
-
-impl Daemon {
-    fn start(cwd: &Path, args: &[&str]) -> Daemon {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
-            .arg("watch")
-            .args(args)
-            .args(["--log", "json", "--debounce-ms", "100"])
-            .current_dir(cwd)
-            .stderr(Stdio::piped())
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("spawn uvpin watch");
-        let lines = Arc::new(Mutex::new(Vec::new()));
-        let sink = lines.clone();
-        let stderr = child.stderr.take().expect("stderr");
-        std::thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                let v = serde_json::from_str(&line).unwrap_or_else(|_| serde_json::json!({ "raw": line }));
-                sink.lock().unwrap().push(v);
-            }
-        });
-        Daemon { child, lines }
-    }
-
-    fn log(&self) -> Vec<Value> {
-        self.lines.lock().unwrap().clone()
-    }
-
-    /// Number of `event` lines about a file whose name ends with `file`.
-    fn count(&self, event: &str, file: &str) -> usize {
-        self.log()
-            .iter()
-            .filter(|l| l["event"] == event && l["file"].as_str().is_some_and(|f| f.ends_with(file)))
-            .count()
-    }
-
-    /// Waits until there are `n` `event` lines about `file`; panics with the log after [`WAIT`].
-    fn wait_count(&self, event: &str, file: &str, n: usize) {
-        let t0 = Instant::now();
-        while self.count(event, file) < n {
-            assert!(
-                t0.elapsed() < WAIT,
-                "timed out waiting for {n} `{event}` lines about {file}; log:\n{}",
-                self.dump()
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-
-    fn dump(&self) -> String {
-        self.log().iter().map(|l| l.to_string()).collect::<Vec<_>>().join("\n")
-    }
-
-    /// Sends SIGTERM and waits for the exit.
-    fn terminate(&mut self) -> ExitStatus {
-        let pid = self.child.id().to_string();
-        Command::new("kill").args(["-TERM", &pid]).status().expect("kill");
-        let t0 = Instant::now();
-        loop {
-            if let Some(status) = self.child.try_wait().expect("wait") {
-                return status;
-            }
-            assert!(t0.elapsed() < WAIT, "no exit after SIGTERM; log:\n{}", self.dump());
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Daemon {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
 
 /// `assets/grid.glb` + `assets/grid.uvpin.ron` in `dir`.
 fn make_assets(dir: &Path) -> PathBuf {
@@ -140,7 +58,7 @@ fn every_editor_save_pattern_gives_exactly_one_solve_of_the_final_content() {
     let dir = TempDir::new("watch-saves");
     let ron = make_assets(&dir.0);
     let out = dir.path("out/grid.glb");
-    let d = Daemon::start(&dir.0, &[]);
+    let d = Daemon::watch(&dir.0, &[]);
     d.wait_count("solved", "grid.uvpin.ron", 1);
     assert_output(&out, 0.0);
     // Pictures beside the output, refreshed with it.
@@ -209,7 +127,7 @@ fn broken_edits_keep_the_last_output_and_the_daemon_recovers() {
     let ron = make_assets(&dir.0);
     let out = dir.path("out/grid.glb");
     let status = dir.path("out/uvpin-status.json");
-    let mut d = Daemon::start(&dir.0, &[]);
+    let mut d = Daemon::watch(&dir.0, &[]);
     d.wait_count("solved", "grid.uvpin.ron", 1);
     let good = std::fs::read(&out).unwrap();
 
@@ -276,7 +194,7 @@ fn an_asset_edit_resolves_every_constraint_file_that_names_it() {
     let second = dir.path("assets/sub/other.uvpin.ron");
     std::fs::create_dir_all(second.parent().unwrap()).unwrap();
     write_constraints(&second, Path::new("../grid.glb"), &targets(0.03), "");
-    let d = Daemon::start(&dir.0, &["assets"]);
+    let d = Daemon::watch(&dir.0, &["assets"]);
     d.wait_count("solved", "grid.uvpin.ron", 1);
     d.wait_count("solved", "other.uvpin.ron", 1);
     assert_output(&dir.path("out/sub/other.glb"), 0.03);
@@ -301,7 +219,7 @@ fn an_asset_edit_resolves_every_constraint_file_that_names_it() {
 #[test]
 fn a_watched_folder_that_appears_later_is_picked_up() {
     let dir = TempDir::new("watch-later");
-    let d = Daemon::start(&dir.0, &["later/assets"]);
+    let d = Daemon::watch(&dir.0, &["later/assets"]);
     let t0 = Instant::now();
     while !d.log().iter().any(|l| l["event"] == "waiting") {
         assert!(t0.elapsed() < WAIT, "{}", d.dump());
@@ -321,7 +239,7 @@ fn in_place_mode_writes_the_watched_asset_and_never_retriggers_on_it() {
     let dir = TempDir::new("watch-inplace");
     let ron = make_assets(&dir.0);
     let asset = dir.path("assets/grid.glb");
-    let d = Daemon::start(&dir.0, &["--in-place"]);
+    let d = Daemon::watch(&dir.0, &["--in-place"]);
     d.wait_count("solved", "grid.uvpin.ron", 1);
     assert_output(&asset, 0.0);
     std::thread::sleep(SETTLE * 2);
@@ -392,7 +310,7 @@ fn with_many_watched_assets_only_the_edited_one_is_resolved() {
             "",
         );
     }
-    let d = Daemon::start(&dir.0, &[]);
+    let d = Daemon::watch(&dir.0, &[]);
     d.wait_count("solved", "", n_files);
     let edited = assets.join("m117/g.uvpin.ron");
     write_constraints(&edited, Path::new("g.glb"), &[(centre, 0.52, 0.49)], "");
@@ -427,7 +345,7 @@ fn an_asset_outside_the_watched_folders_is_watched_too() {
         "{}",
         stderr(&o)
     );
-    let d = Daemon::start(&dir.0, &["--allow", "meshes"]);
+    let d = Daemon::watch(&dir.0, &["--allow", "meshes"]);
     d.wait_count("solved", "grid.uvpin.ron", 1);
     // Give the daemon a moment to add the watch on meshes/ after the first solve.
     std::thread::sleep(SETTLE);

@@ -57,6 +57,13 @@ struct StoredAsset {
 }
 
 /// Reads the asset to check: glTF's TEXCOORD_`uv_set`, or an OBJ's `vt`.
+/// `--mesh`: an index, else a name.
+pub(super) fn mesh_selector(m: &str) -> MeshSelector {
+    m.parse::<usize>()
+        .map(MeshSelector::Index)
+        .unwrap_or_else(|_| MeshSelector::Name(m.into()))
+}
+
 fn load_checked(asset_path: &Path, uv_set: u32, mesh: Option<&str>) -> crate::Result<StoredAsset> {
     let rules = crate::io::InputRules::default();
     let missing = |asset: &crate::io::SourceAsset, primitive: usize, what: String| {
@@ -76,11 +83,7 @@ fn load_checked(asset_path: &Path, uv_set: u32, mesh: Option<&str>) -> crate::Re
             axis: VAxis::Up,
         });
     }
-    let selector = mesh.map(|m| {
-        m.parse::<usize>()
-            .map(MeshSelector::Index)
-            .unwrap_or_else(|_| MeshSelector::Name(m.into()))
-    });
+    let selector = mesh.map(mesh_selector);
     let asset = crate::io::load_asset(asset_path, selector.as_ref(), uv_set, &rules)?;
     let uvs = asset
         .primitives

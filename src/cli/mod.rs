@@ -1,6 +1,8 @@
 //! The command line: `uvpin solve`, `uvpin check`, `uvpin sweep` and `uvpin watch`.
 
 mod check;
+mod edit;
+mod inspect;
 
 use crate::report::Status;
 use clap::{Parser, Subcommand};
@@ -95,6 +97,34 @@ pub enum Command {
     /// defaults, documented in config/uvpin.ron). Flags override the
     /// configuration file.
     Watch(WatchArgs),
+    /// The landmark editor: serves a page where you pick vertices on the
+    /// mesh and place their targets on the texture, and runs the daemon on
+    /// the constraint file (re-solved and written on every change). The
+    /// page's address is printed on standard error. Runs until SIGINT or
+    /// SIGTERM (exit 0).
+    Edit(edit::EditArgs),
+    /// What a constraint file needs to know about an asset: its meshes,
+    /// primitives and charts, bounding box and up axis, each chart's outer
+    /// loop (for `corners`), and the vertices nearest a point (for `near:`).
+    Inspect {
+        /// The .glb, .gltf or .obj file.
+        asset: PathBuf,
+        /// The vertices nearest this point, in the mesh's coordinates: X,Y,Z.
+        #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = inspect::parse_point)]
+        near: Option<glam::DVec3>,
+        /// List each chart's outer boundary loop (vertex ids in order).
+        #[arg(long)]
+        boundary: bool,
+        /// Mesh index or name (default: the first).
+        #[arg(long)]
+        mesh: Option<String>,
+        /// UV set to report (TEXCOORD_N).
+        #[arg(long, default_value_t = 0)]
+        uv_set: u32,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 /// `uvpin watch`'s arguments; the flags override the configuration file.
@@ -129,8 +159,12 @@ pub struct WatchArgs {
     allow: Vec<PathBuf>,
     /// Solve everything present once, print a summary and exit
     /// (0: all reached, 2: some partial, 1: some errors).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "serve")]
     once: bool,
+    /// Also serve the landmark editor for every watched constraint file
+    /// (default address 127.0.0.1:7878).
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = crate::edit::server::DEFAULT_ADDR)]
+    serve: Option<String>,
 }
 
 /// `--log` values (of `uvpin watch`).
@@ -186,6 +220,26 @@ pub fn main() -> ExitCode {
             quiet,
         } => run_sweep(&sweep, force, jobs, quiet),
         Command::Watch(args) => watch(args),
+        Command::Edit(args) => edit::run(args),
+        Command::Inspect {
+            asset,
+            near,
+            boundary,
+            mesh,
+            uv_set,
+            json,
+        } => {
+            let request = crate::inspect::InspectRequest {
+                mesh: mesh.as_deref().map(check::mesh_selector),
+                uv_set,
+                near,
+                boundary,
+            };
+            match inspect::run(&asset, &request, json) {
+                Ok(code) => ExitCode::from(code),
+                Err(e) => fail(&e),
+            }
+        }
     }
 }
 
@@ -259,12 +313,14 @@ fn watch(args: WatchArgs) -> ExitCode {
         Ok(c) => c.unwrap_or_default(),
         Err(e) => return fail(&e),
     };
-    let once = args.once;
+    let (once, serve) = (args.once, args.serve.clone());
     let options = crate::watch::daemon::WatchOptions {
         config: args.apply(config.watch),
         solver: config.solver,
         limits: config.limits,
         once,
+        serve,
+        open: false,
     };
     match crate::watch::daemon::run(options) {
         Ok(outcome) => ExitCode::from(outcome.exit_code()),

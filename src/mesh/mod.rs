@@ -2,6 +2,7 @@
 //! charts, and the topology checks (manifold edges and vertices, boundary loops,
 //! disk topology) that the force-density solve of §III needs.
 
+pub mod nearest;
 pub mod topology;
 pub mod weld;
 

@@ -73,3 +73,25 @@ fn uri_bytes(uri: &str, asset: &SourceAsset) -> Option<Vec<u8>> {
     let base = asset.path.parent()?;
     crate::io::gltf_file::read_uri(base, uri, &asset.rules).ok()
 }
+
+/// The image at `path` (a constraint file's `image:`), read within `rules`
+/// and decoded within its pixel limit.
+///
+/// # Errors
+/// Unreadable (not a regular file, too large, outside the read scope) or
+/// not a decodable image.
+pub fn load_image(path: &std::path::Path, rules: &crate::io::InputRules) -> Result<image::RgbaImage, String> {
+    let bytes = crate::io::read::read_regular(path, rules.limits.max_file_bytes, &rules.scope)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    decode_within(&bytes, rules.limits.max_image_pixels)
+        .ok_or_else(|| format!("{}: not an image that can be decoded (PNG or JPEG)", path.display()))
+}
+
+/// `image` as PNG bytes.
+pub fn png_bytes(image: &image::RgbaImage) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    image
+        .write_to(&mut out, image::ImageFormat::Png)
+        .expect("PNG encoding into memory");
+    out.into_inner()
+}

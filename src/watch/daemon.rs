@@ -32,6 +32,12 @@ pub struct WatchOptions {
     pub limits: crate::io::InputLimits,
     /// Process everything present, print a summary and exit.
     pub once: bool,
+    /// Serve the landmark editor on this address (`HOST:PORT`).
+    #[cfg(feature = "editor")]
+    pub serve: Option<String>,
+    /// Open the editor's page in a browser once it is served.
+    #[cfg(feature = "editor")]
+    pub open: bool,
 }
 
 /// How the daemon ended (its exit code).
@@ -192,7 +198,58 @@ pub fn run(options: WatchOptions) -> anyhow::Result<Outcome> {
     if options.once {
         return Ok(run_once(&mut world, &mut schedule, &roots, &logger, &cwd));
     }
-    run_daemon(&mut world, &mut schedule, roots, config, &rules, &logger, &cwd)
+    #[cfg(feature = "editor")]
+    let server = match &options.serve {
+        Some(addr) => Some(serve_editor(&mut world, &mut schedule, addr, options.open, &logger)?),
+        None => None,
+    };
+    let outcome = run_daemon(&mut world, &mut schedule, roots, config, &rules, &logger, &cwd);
+    #[cfg(feature = "editor")]
+    if let Some(server) = server {
+        server.stop();
+    }
+    outcome
+}
+
+/// Starts the editor's server on `addr`, fed by `world`'s schedule; prints
+/// its address on standard error (and opens it in a browser if asked).
+#[cfg(feature = "editor")]
+fn serve_editor(
+    world: &mut World,
+    schedule: &mut Schedule,
+    addr: &str,
+    open: bool,
+    logger: &Logger,
+) -> anyhow::Result<crate::edit::server::EditorServer> {
+    use crate::ecs::watch::{report_results, write_status_file};
+    use crate::edit::publish::{EditorFeed, publish_to_editor};
+    use bevy_ecs::schedule::IntoScheduleConfigs;
+    let hub = std::sync::Arc::new(crate::edit::hub::Hub::default());
+    let input = world.resource::<WatchSettings>().input.clone();
+    let server = crate::edit::server::EditorServer::start(addr, hub.clone(), input)?;
+    world.insert_resource(EditorFeed(hub));
+    schedule.add_systems(publish_to_editor.after(report_results).before(write_status_file));
+    let message = format!("editor at {} (open it in a browser)", server.url);
+    logger.info("serve", None, &message, json!({ "url": server.url }));
+    if open {
+        let opened = ["xdg-open", "open"].iter().any(|opener| {
+            std::process::Command::new(opener)
+                .arg(&server.url)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .spawn()
+                .is_ok()
+        });
+        if !opened {
+            logger.warn(
+                "serve",
+                None,
+                "could not open a browser: open the address above",
+                json!({}),
+            );
+        }
+    }
+    Ok(server)
 }
 
 /// `--once`: solve every constraint file present, then summarise.

@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod daemon;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -48,6 +50,8 @@ pub enum Needs {
     SharedMeshes,
     /// Node and the Khronos glTF validator in `.tools/` (the README's test command installs it).
     Validator,
+    /// Chromium (`/usr/bin/chromium`, or `$CHROMIUM`) and playwright-core in `.tools/`.
+    Browser,
 }
 
 impl Needs {
@@ -58,8 +62,25 @@ impl Needs {
             Needs::Validator => validator_module()
                 .is_none()
                 .then_some("gltf-validator not installed (npm install --prefix .tools gltf-validator)"),
+            Needs::Browser => {
+                if !chromium().is_file() {
+                    Some("Chromium not installed (apt install chromium, or set CHROMIUM)")
+                } else if !repo()
+                    .join(".tools/node_modules/playwright-core/package.json")
+                    .is_file()
+                {
+                    Some("playwright-core not installed (npm install --prefix .tools playwright-core)")
+                } else {
+                    None
+                }
+            }
         }
     }
+}
+
+/// The Chromium binary the browser tests drive.
+pub fn chromium() -> PathBuf {
+    std::env::var_os("CHROMIUM").map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from)
 }
 
 /// The Khronos validator's npm module, if installed.

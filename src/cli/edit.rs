@@ -1,0 +1,157 @@
+//! `uvpin edit`: the daemon on one constraint file, with the editor served.
+
+use super::{LogArg, fail};
+use crate::config::{LogFormat, OutputMode};
+use std::path::{Component, Path, PathBuf};
+use std::process::ExitCode;
+
+/// `uvpin edit`'s arguments.
+#[derive(Debug, clap::Args)]
+pub struct EditArgs {
+    /// The constraint file (`*.uvpin.ron`); created with --asset if it does
+    /// not exist.
+    constraints: PathBuf,
+    /// The mesh a new constraint file names (.glb, .gltf or .obj).
+    #[arg(long, value_name = "MESH")]
+    asset: Option<PathBuf>,
+    /// Where the editor is served (port 0: any free port).
+    #[arg(long, value_name = "HOST:PORT", default_value = crate::edit::server::DEFAULT_ADDR)]
+    addr: String,
+    /// Write the output into this folder (default `out`, as `uvpin watch`).
+    #[arg(long, conflicts_with = "in_place")]
+    out: Option<PathBuf>,
+    /// Write the UVs back into the asset itself.
+    #[arg(long)]
+    in_place: bool,
+    /// Open the page in the default browser.
+    #[arg(long)]
+    open: bool,
+    /// Configuration file: its `watch` and `solver` sections.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Also read assets, buffers and images inside this folder (repeatable).
+    #[arg(long, value_name = "DIR")]
+    allow: Vec<PathBuf>,
+    /// Log format.
+    #[arg(long, value_enum)]
+    log: Option<LogArg>,
+}
+
+/// `target` relative to the folder `base` (both absolute), with `..` where
+/// needed; `target` itself when they share no root.
+fn relative_to(target: &Path, base: &Path) -> PathBuf {
+    let t: Vec<Component> = target.components().collect();
+    let b: Vec<Component> = base.components().collect();
+    let common = t.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    if common == 0 {
+        return target.to_path_buf();
+    }
+    let mut out = PathBuf::new();
+    for _ in common..b.len() {
+        out.push("..");
+    }
+    for c in &t[common..] {
+        out.push(c);
+    }
+    out
+}
+
+/// Creates the constraint file for `asset` if it does not exist; the
+/// folder of the asset it names (read by the daemon besides its own).
+fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Result<Option<PathBuf>, String> {
+    let name = constraints
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    if !name.ends_with(suffix) {
+        return Err(format!(
+            "{}: a constraint file's name must end with {suffix}",
+            constraints.display()
+        ));
+    }
+    let absolute = |p: &Path| std::path::absolute(p).map_err(|e| format!("{}: {e}", p.display()));
+    let file = absolute(constraints)?;
+    let folder = file.parent().unwrap_or(Path::new("/")).to_path_buf();
+    if file.exists() {
+        if asset.is_some() {
+            eprintln!(
+                "note: {} exists; it names its own asset (--asset is for new files)",
+                constraints.display()
+            );
+        }
+        let asset = crate::constraints::LoadedConstraints::load(&file)
+            .ok()
+            .map(|l| l.asset_path());
+        return Ok(asset.and_then(|a| a.parent().map(Path::to_path_buf)));
+    }
+    let Some(asset) = asset else {
+        return Err(format!(
+            "{} does not exist: give --asset MESH to create it",
+            constraints.display()
+        ));
+    };
+    let asset = absolute(asset)?;
+    if !asset.is_file() {
+        return Err(format!("--asset {}: not a file", asset.display()));
+    }
+    let named = relative_to(&asset, &folder);
+    let text = crate::edit::text::new_file(&named.to_string_lossy());
+    crate::io::atomic::write_atomically(&file, text.as_bytes()).map_err(|e| e.message)?;
+    eprintln!("created {} for {}", constraints.display(), named.display());
+    Ok(asset.parent().map(Path::to_path_buf))
+}
+
+pub fn run(args: EditArgs) -> ExitCode {
+    let config = match args.config.as_deref().map(crate::config::Config::load).transpose() {
+        Ok(c) => c.unwrap_or_default(),
+        Err(e) => return fail(&e),
+    };
+    let mut watch = config.watch;
+    let asset_folder = match prepare_file(&args.constraints, args.asset.as_deref(), &watch.constraint_suffix) {
+        Ok(f) => f,
+        Err(e) => return fail(&e),
+    };
+    watch.paths = vec![args.constraints];
+    watch.allow_paths.extend(asset_folder);
+    watch.allow_paths.extend(args.allow);
+    if let Some(out) = args.out {
+        watch.output = OutputMode::Folder(out);
+    }
+    if args.in_place {
+        watch.output = OutputMode::InPlace;
+    }
+    match args.log {
+        Some(LogArg::Human) => watch.log = LogFormat::Human,
+        Some(LogArg::Json) => watch.log = LogFormat::Json,
+        None => {}
+    }
+    let options = crate::watch::daemon::WatchOptions {
+        config: watch,
+        solver: config.solver,
+        limits: config.limits,
+        once: false,
+        serve: Some(args.addr),
+        open: args.open,
+    };
+    match crate::watch::daemon::run(options) {
+        Ok(outcome) => ExitCode::from(outcome.exit_code()),
+        Err(e) => fail(&format!("{e:#}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_paths_climb_where_needed() {
+        assert_eq!(
+            relative_to(Path::new("/a/b/m.glb"), Path::new("/a/b")),
+            PathBuf::from("m.glb")
+        );
+        assert_eq!(
+            relative_to(Path::new("/a/m/x.glb"), Path::new("/a/b/c")),
+            PathBuf::from("../../m/x.glb")
+        );
+    }
+}

@@ -1,0 +1,480 @@
+// The uvpin landmark editor: state, server calls, the constraint list,
+// undo/redo. The views are in views.js.
+import { MeshView, TextureView } from './views.js';
+
+const $ = (id) => document.getElementById(id);
+
+const app = {
+  files: [],
+  fileId: null,
+  file: null, // the server's state of the file
+  mesh: null,
+  meshKey: null,
+  constraints: [], // [{primitive, vertex, uv: [u, v], label}]
+  results: null, // {report, uvs: [Float32Array]} of the last solve or preview
+  inChart: null,
+  selected: null, // {primitive, vertex}
+  undo: [],
+  redo: [],
+  dragStart: null,
+  image: null, // the texture, or an image the user loaded
+  userImage: false,
+  savedHash: null, // what our last save wrote, until the daemon has read it
+  saveAgain: false,
+  preview: { inFlight: false, pending: false, seq: 0, shown: 0 },
+};
+
+// Measurements the drag benchmark and the browser test read.
+window.uvpinEditor = {
+  latencies: [], // ms from a pointer move to the redraw of its solve
+  previews: 0,
+  saves: 0,
+  state: () => ({ constraints: app.constraints, selected: app.selected, fileState: app.file && app.file.state }),
+  // Where a vertex is in the layout shown (glTF texture coordinates).
+  uvOf: (vertex, primitive = 0) => {
+    const k = app.mesh ? app.mesh.primitives.findIndex((p) => p.index === primitive) : -1;
+    const uvs = app.results && k >= 0 ? app.results.uvs[k] : null;
+    return uvs ? [uvs[vertex * 2], uvs[vertex * 2 + 1]] : null;
+  },
+  // A texture coordinate's position in the texture view (CSS pixels).
+  textureToScreen: (uv) => textureView.toScreen(uv),
+};
+
+let meshView;
+let textureView;
+
+function primitiveOf(c) {
+  return c.primitive ?? (app.file ? app.file.primitive : 0);
+}
+
+function sameVertex(a, b) {
+  return a && b && a.vertex === b.vertex && primitiveOf(a) === primitiveOf(b);
+}
+
+function setStatus(state, text) {
+  const s = $('status');
+  s.dataset.state = state;
+  s.textContent = `${state}${text ? ` — ${text}` : ''}`;
+  s.title = s.textContent;
+}
+
+async function getJson(url) {
+  const r = await fetch(url, { cache: 'no-store' });
+  const body = await r.json().catch(() => ({}));
+  if (!r.ok) throw new Error(body.error || `${r.status} ${r.statusText}`);
+  return body;
+}
+
+async function postJson(url, value) {
+  const r = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(value) });
+  const body = await r.json().catch(() => ({}));
+  return { ok: r.ok, status: r.status, body };
+}
+
+// ---- loading ----
+
+async function loadFiles() {
+  const { files } = await getJson('/api/files');
+  app.files = files;
+  const select = $('file');
+  select.replaceChildren(...files.map((f) => {
+    const o = document.createElement('option');
+    o.value = String(f.id);
+    o.textContent = f.name;
+    return o;
+  }));
+  if (app.fileId === null && files.length) {
+    const wanted = new URLSearchParams(location.search).get('file');
+    const chosen = files.find((f) => f.name === wanted) || files[0];
+    await openFile(chosen.id);
+  }
+  if (app.fileId !== null) select.value = String(app.fileId);
+  if (!files.length) setStatus('solving', 'waiting for the daemon to find a constraint file');
+}
+
+async function openFile(id) {
+  app.fileId = id;
+  app.file = null;
+  app.meshKey = null;
+  app.undo = [];
+  app.redo = [];
+  app.selected = null;
+  app.userImage = false;
+  await refreshFile();
+}
+
+function uvArrays(uvs) {
+  return uvs.map((u) => new Float32Array(u));
+}
+
+async function refreshFile() {
+  const file = await getJson(`/api/file/${app.fileId}`);
+  app.file = file;
+  if (app.savedHash && file.hash === app.savedHash && file.editable) {
+    app.savedHash = null;
+  }
+  if (file.asset && file.asset !== app.meshKey) {
+    app.mesh = await getJson(`/api/file/${app.fileId}/mesh`);
+    app.meshKey = file.asset;
+    meshView.setMesh(app.mesh);
+    textureView.setMesh(app.mesh);
+    if (!app.userImage) loadTexture(file.has_texture);
+  }
+  if (!app.dragStart && !app.savedHash) {
+    app.constraints = file.constraints.map((c) => ({ primitive: c.primitive, vertex: c.vertex, uv: c.target, label: c.label }));
+  }
+  if (file.solved && !app.dragStart && !app.preview.inFlight) {
+    app.inChart = file.solved.in_chart;
+    app.results = { report: file.solved.report, uvs: uvArrays(file.solved.uvs), from: 'file' };
+  }
+  showStatus();
+  redraw();
+  if (app.savedHash === null && app.saveAgain) {
+    app.saveAgain = false;
+    save();
+  }
+}
+
+function loadTexture(available) {
+  if (!available) {
+    app.image = null;
+    meshView.setImage(null);
+    textureView.setImage(null);
+    return;
+  }
+  const img = new Image();
+  img.onload = () => {
+    if (app.userImage) return;
+    app.image = img;
+    meshView.setImage(img);
+    textureView.setImage(img);
+  };
+  img.onerror = () => {
+    app.image = null;
+    meshView.setImage(null);
+    textureView.setImage(null);
+  };
+  img.src = `/api/file/${app.fileId}/texture?asset=${encodeURIComponent(app.meshKey)}`;
+}
+
+function showStatus() {
+  const f = app.file;
+  if (!f) return;
+  if (f.state === 'error') {
+    setStatus('error', f.error || 'the file has an error');
+    return;
+  }
+  if (f.state === 'solving') {
+    setStatus('solving', f.name);
+    return;
+  }
+  const r = app.results && app.results.report;
+  if (!r) {
+    setStatus(f.state, f.name);
+    return;
+  }
+  const reached = r.constraints.filter((c) => c.reached).length;
+  const state = app.results.from === 'preview' ? (r.status === 'reached' ? 'reached' : 'partial') : f.state;
+  const words = `${reached} of ${r.constraints.length} on target, max residual ${r.max_residual.toExponential(1)}, ` +
+    `stretch ${r.stretch_l2.toFixed(3)}, ${r.total_ms.toFixed(0)} ms` +
+    (app.results.from === 'preview' ? ' (preview)' : '') + (r.message && state !== 'reached' ? ` — ${r.message}` : '');
+  setStatus(state, words);
+}
+
+// ---- drawing ----
+
+function resultOf(c) {
+  const r = app.results && app.results.report;
+  if (!r) return null;
+  return r.constraints.find((x) => x.vertex === c.vertex && x.primitive === primitiveOf(c)) || null;
+}
+
+function redraw() {
+  const markers = app.constraints.map((c, k) => {
+    const r = resultOf(c);
+    return {
+      number: k + 1,
+      primitive: primitiveOf(c),
+      vertex: c.vertex,
+      label: c.label,
+      target: c.uv,
+      result: r ? r.result : null,
+      reached: r ? r.reached : undefined,
+      residual: r ? r.residual : 0,
+      selected: sameVertex(c, app.selected),
+      index: k,
+    };
+  });
+  if (app.results) {
+    meshView.setUvs(app.results.uvs);
+    textureView.setLayout(app.results.uvs, app.inChart);
+  }
+  meshView.setMarkers(markers, app.selected);
+  textureView.setMarkers(markers);
+  renderList();
+  $('undo').disabled = !app.undo.length;
+  $('redo').disabled = !app.redo.length;
+  const sel = app.selected;
+  $('selection').textContent = sel
+    ? `Selected: vertex ${sel.vertex}${app.mesh && app.mesh.primitives.length > 1 ? ` (primitive ${sel.primitive})` : ''}. Click the texture to place its target.`
+    : 'No vertex selected: click the mesh.';
+}
+
+function renderList() {
+  const list = $('constraint-list');
+  const active = document.activeElement;
+  const editing = active && active.dataset && active.dataset.testid === 'constraint-label' ? Number(active.dataset.index) : -1;
+  const items = app.constraints.map((c, k) => {
+    const r = resultOf(c);
+    const li = document.createElement('li');
+    li.className = 'constraint' + (sameVertex(c, app.selected) ? ' selected' : '');
+    li.dataset.testid = 'constraint';
+    li.setAttribute('data-testid', 'constraint');
+    li.dataset.vertex = String(c.vertex);
+    li.dataset.reached = r ? String(r.reached) : 'unknown';
+    const number = document.createElement('span');
+    number.className = 'number';
+    number.textContent = String(k + 1);
+    const label = document.createElement('input');
+    label.type = 'text';
+    label.placeholder = 'label';
+    label.value = c.label || '';
+    label.setAttribute('data-testid', 'constraint-label');
+    label.dataset.index = String(k);
+    label.addEventListener('change', () => edit((list) => { list[k].label = label.value.trim() || null; }));
+    label.addEventListener('click', (e) => e.stopPropagation());
+    const del = document.createElement('button');
+    del.textContent = '✕';
+    del.title = 'Delete this constraint';
+    del.setAttribute('data-testid', 'constraint-delete');
+    del.addEventListener('click', (e) => {
+      e.stopPropagation();
+      edit((list) => { list.splice(k, 1); });
+    });
+    const detail = document.createElement('span');
+    detail.className = 'detail';
+    const residual = r ? `residual ${r.residual.toExponential(1)}` : 'not solved yet';
+    detail.innerHTML = '';
+    detail.append(`vertex ${c.vertex} → (${c.uv[0].toFixed(4)}, ${c.uv[1].toFixed(4)}) · `);
+    const res = document.createElement('span');
+    res.setAttribute('data-testid', 'constraint-residual');
+    res.className = r && !r.reached ? 'bad' : '';
+    res.textContent = `${residual} · ${r ? (r.reached ? 'reached' : 'not reached') : ''}`;
+    detail.append(res);
+    li.append(number, label, del, detail);
+    li.addEventListener('click', () => {
+      app.selected = { primitive: primitiveOf(c), vertex: c.vertex };
+      redraw();
+    });
+    return li;
+  });
+  list.replaceChildren(...items);
+  if (editing >= 0) {
+    const again = list.querySelector(`input[data-index="${editing}"]`);
+    if (again) again.focus();
+  }
+}
+
+// ---- editing ----
+
+function snapshot() {
+  return JSON.parse(JSON.stringify(app.constraints));
+}
+
+// Applies `change` to a copy of the list, with undo, then previews and saves.
+function edit(change) {
+  if (!app.file || !app.file.editable) {
+    setStatus('error', 'the file cannot be edited until its current content loads (fix its error first)');
+    return;
+  }
+  const before = snapshot();
+  const list = snapshot();
+  change(list);
+  app.undo.push(before);
+  app.redo = [];
+  app.constraints = list;
+  redraw();
+  requestPreview();
+  save();
+}
+
+function restore(from, to) {
+  if (!from.length) return;
+  to.push(snapshot());
+  app.constraints = from.pop();
+  redraw();
+  requestPreview();
+  save();
+}
+
+function place(uv) {
+  const sel = app.selected;
+  if (!sel) {
+    setStatus(app.file ? app.file.state : 'solving', 'select a vertex on the mesh first');
+    return;
+  }
+  edit((list) => {
+    const k = list.findIndex((c) => sameVertex(c, sel));
+    if (k >= 0) list[k].uv = uv;
+    else list.push({ primitive: sel.primitive, vertex: sel.vertex, uv, label: null });
+  });
+}
+
+function wantedList() {
+  return app.constraints.map((c) => ({ primitive: primitiveOf(c), vertex: c.vertex, uv: c.uv, label: c.label || null }));
+}
+
+async function save() {
+  if (!app.file) return;
+  if (app.savedHash) {
+    // The daemon has not read our last save yet: save again once it has.
+    app.saveAgain = true;
+    return;
+  }
+  const r = await postJson(`/api/file/${app.fileId}/save`, { base: app.file.hash, constraints: wantedList() });
+  if (r.ok) {
+    window.uvpinEditor.saves += 1;
+    app.savedHash = r.body.hash;
+    setStatus('solving', 'saved; the daemon is solving');
+  } else {
+    setStatus('error', r.body.error || `save failed (${r.status})`);
+    app.savedHash = null;
+    if (r.status === 409) await refreshFile();
+  }
+}
+
+async function requestPreview(moveTime) {
+  const p = app.preview;
+  p.seq += 1;
+  if (moveTime !== undefined) p.moves = p.moves || new Map(), p.moves.set(p.seq, moveTime);
+  if (p.inFlight) {
+    p.pending = true;
+    return;
+  }
+  p.inFlight = true;
+  const seq = p.seq;
+  const r = await postJson(`/api/file/${app.fileId}/preview`, { seq, constraints: wantedList() }).catch(() => null);
+  p.inFlight = false;
+  if (r && r.ok && r.body.report && seq > p.shown) {
+    p.shown = seq;
+    app.results = { report: r.body.report, uvs: uvArrays(r.body.uvs), from: 'preview' };
+    window.uvpinEditor.previews += 1;
+    showStatus();
+    redraw();
+    const moved = p.moves && p.moves.get(seq);
+    if (moved !== undefined) {
+      window.uvpinEditor.latencies.push(performance.now() - moved);
+      p.moves.clear();
+    }
+  } else if (r && r.ok && r.body.invalid) {
+    setStatus('error', r.body.invalid);
+  }
+  if (p.pending) {
+    p.pending = false;
+    requestPreview(p.moves && p.moves.size ? Math.min(...p.moves.values()) : undefined);
+  }
+}
+
+// ---- wiring ----
+
+function onPick(picked) {
+  app.selected = picked;
+  redraw();
+}
+
+const textureHandlers = {
+  onPlace: place,
+  onDragStart(marker) {
+    app.selected = { primitive: marker.primitive, vertex: marker.vertex };
+    app.dragStart = snapshot();
+    redraw();
+  },
+  onDrag(marker, uv, timeStamp) {
+    const c = app.constraints[marker.index];
+    if (!c) return;
+    c.uv = uv;
+    redraw();
+    const now = performance.now();
+    requestPreview(Math.min(now, timeStamp || now));
+  },
+  onDragEnd(marker, moved) {
+    const before = app.dragStart;
+    app.dragStart = null;
+    if (!moved || !before) {
+      redraw();
+      return;
+    }
+    app.undo.push(before);
+    app.redo = [];
+    save();
+    redraw();
+  },
+};
+
+function listenKeys() {
+  window.addEventListener('keydown', (e) => {
+    const typing = e.target && e.target.tagName === 'INPUT';
+    const mod = e.ctrlKey || e.metaKey;
+    if (mod && !typing && e.key.toLowerCase() === 'z') {
+      e.preventDefault();
+      if (e.shiftKey) restore(app.redo, app.undo);
+      else restore(app.undo, app.redo);
+    } else if (mod && !typing && e.key.toLowerCase() === 'y') {
+      e.preventDefault();
+      restore(app.redo, app.undo);
+    } else if ((e.key === 'Delete' || e.key === 'Backspace') && !typing && app.selected) {
+      const k = app.constraints.findIndex((c) => sameVertex(c, app.selected));
+      if (k >= 0) edit((list) => { list.splice(k, 1); });
+    } else if (e.key === 'Escape') {
+      app.selected = null;
+      redraw();
+    }
+  });
+}
+
+function listenEvents() {
+  const events = new EventSource('/api/events');
+  events.addEventListener('files', async (e) => {
+    const data = JSON.parse(e.data);
+    const known = new Set(app.files.map((f) => f.id));
+    if (data.files.some((f) => !known.has(f.id)) || !app.files.length) {
+      await loadFiles();
+    }
+    app.files = data.files;
+    const mine = data.files.find((f) => f.id === app.fileId);
+    if (mine && (!app.file || mine.version !== app.file.version)) await refreshFile();
+  });
+  events.onerror = () => {
+    if (events.readyState === EventSource.CLOSED) setStatus('error', 'the daemon stopped; reload the page when it runs again');
+  };
+}
+
+function start() {
+  try {
+    meshView = new MeshView($('mesh-view'), $('mesh-overlay'), $('hover'), { onPick });
+  } catch (e) {
+    setStatus('error', `${e.message}`);
+    return;
+  }
+  textureView = new TextureView($('texture-view'), textureHandlers);
+  $('file').addEventListener('change', (e) => openFile(Number(e.target.value)));
+  $('undo').addEventListener('click', () => restore(app.undo, app.redo));
+  $('redo').addEventListener('click', () => restore(app.redo, app.undo));
+  $('image-input').addEventListener('change', (e) => {
+    const file = e.target.files && e.target.files[0];
+    if (!file) return;
+    const img = new Image();
+    img.onload = () => {
+      app.userImage = true;
+      app.image = img;
+      meshView.setImage(img);
+      textureView.setImage(img);
+    };
+    img.src = URL.createObjectURL(file);
+  });
+  listenKeys();
+  listenEvents();
+  loadFiles().catch((e) => setStatus('error', e.message));
+}
+
+start();

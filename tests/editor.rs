@@ -1,0 +1,318 @@
+//! The landmark editor end to end: `uvpin edit` and `uvpin watch --serve`
+//! on copies of the sample, spoken to over HTTP as the page does (and as a
+//! hostile page would), and driven in real headless Chromium.
+
+mod common;
+
+use common::daemon::{Daemon, WAIT};
+use common::*;
+use serde_json::{Value, json};
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// A copy of the sample in `dir/assets`; the constraint file's path.
+fn sample(dir: &Path) -> PathBuf {
+    let assets = dir.join("assets");
+    std::fs::create_dir_all(&assets).unwrap();
+    for f in ["face.glb", "face.uvpin.ron"] {
+        std::fs::copy(repo().join("assets").join(f), assets.join(f)).unwrap();
+    }
+    assets.join("face.uvpin.ron")
+}
+
+/// The editor's `host:port`, from its log.
+fn address(d: &Daemon) -> String {
+    let t0 = Instant::now();
+    loop {
+        if let Some(url) = d.log().iter().find_map(|l| l["url"].as_str().map(str::to_string)) {
+            return url.trim_start_matches("http://").trim_end_matches('/').to_string();
+        }
+        assert!(t0.elapsed() < WAIT, "no editor address; log:\n{}", d.dump());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// One HTTP request (`Connection: close`); the status and the body.
+fn http(addr: &str, method: &str, path: &str, headers: &[(&str, &str)], body: &str) -> (u16, Vec<u8>) {
+    let mut s = TcpStream::connect(addr).expect("connect");
+    s.set_read_timeout(Some(WAIT)).unwrap();
+    let mut request = format!(
+        "{method} {path} HTTP/1.1\r\nConnection: close\r\nContent-Length: {}\r\n",
+        body.len()
+    );
+    if !headers.iter().any(|(k, _)| *k == "Host") {
+        request += &format!("Host: {addr}\r\n");
+    }
+    for (k, v) in headers {
+        request += &format!("{k}: {v}\r\n");
+    }
+    request += "\r\n";
+    request += body;
+    s.write_all(request.as_bytes()).unwrap();
+    let mut response = Vec::new();
+    s.read_to_end(&mut response).unwrap();
+    let split = response
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("a response head");
+    let head = String::from_utf8_lossy(&response[..split]).to_string();
+    let status = head.split(' ').nth(1).and_then(|c| c.parse().ok()).expect("a status");
+    let body = response[split + 4..].to_vec();
+    let chunked = head.to_ascii_lowercase().contains("transfer-encoding: chunked");
+    (status, if chunked { unchunk(&body) } else { body })
+}
+
+/// A chunked body's bytes.
+fn unchunk(mut body: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    loop {
+        let line_end = body.windows(2).position(|w| w == b"\r\n").expect("a chunk size");
+        let size = usize::from_str_radix(String::from_utf8_lossy(&body[..line_end]).trim(), 16).expect("hex size");
+        if size == 0 {
+            return out;
+        }
+        out.extend_from_slice(&body[line_end + 2..line_end + 2 + size]);
+        body = &body[line_end + 4 + size..];
+    }
+}
+
+fn get_json(addr: &str, path: &str) -> Value {
+    let (status, body) = http(addr, "GET", path, &[], "");
+    assert_eq!(status, 200, "{path}: {}", String::from_utf8_lossy(&body));
+    serde_json::from_slice(&body).unwrap()
+}
+
+/// A write as the page makes it (its own origin, JSON).
+fn post(addr: &str, path: &str, value: &Value) -> (u16, Value) {
+    let origin = format!("http://{addr}");
+    let headers = [("Content-Type", "application/json"), ("Origin", origin.as_str())];
+    let (status, body) = http(addr, "POST", path, &headers, &value.to_string());
+    (status, serde_json::from_slice(&body).unwrap_or(Value::Null))
+}
+
+/// Waits until file 0's state satisfies `done`; returns it.
+fn wait_state(addr: &str, d: &Daemon, done: impl Fn(&Value) -> bool) -> Value {
+    let t0 = Instant::now();
+    loop {
+        let s = get_json(addr, "/api/file/0");
+        if done(&s) {
+            return s;
+        }
+        assert!(t0.elapsed() < WAIT, "state never came: {s}\nlog:\n{}", d.dump());
+        std::thread::sleep(Duration::from_millis(30));
+    }
+}
+
+/// The page's list from a state, as it sends it back.
+fn page_list(state: &Value) -> Vec<Value> {
+    state["constraints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| json!({ "primitive": c["primitive"], "vertex": c["vertex"], "uv": c["target"], "label": c["label"] }))
+        .collect()
+}
+
+fn serves_its_page_and_refuses_foreign_hosts_paths_and_origins() {
+    let dir = TempDir::new("editor-safe");
+    sample(&dir.0);
+    let mut d = Daemon::edit(&dir.0, &["assets/face.uvpin.ron"]);
+    let addr = address(&d);
+    assert!(addr.starts_with("127.0.0.1:"), "{addr}");
+    let (status, page) = http(&addr, "GET", "/", &[], "");
+    let page = String::from_utf8(page).unwrap();
+    assert_eq!(status, 200);
+    for id in ["mesh-view", "texture-view", "constraint-list", "status"] {
+        assert!(page.contains(&format!("data-testid=\"{id}\"")), "{id} missing");
+    }
+    assert!(
+        !page.contains("http://") && !page.contains("https://"),
+        "the page loads nothing from elsewhere"
+    );
+    let state = wait_state(&addr, &d, |s| s["state"] == "reached");
+    let (_, mesh) = http(&addr, "GET", "/api/file/0/mesh", &[], "");
+    let mesh: Value = serde_json::from_slice(&mesh).unwrap();
+    assert_eq!(mesh["primitives"][0]["positions"].as_array().unwrap().len(), 1943 * 3);
+    // DNS rebinding: another name for this address is refused.
+    for host in ["evil.example:80", "evil.example", "", "127.0.0.2:1"] {
+        let (status, _) = http(&addr, "GET", "/api/files", &[("Host", host)], "");
+        assert_eq!(status, 403, "Host {host:?}");
+    }
+    // No path reaches the file system.
+    for path in [
+        "/../Cargo.toml",
+        "/..%2f..%2fetc/passwd",
+        "/api/file/../../assets/face.glb",
+        "/assets/face.glb",
+        "/api/file/7",
+    ] {
+        assert_eq!(http(&addr, "GET", path, &[], "").0, 404, "{path}");
+    }
+    // Writes only from the page's own origin, as JSON.
+    let body = json!({ "base": state["hash"], "constraints": page_list(&state) }).to_string();
+    let cross = [("Content-Type", "application/json"), ("Origin", "http://evil.example")];
+    assert_eq!(http(&addr, "POST", "/api/file/0/save", &cross, &body).0, 403);
+    let form = [("Content-Type", "text/plain")];
+    assert_eq!(http(&addr, "POST", "/api/file/0/save", &form, &body).0, 403);
+    let site = [("Content-Type", "application/json"), ("Sec-Fetch-Site", "cross-site")];
+    assert_eq!(http(&addr, "POST", "/api/file/0/save", &site, &body).0, 403);
+    assert_eq!(http(&addr, "DELETE", "/api/file/0", &[], "").0, 405);
+    let before = std::fs::read(dir.path("assets/face.uvpin.ron")).unwrap();
+    assert_eq!(before, std::fs::read(repo().join("assets/face.uvpin.ron")).unwrap());
+    assert!(d.terminate().success(), "SIGTERM ends it cleanly; log:\n{}", d.dump());
+}
+
+fn a_save_is_solved_written_and_a_broken_file_shows_its_error_until_fixed() {
+    let dir = TempDir::new("editor-save");
+    let ron = sample(&dir.0);
+    let mut d = Daemon::edit(&dir.0, &["assets/face.uvpin.ron", "--out", "out"]);
+    let addr = address(&d);
+    let state = wait_state(&addr, &d, |s| s["state"] == "reached");
+    let out = dir.path("out/face.glb");
+    // A drag preview: solved in memory, nothing written.
+    let mut list = page_list(&state);
+    list[4]["uv"] = json!([0.52, 0.6]);
+    list.push(json!({ "primitive": 0, "vertex": 100, "uv": [0.3, 0.8], "label": "new" }));
+    let (status, preview) = post(&addr, "/api/file/0/preview", &json!({ "seq": 1, "constraints": list }));
+    assert_eq!(status, 200);
+    assert_eq!(preview["report"]["status"], "reached", "{preview}");
+    assert_eq!(preview["report"]["flipped"], 0);
+    let written = std::fs::read(&out).unwrap();
+    // The save: only what changed is rewritten, comments and corners kept.
+    let (status, saved) = post(
+        &addr,
+        "/api/file/0/save",
+        &json!({ "base": state["hash"], "constraints": list }),
+    );
+    assert_eq!(status, 200, "{saved}");
+    let text = std::fs::read_to_string(&ron).unwrap();
+    let original = std::fs::read_to_string(repo().join("assets/face.uvpin.ron")).unwrap();
+    let expected = original
+        .replace("(vertex: 820, uv: (0.500, 0.580)", "(vertex: 820, uv: (0.52, 0.6)")
+        .replace(
+            "label: \"forehead\"),\n",
+            "label: \"forehead\"),\n        (vertex: 100, uv: (0.3, 0.8), label: \"new\"),\n",
+        );
+    assert_eq!(text, expected);
+    // A second save on the old base is refused: the file changed since.
+    assert_eq!(
+        post(
+            &addr,
+            "/api/file/0/save",
+            &json!({ "base": state["hash"], "constraints": list })
+        )
+        .0,
+        409
+    );
+    let solved = wait_state(&addr, &d, |s| s["hash"] == saved["hash"] && s["state"] == "reached");
+    assert_eq!(solved["constraints"].as_array().unwrap().len(), 13);
+    let (uvs, bad) = python_uvs(&out, 0);
+    assert_eq!(bad, 0);
+    let [u, v] = uvs[100];
+    assert!(
+        (u - 0.3).abs() < 1e-6 && (v - 0.8).abs() < 1e-6,
+        "vertex 100 at ({u}, {v})"
+    );
+    assert_ne!(std::fs::read(&out).unwrap(), written);
+    // Broken outside the page: the error with line:column, the output kept.
+    let good = std::fs::read(&out).unwrap();
+    std::fs::write(
+        &ron,
+        text.replace("(vertex: 100, uv: (0.3, 0.8)", "(vertex: 100 uv: (0.3, 0.8)"),
+    )
+    .unwrap();
+    let broken = wait_state(&addr, &d, |s| s["state"] == "error");
+    let error = broken["error"].as_str().unwrap();
+    assert!(error.contains("face.uvpin.ron:18:"), "{error}");
+    assert_eq!(broken["editable"], false);
+    assert_eq!(
+        post(
+            &addr,
+            "/api/file/0/save",
+            &json!({ "base": broken["hash"], "constraints": list })
+        )
+        .0,
+        409
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), good);
+    std::fs::write(&ron, &text).unwrap();
+    wait_state(&addr, &d, |s| s["state"] == "reached" && s["editable"] == true);
+    assert!(d.terminate().success());
+}
+
+fn a_new_constraint_file_is_made_for_an_asset_and_watch_serves_every_file() {
+    let dir = TempDir::new("editor-new");
+    sample(&dir.0);
+    std::fs::create_dir_all(dir.path("work")).unwrap();
+    let mut d = Daemon::edit(&dir.0, &["work/new.uvpin.ron", "--asset", "assets/face.glb"]);
+    let addr = address(&d);
+    let state = wait_state(&addr, &d, |s| s["state"] == "reached");
+    assert_eq!(state["constraints"], json!([]));
+    let text = std::fs::read_to_string(dir.path("work/new.uvpin.ron")).unwrap();
+    assert!(text.contains("asset: \"../assets/face.glb\""), "{text}");
+    assert!(d.terminate().success());
+    let missing = uvpin(&["edit", dir.path("nothing.uvpin.ron").to_str().unwrap()]);
+    assert_eq!(missing.status.code(), Some(1));
+    assert!(stderr(&missing).contains("give --asset MESH"), "{}", stderr(&missing));
+    let wrong = uvpin(&["edit", dir.path("x.ron").to_str().unwrap()]);
+    assert!(
+        stderr(&wrong).contains("must end with .uvpin.ron"),
+        "{}",
+        stderr(&wrong)
+    );
+    // `uvpin watch --serve`: the same page, every watched file.
+    let mut w = Daemon::watch(&dir.0, &["assets", "work", "--serve", "127.0.0.1:0"]);
+    let addr = address(&w);
+    let t0 = Instant::now();
+    while get_json(&addr, "/api/files")["files"].as_array().unwrap().len() < 2 {
+        assert!(t0.elapsed() < WAIT, "{}", w.dump());
+        std::thread::sleep(Duration::from_millis(30));
+    }
+    assert!(w.terminate().success());
+}
+
+fn in_chromium() {
+    let dir = TempDir::new("editor-browser");
+    sample(&dir.0);
+    let mut d = Daemon::edit(&dir.0, &["assets/face.uvpin.ron", "--out", "out"]);
+    let addr = address(&d);
+    let script = repo().join("tests/browser/editor.mjs");
+    let o = std::process::Command::new("node")
+        .arg(&script)
+        .arg(format!("http://{addr}/"))
+        .arg(&dir.0)
+        .env("NODE_PATH", repo().join(".tools/node_modules"))
+        .output()
+        .expect("run node");
+    let log = d.dump();
+    assert!(
+        o.status.success(),
+        "browser test failed:\n{}\n{}\ndaemon log:\n{log}",
+        stdout(&o),
+        stderr(&o)
+    );
+    assert!(d.terminate().success());
+}
+
+fn main() -> std::process::ExitCode {
+    run_cases(&[
+        (
+            "serves_its_page_and_refuses_foreign_hosts_paths_and_origins",
+            &[],
+            serves_its_page_and_refuses_foreign_hosts_paths_and_origins,
+        ),
+        (
+            "a_save_is_solved_written_and_a_broken_file_shows_its_error_until_fixed",
+            &[],
+            a_save_is_solved_written_and_a_broken_file_shows_its_error_until_fixed,
+        ),
+        (
+            "a_new_constraint_file_is_made_for_an_asset_and_watch_serves_every_file",
+            &[],
+            a_new_constraint_file_is_made_for_an_asset_and_watch_serves_every_file,
+        ),
+        ("in_chromium", &[Needs::Browser], in_chromium),
+    ])
+}
