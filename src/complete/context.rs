@@ -24,6 +24,16 @@ use std::sync::Arc;
 /// barrier that keeps the boundary apart, with little say in its shape.
 pub const SCAFFOLD_WEIGHT: f64 = 0.01;
 
+/// The least height, relative to its longest edge, of a scaffold triangle's
+/// rest shape while the chart is moved (the start's relaxation, the soft
+/// rounds); a thinner one is measured against itself with its apex lifted
+/// to this height. At rest in its own shape, remade after every step, a
+/// sliver never pushes back, so each step (0.9 of the safe one) squashed it
+/// tenfold again: where the outer loop nearly touches itself (a closed
+/// mouth) steps crawled at 1e-2–1e-4. Held fuller, it pushes the two sides
+/// apart before they meet (Jiang et al. give slivers a regular reference).
+pub const SCAFFOLD_MIN_HEIGHT: f64 = 0.1;
+
 /// The Newton machinery of one chart's solve.
 #[derive(Debug, Clone)]
 pub struct NewtonContext {
@@ -43,6 +53,9 @@ pub struct NewtonContext {
     storable: bool,
     /// Milliseconds spent triangulating the scaffold.
     scaffold_ms: f64,
+    /// The least relative height of a scaffold rest shape
+    /// ([`SCAFFOLD_MIN_HEIGHT`], or 0: each in its own shape).
+    scaffold_floor: f64,
 }
 
 /// A free chart's room and scaffold.
@@ -104,6 +117,7 @@ impl NewtonContext {
             triangles,
             free: None,
             scaffold_ms: 0.0,
+            scaffold_floor: 0.0,
         }
     }
 
@@ -132,9 +146,18 @@ impl NewtonContext {
             free: Some(domain),
             storable: false,
             scaffold_ms: 0.0,
+            scaffold_floor: SCAFFOLD_MIN_HEIGHT,
         };
         context.recount(layout);
         context
+    }
+
+    /// Scaffold triangles at rest in their own shapes from now on, however
+    /// thin (the polish: a barrier only, with no say in where the boundary
+    /// goes), the scaffold of `layout` remade.
+    pub fn scaffold_in_own_shapes(&mut self, layout: &[DVec2]) {
+        self.scaffold_floor = 0.0;
+        self.rebuild_scaffold(layout);
     }
 
     /// Scales the real triangles' rest shapes to the size `layout` fits
@@ -274,8 +297,8 @@ impl NewtonContext {
     }
 
     /// The scaffold around `layout`'s boundary, each triangle at rest in its
-    /// own shape (kept as it was if the boundary cannot be triangulated
-    /// around, which an accepted layout never asks).
+    /// own shape, no thinner than the floor (kept as it was if the boundary
+    /// cannot be triangulated around, which an accepted layout never asks).
     fn rebuild_scaffold(&mut self, layout: &[DVec2]) {
         let Some(domain) = &self.free else {
             return;
@@ -293,7 +316,7 @@ impl NewtonContext {
         self.rest.truncate(self.n_chart);
         for t in scaffold {
             let [a, b, c] = t.map(|v| layout[v as usize]);
-            if let Some(r) = own_shape(a, b, c) {
+            if let Some(r) = own_shape(a, b, c, self.scaffold_floor) {
                 self.triangles.push(t);
                 self.rest.push(r);
             }
@@ -313,14 +336,26 @@ fn scaled(rest: Vec<RestTriangle>, area: f64) -> Vec<RestTriangle> {
         .collect()
 }
 
-/// A layout triangle as its own rest shape, at [`SCAFFOLD_WEIGHT`] times
-/// its area (`None` if it has none).
-fn own_shape(a: DVec2, b: DVec2, c: DVec2) -> Option<RestTriangle> {
-    let (e1, e2) = (b - a, c - a);
-    let det = e1.perp_dot(e2);
+/// A layout triangle as its own rest shape, its apex (opposite the longest
+/// edge) lifted to `floor` times that edge's length if it is lower, at
+/// [`SCAFFOLD_WEIGHT`] times the rest area (`None` if it has no area).
+fn own_shape(a: DVec2, b: DVec2, c: DVec2, floor: f64) -> Option<RestTriangle> {
+    let det = (b - a).perp_dot(c - a);
     if det <= 0.0 || !det.is_finite() {
         return None;
     }
+    let mut p = [a, b, c];
+    let opposite = |k: usize| p[(k + 1) % 3].distance_squared(p[(k + 2) % 3]);
+    let apex = (0..3).max_by(|&i, &j| opposite(i).total_cmp(&opposite(j))).unwrap_or(0);
+    let (from, edge) = (p[(apex + 1) % 3], p[(apex + 2) % 3] - p[(apex + 1) % 3]);
+    let length = edge.length();
+    if det < floor * length * length {
+        // Counter-clockwise: the apex lies left of its edge (`perp`).
+        let foot = from + edge * ((p[apex] - from).dot(edge) / (length * length));
+        p[apex] = foot + edge.perp() * floor;
+    }
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let det = e1.perp_dot(e2);
     // R = [e1 e2] (columns); R⁻¹ = adj / det.
     Some(RestTriangle {
         inv_rest: [e2.y / det, -e2.x / det, -e1.y / det, e1.x / det],

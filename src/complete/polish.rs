@@ -43,8 +43,10 @@ pub struct Polish {
 }
 
 impl Polish {
-    /// The polish of `layout` toward `goal`, holding `problem`'s constrained vertices.
-    pub fn new(newton: NewtonContext, problem: &StepProblem, layout: &[DVec2], goal: PolishGoal) -> Self {
+    /// The polish of `layout` toward `goal`, holding `problem`'s constrained
+    /// vertices; a free chart's scaffold rests in its own shapes.
+    pub fn new(mut newton: NewtonContext, problem: &StepProblem, layout: &[DVec2], goal: PolishGoal) -> Self {
+        newton.scaffold_in_own_shapes(layout);
         let mut held = vec![false; layout.len()];
         problem
             .constraint_vertices

@@ -47,6 +47,10 @@ const FINAL_FILL: f64 = 0.98;
 /// Shrink factors tried, in order, to fit a start into its room.
 const SHRINKS: [f64; 12] = [1.0, 1.0 - 1e-6, 0.99, 0.9, 0.75, 0.5, 0.25, 0.1, 0.03, 1e-2, 1e-3, 1e-4];
 
+/// How far inside its region's border a start moved into it keeps its
+/// bounding box, relative to the region's size.
+const INSIDE_MARGIN: f64 = 0.01;
+
 /// A start must span at least this much of its region's diagonal: smaller
 /// ones (the gaps between other islands) would leave an absurdly small
 /// chart, so the chart does not fit.
@@ -195,24 +199,22 @@ pub fn fit_into_room(
         (!problem.targets.is_empty()).then(|| problem.targets.iter().sum::<DVec2>() / problem.targets.len() as f64);
     let (blo, bhi) = bounds(&placed);
     let mut anchors: Vec<(DVec2, DVec2)> = Vec::new();
-    // Shrink about the targets' centre (constrained vertices stay near
-    // their targets), then about the layout's own centre placed at points
-    // spread over the region.
-    if let Some(c) = targets_centre {
-        anchors.push((c, c));
-    }
+    // Shrink about the targets' centre, in place or moved the least that
+    // brings the bounding box inside the region (constrained vertices stay
+    // near their targets), then about the layout's own centre placed at
+    // points spread over the region.
+    anchors.push((0.5 * (blo + bhi), 0.5 * (lo + hi)));
     for j in 0..5 {
         for i in 0..5 {
             let at = lo + (hi - lo) * DVec2::new((2 * i + 1) as f64, (2 * j + 1) as f64) / 10.0;
             anchors.push((0.5 * (blo + bhi), at));
         }
     }
-    anchors.insert(
-        usize::from(targets_centre.is_some()),
-        (0.5 * (blo + bhi), 0.5 * (lo + hi)),
-    );
     for &shrink in &SHRINKS {
-        for &(from, to) in &anchors {
+        let near = targets_centre.map_or(Vec::new(), |c| {
+            vec![(c, c), (c, c + least_move_inside((blo, bhi), c, shrink, (lo, hi)))]
+        });
+        for &(from, to) in near.iter().chain(&anchors) {
             let layout: Vec<DVec2> = placed.iter().map(|&p| to + (p - from) * shrink).collect();
             if (bhi - blo).length() * shrink < MIN_SPAN * (hi - lo).length() {
                 return None;
@@ -250,6 +252,24 @@ fn target_scale(problem: &StepProblem, shape: &Shape) -> Option<f64> {
     let s = uv / xyz;
     let area = shape.area();
     (s.is_finite() && s > 0.0 && area > 0.0).then_some(s * s * area)
+}
+
+/// The least move that brings the box `lo..hi`, shrunk by `shrink` about
+/// `centre`, inside `region` ([`INSIDE_MARGIN`] from its border) along each
+/// axis where it fits (zero along the others). Moving a start that sticks
+/// out to the region's centre instead left every constrained vertex ~0.1
+/// from its target, for the completion to carry the whole chart back.
+fn least_move_inside((lo, hi): (DVec2, DVec2), centre: DVec2, shrink: f64, region: (DVec2, DVec2)) -> DVec2 {
+    let (lo, hi) = (centre + (lo - centre) * shrink, centre + (hi - centre) * shrink);
+    let margin = (region.1 - region.0) * INSIDE_MARGIN;
+    let (min, max) = (region.0 + margin, region.1 - margin);
+    let mut d = DVec2::ZERO;
+    for k in 0..2 {
+        if hi[k] - lo[k] <= max[k] - min[k] {
+            d[k] = (min[k] - lo[k]).max(0.0) + (max[k] - hi[k]).min(0.0);
+        }
+    }
+    d
 }
 
 fn bounds(points: &[DVec2]) -> (DVec2, DVec2) {
