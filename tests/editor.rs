@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 fn sample(dir: &Path) -> PathBuf {
     let assets = dir.join("assets");
     std::fs::create_dir_all(&assets).unwrap();
-    for f in ["face.glb", "face.uvpin.ron"] {
+    for f in ["face.glb", "face.uvpin.ron", "face-guide.png"] {
         std::fs::copy(repo().join("assets").join(f), assets.join(f)).unwrap();
     }
     assets.join("face.uvpin.ron")
@@ -96,8 +96,10 @@ fn post(addr: &str, path: &str, value: &Value) -> (u16, Value) {
 fn wait_state(addr: &str, d: &Daemon, done: impl Fn(&Value) -> bool) -> Value {
     let t0 = Instant::now();
     loop {
-        let s = get_json(addr, "/api/file/0");
-        if done(&s) {
+        // 404 until the daemon has found the file.
+        let (status, body) = http(addr, "GET", "/api/file/0", &[], "");
+        let s: Value = serde_json::from_slice(&body).unwrap_or(Value::Null);
+        if status == 200 && done(&s) {
             return s;
         }
         assert!(t0.elapsed() < WAIT, "state never came: {s}\nlog:\n{}", d.dump());
@@ -225,7 +227,8 @@ fn a_save_is_solved_written_and_a_broken_file_shows_its_error_until_fixed() {
     .unwrap();
     let broken = wait_state(&addr, &d, |s| s["state"] == "error");
     let error = broken["error"].as_str().unwrap();
-    assert!(error.contains("face.uvpin.ron:18:"), "{error}");
+    let line = 1 + text.lines().position(|l| l.contains("(vertex: 100,")).unwrap();
+    assert!(error.contains(&format!("face.uvpin.ron:{line}:")), "{error}");
     assert_eq!(broken["editable"], false);
     assert_eq!(
         post(

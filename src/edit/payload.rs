@@ -89,10 +89,13 @@ pub fn state(view: &FileView) -> Value {
     })
 }
 
-/// Whether the file names an image, or its asset's material has a
-/// base-colour texture (decoded once per asset and kept).
+/// Whether the file names an image that is there, or else its asset's
+/// material has a base-colour texture (decoded once per asset and kept).
 fn has_texture(inputs: &super::hub::EditInputs) -> bool {
-    inputs.loaded.file.image.is_some() || crate::preview::texture::base_colour_texture(&inputs.asset).is_some()
+    match &inputs.loaded.file.image {
+        Some(image) => inputs.loaded.path.parent().is_some_and(|dir| dir.join(image).is_file()),
+        None => crate::preview::texture::base_colour_texture(&inputs.asset).is_some(),
+    }
 }
 
 /// The mesh: per primitive its positions and triangle indices, flat.

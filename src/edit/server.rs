@@ -258,7 +258,8 @@ fn file_route(url: &str) -> Option<(usize, &str)> {
 }
 
 fn route(context: &Context, request: &mut Request) -> Reply {
-    let url = request.url().to_string();
+    // The query only defeats caches (`?asset=…`); it selects nothing.
+    let url = request.url().split('?').next().unwrap_or("").to_string();
     let method = request.method().clone();
     if let Some(asset) = page::asset(&url).filter(|_| method == Method::Get) {
         return Reply {

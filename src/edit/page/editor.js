@@ -110,9 +110,9 @@ function uvArrays(uvs) {
 async function refreshFile() {
   const file = await getJson(`/api/file/${app.fileId}`);
   app.file = file;
-  if (app.savedHash && file.hash === app.savedHash && file.editable) {
-    app.savedHash = null;
-  }
+  // The daemon has read our last save: a save waiting on it may go now.
+  const caughtUp = app.savedHash !== null && file.hash === app.savedHash && file.editable;
+  if (caughtUp) app.savedHash = null;
   if (file.asset && file.asset !== app.meshKey) {
     app.mesh = await getJson(`/api/file/${app.fileId}/mesh`);
     app.meshKey = file.asset;
@@ -120,15 +120,17 @@ async function refreshFile() {
     textureView.setMesh(app.mesh);
     if (!app.userImage) loadTexture(file.has_texture);
   }
-  if (!app.dragStart && !app.savedHash) {
+  // The page's own list stays while it is ahead of the file (saves pending).
+  const ahead = app.savedHash !== null || app.saveAgain;
+  if (!app.dragStart && !ahead) {
     app.constraints = file.constraints.map((c) => ({ primitive: c.primitive, vertex: c.vertex, uv: c.target, label: c.label }));
   }
-  if (file.solved && !app.dragStart && !app.preview.inFlight) {
+  if (file.solved && !app.dragStart && !app.preview.inFlight && !ahead) {
     app.inChart = file.solved.in_chart;
     app.results = { report: file.solved.report, uvs: uvArrays(file.solved.uvs), from: 'file' };
   }
   showStatus();
-  redraw();
+  redraw({ layout: true });
   if (app.savedHash === null && app.saveAgain) {
     app.saveAgain = false;
     save();
@@ -189,7 +191,23 @@ function resultOf(c) {
   return r.constraints.find((x) => x.vertex === c.vertex && x.primitive === primitiveOf(c)) || null;
 }
 
-function redraw() {
+// What the next frame must redraw; frames coalesce any number of changes.
+const dirty = { layout: false, list: false };
+let frameRequested = false;
+
+// Schedules a redraw: the markers always, the layout when a new solve came
+// (`layout`), the list unless a drag is running (`list`).
+function redraw({ layout = false, list = true } = {}) {
+  dirty.layout ||= layout;
+  dirty.list ||= list;
+  if (!frameRequested) {
+    frameRequested = true;
+    requestAnimationFrame(render);
+  }
+}
+
+function render() {
+  frameRequested = false;
   const markers = app.constraints.map((c, k) => {
     const r = resultOf(c);
     return {
@@ -205,19 +223,27 @@ function redraw() {
       index: k,
     };
   });
-  if (app.results) {
+  if (dirty.layout && app.results) {
     meshView.setUvs(app.results.uvs);
     textureView.setLayout(app.results.uvs, app.inChart);
   }
   meshView.setMarkers(markers, app.selected);
   textureView.setMarkers(markers);
-  renderList();
+  if (dirty.list && !app.dragStart) {
+    renderList();
+    dirty.list = false;
+  }
+  dirty.layout = false;
   $('undo').disabled = !app.undo.length;
   $('redo').disabled = !app.redo.length;
   const sel = app.selected;
   $('selection').textContent = sel
     ? `Selected: vertex ${sel.vertex}${app.mesh && app.mesh.primitives.length > 1 ? ` (primitive ${sel.primitive})` : ''}. Click the texture to place its target.`
     : 'No vertex selected: click the mesh.';
+  if (app.drawnMove !== undefined) {
+    window.uvpinEditor.latencies.push(performance.now() - app.drawnMove);
+    app.drawnMove = undefined;
+  }
 }
 
 function renderList() {
@@ -360,12 +386,12 @@ async function requestPreview(moveTime) {
     app.results = { report: r.body.report, uvs: uvArrays(r.body.uvs), from: 'preview' };
     window.uvpinEditor.previews += 1;
     showStatus();
-    redraw();
     const moved = p.moves && p.moves.get(seq);
     if (moved !== undefined) {
-      window.uvpinEditor.latencies.push(performance.now() - moved);
+      app.drawnMove = moved;
       p.moves.clear();
     }
+    redraw({ layout: true, list: !app.dragStart });
   } else if (r && r.ok && r.body.invalid) {
     setStatus('error', r.body.invalid);
   }
@@ -393,7 +419,7 @@ const textureHandlers = {
     const c = app.constraints[marker.index];
     if (!c) return;
     c.uv = uv;
-    redraw();
+    redraw({ list: false });
     const now = performance.now();
     requestPreview(Math.min(now, timeStamp || now));
   },

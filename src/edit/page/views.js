@@ -256,7 +256,7 @@ export class MeshView {
   }
 
   drawOverlay() {
-    const ctx = this.overlay.getContext('2d');
+    const ctx = this.overlay.getContext('2d', { willReadFrequently: true });
     const dpr = window.devicePixelRatio || 1;
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
     ctx.clearRect(0, 0, this.overlay.width, this.overlay.height);
@@ -415,7 +415,7 @@ export class TextureView {
   constructor(canvas, handlers) {
     this.canvas = canvas;
     this.handlers = handlers;
-    this.ctx = canvas.getContext('2d');
+    this.ctx = canvas.getContext('2d', { willReadFrequently: true });
     this.image = null;
     this.mesh = null;
     this.uvs = null;
@@ -423,6 +423,9 @@ export class TextureView {
     this.markers = [];
     this.zoom = 1;
     this.pan = [0, 0];
+    // The image and the layout, drawn again only when they change.
+    this.layer = document.createElement('canvas');
+    this.layerKey = null;
     this.listen();
   }
 
@@ -430,17 +433,20 @@ export class TextureView {
     this.mesh = mesh;
     this.zoom = 1;
     this.pan = [0, 0];
+    this.layerKey = null;
     this.draw();
   }
 
   setImage(image) {
     this.image = image;
+    this.layerKey = null;
     this.draw();
   }
 
   setLayout(uvs, inChart) {
     this.uvs = uvs;
     if (inChart) this.inChart = inChart;
+    this.layerKey = null;
     this.draw();
   }
 
@@ -471,13 +477,23 @@ export class TextureView {
       c.width = w;
       c.height = h;
     }
-    const ctx = this.ctx;
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    ctx.fillStyle = '#15171a';
-    ctx.fillRect(0, 0, c.clientWidth, c.clientHeight);
     const f = this.frame();
-    this.drawBackground(ctx, f);
-    this.drawLayout(ctx, f);
+    const key = `${w}x${h} ${f.s} ${f.ox} ${f.oy}`;
+    if (this.layerKey !== key) {
+      this.layer.width = w;
+      this.layer.height = h;
+      const lctx = this.layer.getContext('2d', { willReadFrequently: true });
+      lctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+      lctx.fillStyle = '#15171a';
+      lctx.fillRect(0, 0, c.clientWidth, c.clientHeight);
+      this.drawBackground(lctx, f);
+      this.drawLayout(lctx, f);
+      this.layerKey = key;
+    }
+    const ctx = this.ctx;
+    ctx.setTransform(1, 0, 0, 1, 0, 0);
+    ctx.drawImage(this.layer, 0, 0);
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
     this.drawMarkers(ctx, f);
   }
 
