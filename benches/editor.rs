@@ -1,0 +1,177 @@
+//! Drag-to-redraw latency of the landmark editor: `uvpin edit` on the
+//! sample and on the 26k-vertex shared face, a target marker dragged round
+//! a small circle for a few seconds in headless Chromium (a pointer move
+//! every 16 ms), the page timing each move to the redraw of its solve.
+//! `cargo bench --bench editor [FILTER]`; needs Chromium and playwright-core
+//! (as the browser test does).
+
+mod common;
+use glam::DVec2;
+use serde_json::Value;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use uvpin::param::xy_to_uv;
+use uvpin::testing::{Rng, smooth_warp};
+
+/// Seconds each drag lasts.
+const DRAG_SECONDS: u32 = 5;
+
+/// A constraint file for `mesh_file` (copied into `dir`) with `k` interior
+/// landmarks whose targets are their step-1 positions through a smooth warp.
+fn witnessed_file(dir: &Path, mesh_file: &Path, k: usize) -> PathBuf {
+    std::fs::copy(mesh_file, dir.join("mesh.glb")).expect("copy mesh");
+    let asset = uvpin::io::load_asset(&dir.join("mesh.glb"), None, 0, &Default::default()).expect("mesh");
+    let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
+    let step1 = uvpin::step1(&mesh, None).expect("step 1");
+    let layout = step1.vertex_layout();
+    let interior = step1.interior_vertices();
+    let mut rng = Rng::new(11);
+    let mut lines = String::new();
+    let mut chosen = Vec::new();
+    while chosen.len() < k {
+        let v = interior[rng.below(interior.len())];
+        if chosen.contains(&v) {
+            continue;
+        }
+        chosen.push(v);
+        let uv = xy_to_uv(smooth_warp(layout[v as usize].expect("in the chart"), 0.05));
+        lines += &format!("        (vertex: {v}, uv: ({:.6}, {:.6})),\n", uv.x, uv.y);
+    }
+    let ron = dir.join("mesh.uvpin.ron");
+    std::fs::write(
+        &ron,
+        format!("(\n    asset: \"mesh.glb\",\n    constraints: [\n{lines}    ],\n)\n"),
+    )
+    .unwrap();
+    ron
+}
+
+/// Runs `uvpin edit` on `ron`, drags in Chromium; the page's measurements.
+fn drag(ron: &Path) -> Value {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args([
+            "edit",
+            ron.to_str().unwrap(),
+            "--addr",
+            "127.0.0.1:0",
+            "--log",
+            "json",
+            "--out",
+        ])
+        .arg(ron.parent().unwrap().join("out"))
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("uvpin edit");
+    let stderr = child.stderr.take().expect("stderr");
+    let mut lines = BufReader::new(stderr).lines();
+    let url = lines
+        .by_ref()
+        .map_while(Result::ok)
+        .find_map(|l| {
+            serde_json::from_str::<Value>(&l).ok()?["url"]
+                .as_str()
+                .map(str::to_string)
+        })
+        .expect("the editor's address");
+    std::thread::spawn(move || lines.for_each(drop));
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/helpers/drag.mjs");
+    let o = Command::new("node")
+        .arg(script)
+        .arg(&url)
+        .arg(DRAG_SECONDS.to_string())
+        .output()
+        .expect("node");
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(o.status.success(), "drag: {}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&o.stdout).expect("the page's measurements")
+}
+
+fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(((v.len() as f64 - 1.0) * p).round() as usize)
+        .copied()
+        .unwrap_or(f64::NAN)
+}
+
+fn main() {
+    let filter = common::filter();
+    let chromium = std::env::var("CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    if !Path::new(&chromium).is_file() || !repo.join(".tools/node_modules/playwright-core").is_dir() {
+        eprintln!("(Chromium or playwright-core missing: nothing to measure)");
+        return;
+    }
+    let tmp = std::env::temp_dir().join(format!("uvpin-bench-editor-{}", std::process::id()));
+    let mut rows = Vec::new();
+    let shared_face = repo.join("../shared/meshes/face.glb");
+    let cases: Vec<(&str, Box<dyn Fn(&Path) -> PathBuf>)> = vec![
+        (
+            "sample (assets/face.glb), 12 landmarks",
+            Box::new(|dir: &Path| {
+                for f in ["face.glb", "face.uvpin.ron", "face-guide.png"] {
+                    std::fs::copy(repo.join("assets").join(f), dir.join(f)).unwrap();
+                }
+                dir.join("face.uvpin.ron")
+            }),
+        ),
+        (
+            "shared face.glb, 24 landmarks",
+            Box::new(|dir: &Path| witnessed_file(dir, &shared_face, 24)),
+        ),
+    ];
+    for (name, make) in cases {
+        if filter.as_ref().is_some_and(|f| !name.contains(f.as_str())) {
+            continue;
+        }
+        if name.contains("shared") && !shared_face.is_file() {
+            eprintln!("{name}: ../shared/meshes not found");
+            continue;
+        }
+        let dir = tmp.join(rows.len().to_string());
+        std::fs::create_dir_all(&dir).unwrap();
+        let ron = make(&dir);
+        let asset = uvpin::io::load_asset(
+            &ron.with_file_name(if name.contains("shared") {
+                "mesh.glb"
+            } else {
+                "face.glb"
+            }),
+            None,
+            0,
+            &Default::default(),
+        )
+        .unwrap();
+        let vertices: usize = asset.primitives.iter().map(|p| p.positions.len()).sum();
+        let m = drag(&ron);
+        let latencies: Vec<f64> = m["latencies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(Value::as_f64)
+            .collect();
+        let per_second = m["previews"].as_f64().unwrap() / m["seconds"].as_f64().unwrap();
+        eprintln!(
+            "{name}: {per_second:.1} redraws/s, median {:.0} ms",
+            common::median(latencies.clone())
+        );
+        rows.push(format!(
+            "| {name} | {vertices} | {:.0} | {per_second:.1} | {:.0} | {:.0} |",
+            m["moves"].as_f64().unwrap() / m["seconds"].as_f64().unwrap(),
+            common::median(latencies.clone()),
+            percentile(latencies, 0.9),
+        ));
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+    let body = format!(
+        "A target marker dragged round a circle of radius 0.015 (texture units) for {DRAG_SECONDS} s in headless \
+         Chromium (software WebGL); the page solves every new position in memory (the newest drops the one \
+         running) and redraws both views. Latency: from a pointer move to the redraw of a solve that includes it \
+         (median and 90th percentile). `cargo bench --bench editor`.\n\n\
+         | case | vertices | pointer moves/s | redraws/s | median ms | p90 ms |\n|---|---:|---:|---:|---:|---:|\n{}\n",
+        rows.join("\n")
+    );
+    common::publish("editor", "Editor drag-to-redraw", &body);
+}
