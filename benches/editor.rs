@@ -6,7 +6,6 @@
 //! (as the browser test does).
 
 mod common;
-use glam::DVec2;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -96,6 +95,28 @@ fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
         .unwrap_or(f64::NAN)
 }
 
+/// A drag case: the sample as shipped, or a mesh with witnessed landmarks.
+enum Case {
+    Sample,
+    Witnessed { mesh: PathBuf, landmarks: usize },
+}
+
+impl Case {
+    /// The case's files in `dir`: the constraint file and the mesh.
+    fn make(&self, dir: &Path) -> (PathBuf, PathBuf) {
+        match self {
+            Case::Sample => {
+                let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+                for f in ["face.glb", "face.uvpin.ron", "face-guide.png"] {
+                    std::fs::copy(repo.join("assets").join(f), dir.join(f)).unwrap();
+                }
+                (dir.join("face.uvpin.ron"), dir.join("face.glb"))
+            }
+            Case::Witnessed { mesh, landmarks } => (witnessed_file(dir, mesh, *landmarks), dir.join("mesh.glb")),
+        }
+    }
+}
+
 fn main() {
     let filter = common::filter();
     let chromium = std::env::var("CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
@@ -105,45 +126,30 @@ fn main() {
         return;
     }
     let tmp = std::env::temp_dir().join(format!("uvpin-bench-editor-{}", std::process::id()));
-    let mut rows = Vec::new();
     let shared_face = repo.join("../shared/meshes/face.glb");
-    let cases: Vec<(&str, Box<dyn Fn(&Path) -> PathBuf>)> = vec![
-        (
-            "sample (assets/face.glb), 12 landmarks",
-            Box::new(|dir: &Path| {
-                for f in ["face.glb", "face.uvpin.ron", "face-guide.png"] {
-                    std::fs::copy(repo.join("assets").join(f), dir.join(f)).unwrap();
-                }
-                dir.join("face.uvpin.ron")
-            }),
-        ),
+    let cases = [
+        ("sample (assets/face.glb), 12 landmarks", Case::Sample),
         (
             "shared face.glb, 24 landmarks",
-            Box::new(|dir: &Path| witnessed_file(dir, &shared_face, 24)),
+            Case::Witnessed {
+                mesh: shared_face.clone(),
+                landmarks: 24,
+            },
         ),
     ];
-    for (name, make) in cases {
+    let mut rows = Vec::new();
+    for (name, case) in &cases {
         if filter.as_ref().is_some_and(|f| !name.contains(f.as_str())) {
             continue;
         }
-        if name.contains("shared") && !shared_face.is_file() {
+        if matches!(case, Case::Witnessed { mesh, .. } if !mesh.is_file()) {
             eprintln!("{name}: ../shared/meshes not found");
             continue;
         }
         let dir = tmp.join(rows.len().to_string());
         std::fs::create_dir_all(&dir).unwrap();
-        let ron = make(&dir);
-        let asset = uvpin::io::load_asset(
-            &ron.with_file_name(if name.contains("shared") {
-                "mesh.glb"
-            } else {
-                "face.glb"
-            }),
-            None,
-            0,
-            &Default::default(),
-        )
-        .unwrap();
+        let (ron, mesh) = case.make(&dir);
+        let asset = uvpin::io::load_asset(&mesh, None, 0, &Default::default()).unwrap();
         let vertices: usize = asset.primitives.iter().map(|p| p.positions.len()).sum();
         let m = drag(&ron);
         let latencies: Vec<f64> = m["latencies"]
@@ -152,14 +158,15 @@ fn main() {
             .iter()
             .filter_map(Value::as_f64)
             .collect();
-        let per_second = m["previews"].as_f64().unwrap() / m["seconds"].as_f64().unwrap();
+        let seconds = m["seconds"].as_f64().unwrap();
+        let per_second = m["previews"].as_f64().unwrap() / seconds;
         eprintln!(
             "{name}: {per_second:.1} redraws/s, median {:.0} ms",
             common::median(latencies.clone())
         );
         rows.push(format!(
             "| {name} | {vertices} | {:.0} | {per_second:.1} | {:.0} | {:.0} |",
-            m["moves"].as_f64().unwrap() / m["seconds"].as_f64().unwrap(),
+            m["moves"].as_f64().unwrap() / seconds,
             common::median(latencies.clone()),
             percentile(latencies, 0.9),
         ));

@@ -140,7 +140,12 @@ fn run_step1(mesh: &TriMesh, constraints: &[(u32, DVec2)], out: &mut Outcome) {
         .into_iter()
         .map(|p| p.unwrap_or(DVec2::ZERO))
         .collect();
-    let stretch = sander_stretch(&mesh.positions, &layout, &mesh.triangles);
+    record_layout(mesh, &layout, constraints, out);
+}
+
+/// The stretch of `layout` and how far its landmarks are from their targets.
+fn record_layout(mesh: &TriMesh, layout: &[DVec2], constraints: &[(u32, DVec2)], out: &mut Outcome) {
+    let stretch = sander_stretch(&mesh.positions, layout, &mesh.triangles);
     out.l2.push(stretch.l2);
     out.linf.push(stretch.linf);
     let residual = constraints
@@ -204,16 +209,9 @@ fn run_slim(python: &Path, mesh: &TriMesh, case: &Case, tmp: &Path, out: &mut Ou
         .map(|p| DVec2::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
         .collect();
     out.ms.push(result["ms"].as_f64().unwrap());
-    let stretch = sander_stretch(&mesh.positions, &layout, &mesh.triangles);
-    out.l2.push(stretch.l2);
-    out.linf.push(stretch.linf);
-    let residual = constraints
-        .iter()
-        .map(|(v, t)| xy_to_uv(layout[*v as usize]).distance(*t))
-        .fold(0.0, f64::max);
-    out.residual.push(residual);
-    out.flips = uvpin::guard::count_orientations(&layout, &mesh.triangles).flipped
-        + uvpin::guard::count_orientations(&layout, &mesh.triangles).zero_area;
+    record_layout(mesh, &layout, constraints, out);
+    let orientation = uvpin::guard::count_orientations(&layout, &mesh.triangles);
+    out.flips = orientation.flipped + orientation.zero_area;
     let edges = uvpin::injective::boundary_edges(&mesh.triangles);
     out.crossings =
         uvpin::injective::meeting_pairs(&layout, &edges, uvpin::injective::Contact::Proper, 10_000, |_, _| false).len();

@@ -13,6 +13,7 @@ mod common;
 
 use glam::DVec2;
 use std::path::{Path, PathBuf};
+use uvpin::constraints::BoundaryChoice;
 use uvpin::mesh::TriMesh;
 use uvpin::options::SolverOptions;
 use uvpin::param::{uv_to_xy, xy_to_uv};
@@ -162,8 +163,8 @@ fn bench_mesh(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)], runs: us
     }
 }
 
-/// One case of an interleaved set: name, mesh, constraints, options.
-type Case<'a> = (&'a str, &'a TriMesh, Vec<(u32, DVec2)>, SolverOptions);
+/// One case of an interleaved set: name, mesh, constraints, options, boundary.
+type Case<'a> = (&'a str, &'a TriMesh, Vec<(u32, DVec2)>, SolverOptions, BoundaryChoice);
 
 /// Runs `cases` round-robin, one solve of each per round, `runs` rounds, so
 /// that the rows are measured side by side (a shared machine's speed drifts;
@@ -171,7 +172,7 @@ type Case<'a> = (&'a str, &'a TriMesh, Vec<(u32, DVec2)>, SolverOptions);
 fn bench_interleaved(cases: &[Case], runs: usize) -> Vec<Row> {
     let mut rows: Vec<Row> = cases
         .iter()
-        .map(|(name, mesh, constraints, _)| Row {
+        .map(|(name, mesh, constraints, _, _)| Row {
             name: (*name).into(),
             vertices: mesh.n_vertices(),
             constraints: constraints.len(),
@@ -182,9 +183,9 @@ fn bench_interleaved(cases: &[Case], runs: usize) -> Vec<Row> {
         })
         .collect();
     for _ in 0..runs {
-        for ((_, mesh, constraints, options), row) in cases.iter().zip(&mut rows) {
-            let uvpin::MeshSolution { report, .. } =
-                uvpin::solve_mesh(mesh, &uvpin::Pins::new(constraints), &(*options).into()).expect("solve");
+        for ((_, mesh, constraints, options, boundary), row) in cases.iter().zip(&mut rows) {
+            let pins = uvpin::Pins::new(constraints).with_boundary(*boundary);
+            let uvpin::MeshSolution { report, .. } = uvpin::solve_mesh(mesh, &pins, &(*options).into()).expect("solve");
             row.status = format!("{:?}", report.status).to_lowercase();
             row.times.push(report.times);
             row.report = Some(report);
@@ -259,12 +260,15 @@ fn paper_rows() -> Vec<Row> {
     // the completion reaches them (its result is the witness).
     let swirled = mapped_constraints(&uvs, 50, 2, |xy| swirl(xy, 4.0));
     let d = SolverOptions::DEFAULT;
+    let (square, free) = (BoundaryChoice::Square, BoundaryChoice::Free);
     let cases: Vec<Case> = vec![
-        ("paper size: 41² curved grid", &mesh, c.clone(), d),
-        ("paper size, polish off", &mesh, c, no_polish),
-        ("paper size, crossing pair", &mesh, crossing, d),
-        ("paper size, swirl (stalls)", &mesh, swirled.clone(), d),
-        ("paper size, swirl, polish off", &mesh, swirled, no_polish),
+        ("paper size: 41² curved grid", &mesh, c.clone(), d, square),
+        ("paper size, polish off", &mesh, c.clone(), no_polish, square),
+        ("paper size, free boundary", &mesh, c, d, free),
+        ("paper size, crossing pair", &mesh, crossing.clone(), d, square),
+        ("paper size, crossing pair, free boundary", &mesh, crossing, d, free),
+        ("paper size, swirl (stalls)", &mesh, swirled.clone(), d, square),
+        ("paper size, swirl, polish off", &mesh, swirled, no_polish, square),
     ];
     bench_interleaved(&cases, 21)
 }
