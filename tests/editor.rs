@@ -38,10 +38,10 @@ fn address(d: &Daemon) -> String {
 fn http(addr: &str, method: &str, path: &str, headers: &[(&str, &str)], body: &str) -> (u16, Vec<u8>) {
     let mut s = TcpStream::connect(addr).expect("connect");
     s.set_read_timeout(Some(WAIT)).unwrap();
-    let mut request = format!(
-        "{method} {path} HTTP/1.1\r\nConnection: close\r\nContent-Length: {}\r\n",
-        body.len()
-    );
+    let mut request = format!("{method} {path} HTTP/1.1\r\nConnection: close\r\n");
+    if !headers.iter().any(|(k, _)| *k == "Content-Length") {
+        request += &format!("Content-Length: {}\r\n", body.len());
+    }
     if !headers.iter().any(|(k, _)| *k == "Host") {
         request += &format!("Host: {addr}\r\n");
     }
@@ -161,6 +161,25 @@ fn serves_its_page_and_refuses_foreign_hosts_paths_and_origins() {
     let site = [("Content-Type", "application/json"), ("Sec-Fetch-Site", "cross-site")];
     assert_eq!(http(&addr, "POST", "/api/file/0/save", &site, &body).0, 403);
     assert_eq!(http(&addr, "DELETE", "/api/file/0", &[], "").0, 405);
+    // Malformed writes from the page's own origin: refused, nothing written.
+    let origin = format!("http://{addr}");
+    let own = [("Content-Type", "application/json"), ("Origin", origin.as_str())];
+    assert_eq!(http(&addr, "POST", "/api/file/0/save", &own, "{not json").0, 400);
+    let claims_huge = [own[0], own[1], ("Content-Length", "100000000")];
+    assert_eq!(http(&addr, "POST", "/api/file/0/save", &claims_huge, "{}").0, 413);
+    let mut list = page_list(&state);
+    list[0]["vertex"] = json!(999_999);
+    let (status, e) = post(
+        &addr,
+        "/api/file/0/save",
+        &json!({ "base": state["hash"], "constraints": list }),
+    );
+    assert_eq!(status, 400);
+    assert!(e["error"].as_str().unwrap().contains("out of range"), "{e}");
+    let mut list = page_list(&state);
+    list[1]["uv"] = list[0]["uv"].clone();
+    let (_, p) = post(&addr, "/api/file/0/preview", &json!({ "seq": 1, "constraints": list }));
+    assert!(p["invalid"].as_str().is_some_and(|m| m.contains("same")), "{p}");
     let before = std::fs::read(dir.path("assets/face.uvpin.ron")).unwrap();
     assert_eq!(before, std::fs::read(repo().join("assets/face.uvpin.ron")).unwrap());
     assert!(d.terminate().success(), "SIGTERM ends it cleanly; log:\n{}", d.dump());

@@ -2,13 +2,15 @@
 //! dragged the page sends every new position; a newer request drops the
 //! one waiting and stops the one running (between ticks of the chart
 //! solver), so the layout follows the pointer instead of queueing behind
-//! it. Solves reuse the previous one's chart, step 1 and Newton pattern.
+//! it. Solves reuse the previous one's chart, step 1 and Newton pattern,
+//! and skip the distortion polish (the daemon's solve on release polishes).
 
 use super::hub::EditInputs;
 use super::text::WantedConstraint;
 use crate::api::{SolvedChart, solve_chart_reusing};
 use crate::chart::{self, PrimitiveUvs};
 use crate::constraints::{ConstraintSource, ConstraintSpec, LoadedConstraints};
+use crate::options::SolverOptions;
 use crate::report::Report;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
@@ -171,7 +173,13 @@ fn solve(
 ) -> Result<Option<SolvedChart>, String> {
     super::text::check_wanted(wanted).map_err(|e| e.to_string())?;
     let loaded = with_targets(&inputs.loaded, wanted);
-    let options = loaded.solver;
+    // While a target is dragged the layout is shown without the distortion
+    // polish (a Newton solve per step, most of a small chart's time); the
+    // daemon's solve after the release polishes it.
+    let options = SolverOptions {
+        polish: false,
+        ..loaded.solver
+    };
     let source = ConstraintSource::File(Arc::new(loaded));
     solve_chart_reusing(&source, &inputs.asset, &options, previous, stop, 0.0).map_err(|e| e.to_string())
 }
@@ -199,7 +207,7 @@ mod tests {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
         let (loaded, asset) = crate::load(
             &dir.join("face.uvpin.ron"),
-            &crate::options::SolverOptions::DEFAULT,
+            &SolverOptions::DEFAULT,
             &Default::default(),
         )
         .unwrap();

@@ -407,6 +407,9 @@ fn save(context: &Context, view: &FileView, body: &serde_json::Value) -> Reply {
         Err(e @ EditError::Mismatch(_)) => return Reply::error(500, e),
         Err(e) => return Reply::error(400, e),
     };
+    if let Err(e) = check_against_asset(&new_text, inputs) {
+        return Reply::error(400, e);
+    }
     if let Err(e) = crate::io::atomic::write_atomically(&view.path, new_text.as_bytes()) {
         return Reply::error(500, format!("cannot write {}: {}", view.name, e.message));
     }
@@ -414,6 +417,18 @@ fn save(context: &Context, view: &FileView, body: &serde_json::Value) -> Reply {
         200,
         &serde_json::json!({ "hash": payload::hash_text(content_hash(new_text.as_bytes())) }),
     )
+}
+
+/// The new text must give constraints the asset can take (vertices that
+/// exist, in one chart, targets apart), or nothing is written.
+fn check_against_asset(text: &str, inputs: &super::hub::EditInputs) -> Result<(), String> {
+    let defaults = inputs.loaded.solver;
+    let loaded = crate::constraints::LoadedConstraints::parse_with_defaults(&inputs.loaded.path, text, &defaults)
+        .map_err(|e| e.to_string())?;
+    let source = crate::constraints::ConstraintSource::File(Arc::new(loaded));
+    crate::chart::prepare(&source, &inputs.asset)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
 }
 
 /// A server-sent event stream: the file list whenever the hub's version moves.
