@@ -32,7 +32,8 @@ try {
     const box = await page.getByTestId('texture-view').boundingBox();
     return [box.x + f[0], box.y + f[1]];
   };
-  const from = await screen(start);
+  const box = await page.getByTestId('target-marker').first().boundingBox();
+  const from = [box.x + box.width / 2, box.y + box.height / 2];
   const edge = await screen([start[0] + 0.015, start[1]]);
   const radius = edge[0] - from[0];
   await page.mouse.move(from[0], from[1]);

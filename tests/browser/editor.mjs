@@ -129,7 +129,10 @@ try {
   // Drag its marker: the layout follows while dragging; the release is saved.
   const previewsBefore = await page.evaluate(() => window.uvpinEditor.previews);
   const savesBefore = await page.evaluate(() => window.uvpinEditor.saves);
-  const from = await toScreen(target);
+  const marker = page.locator(`[data-testid=target-marker][data-vertex="${picked.vertex}"]`);
+  const mbox = await marker.boundingBox();
+  check(mbox !== null, 'the new target is a numbered marker');
+  const from = [mbox.x + mbox.width / 2, mbox.y + mbox.height / 2];
   const dragTo = [target[0] + 0.03, target[1] - 0.02];
   const to = await toScreen(dragTo);
   await page.mouse.move(from[0], from[1]);

@@ -426,6 +426,7 @@ export class TextureView {
     // The image and the layout, drawn again only when they change.
     this.layer = document.createElement('canvas');
     this.layerKey = null;
+    this.targetEls = [];
     this.listen();
   }
 
@@ -494,7 +495,12 @@ export class TextureView {
     ctx.setTransform(1, 0, 0, 1, 0, 0);
     ctx.drawImage(this.layer, 0, 0);
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    this.drawMarkers(ctx, f);
+    this.drawResults(ctx, f);
+    this.syncTargets(f);
+    const c2 = this.canvas;
+    c2.dataset.uvOriginX = String(f.ox);
+    c2.dataset.uvOriginY = String(f.oy);
+    c2.dataset.uvSize = String(f.s);
   }
 
   drawBackground(ctx, f) {
@@ -562,49 +568,75 @@ export class TextureView {
     }
   }
 
-  drawMarkers(ctx, f) {
+  // Where each vertex is now (a dot; unreached: red, a line to its target
+  // and the residual). The targets themselves are DOM elements (syncTargets).
+  drawResults(ctx, f) {
     ctx.font = 'bold 12px system-ui, sans-serif';
-    ctx.textAlign = 'center';
-    ctx.textBaseline = 'middle';
     for (const m of this.markers) {
+      if (!m.result) continue;
       const t = this.toScreen(m.target, f);
-      if (m.result) {
-        const r = this.toScreen(m.result, f);
-        if (!m.reached) {
-          ctx.strokeStyle = '#ff5a52';
-          ctx.lineWidth = 1.5;
-          ctx.beginPath(); ctx.moveTo(...r); ctx.lineTo(...t); ctx.stroke();
-          ctx.fillStyle = '#ff5a52';
-          ctx.textAlign = 'left';
-          ctx.fillText(m.residual.toExponential(1), t[0] + 12, t[1] - 12);
-          ctx.textAlign = 'center';
-        }
-        ctx.fillStyle = m.reached ? '#ffffff' : '#ff5a52';
-        ctx.beginPath(); ctx.arc(r[0], r[1], 3, 0, Math.PI * 2); ctx.fill();
+      const r = this.toScreen(m.result, f);
+      if (!m.reached) {
+        ctx.strokeStyle = '#ff5a52';
+        ctx.lineWidth = 1.5;
+        ctx.beginPath(); ctx.moveTo(...r); ctx.lineTo(...t); ctx.stroke();
+        ctx.fillStyle = '#ff5a52';
+        ctx.fillText(m.residual.toExponential(1), t[0] + 12, t[1] - 12);
       }
-      ctx.fillStyle = m.reached === false ? '#ff5a52' : '#4aa3ff';
-      ctx.strokeStyle = m.selected ? '#ffffff' : '#000000';
-      ctx.lineWidth = m.selected ? 2.5 : 1;
-      ctx.beginPath(); ctx.arc(t[0], t[1], 9, 0, Math.PI * 2); ctx.fill(); ctx.stroke();
-      ctx.fillStyle = '#000';
-      ctx.fillText(String(m.number), t[0], t[1] + 0.5);
+      ctx.fillStyle = m.reached ? '#ffffff' : '#ff5a52';
+      ctx.beginPath(); ctx.arc(r[0], r[1], 3, 0, Math.PI * 2); ctx.fill();
     }
   }
 
-  // The marker under a point (CSS pixels), if any.
-  markerAt(x, y) {
-    const f = this.frame();
-    let best = null;
-    let bestD = 12;
-    for (const m of this.markers) {
-      const t = this.toScreen(m.target, f);
-      const d = Math.hypot(t[0] - x, t[1] - y);
-      if (d < bestD) {
-        bestD = d;
-        best = m;
-      }
+  // One draggable, numbered element per target, over the canvas.
+  syncTargets(f) {
+    const box = this.canvas.parentElement;
+    while (this.targetEls.length < this.markers.length) {
+      const el = document.createElement('div');
+      el.className = 'target-marker';
+      el.setAttribute('data-testid', 'target-marker');
+      this.listenTarget(el);
+      box.appendChild(el);
+      this.targetEls.push(el);
     }
-    return best;
+    while (this.targetEls.length > this.markers.length) this.targetEls.pop().remove();
+    this.markers.forEach((m, k) => {
+      const el = this.targetEls[k];
+      const [x, y] = this.toScreen(m.target, f);
+      el.style.left = `${x}px`;
+      el.style.top = `${y}px`;
+      el.textContent = String(m.number);
+      el.dataset.index = String(m.index);
+      el.dataset.vertex = String(m.vertex);
+      el.title = m.label ? `${m.number}: ${m.label} (vertex ${m.vertex})` : `${m.number}: vertex ${m.vertex}`;
+      el.classList.toggle('unreached', m.reached === false);
+      el.classList.toggle('selected', Boolean(m.selected));
+    });
+  }
+
+  listenTarget(el) {
+    let drag = null;
+    el.addEventListener('pointerdown', (e) => {
+      if (e.button !== 0) return;
+      e.stopPropagation();
+      el.setPointerCapture(e.pointerId);
+      const marker = this.markers[Number(el.dataset.index)];
+      if (!marker) return;
+      drag = { marker, moved: false };
+      this.handlers.onDragStart(marker);
+    });
+    el.addEventListener('pointermove', (e) => {
+      if (!drag) return;
+      drag.moved = true;
+      const rect = this.canvas.getBoundingClientRect();
+      this.handlers.onDrag(drag.marker, clampUv(this.toUv(e.clientX - rect.left, e.clientY - rect.top)), e.timeStamp);
+    });
+    const end = () => {
+      if (drag) this.handlers.onDragEnd(drag.marker, drag.moved);
+      drag = null;
+    };
+    el.addEventListener('pointerup', end);
+    el.addEventListener('pointercancel', end);
   }
 
   listen() {
@@ -613,38 +645,18 @@ export class TextureView {
     c.addEventListener('contextmenu', (e) => e.preventDefault());
     c.addEventListener('pointerdown', (e) => {
       c.setPointerCapture(e.pointerId);
-      if (e.button === 2 || e.button === 1) {
-        drag = { pan: true, x: e.offsetX, y: e.offsetY };
-        return;
-      }
-      const marker = this.markerAt(e.offsetX, e.offsetY);
-      if (marker) {
-        drag = { marker, moved: false };
-        this.handlers.onDragStart(marker);
-      } else {
-        drag = { click: true };
-      }
+      drag = e.button === 2 || e.button === 1 ? { pan: true, x: e.offsetX, y: e.offsetY } : { click: true };
     });
     c.addEventListener('pointermove', (e) => {
-      if (!drag) {
-        c.style.cursor = this.markerAt(e.offsetX, e.offsetY) ? 'grab' : 'crosshair';
-        return;
-      }
-      if (drag.pan) {
-        this.pan[0] += e.offsetX - drag.x;
-        this.pan[1] += e.offsetY - drag.y;
-        drag.x = e.offsetX;
-        drag.y = e.offsetY;
-        this.draw();
-      } else if (drag.marker) {
-        drag.moved = true;
-        this.handlers.onDrag(drag.marker, clampUv(this.toUv(e.offsetX, e.offsetY)), e.timeStamp);
-      }
+      if (!drag || !drag.pan) return;
+      this.pan[0] += e.offsetX - drag.x;
+      this.pan[1] += e.offsetY - drag.y;
+      drag.x = e.offsetX;
+      drag.y = e.offsetY;
+      this.draw();
     });
     c.addEventListener('pointerup', (e) => {
-      if (drag && drag.marker) {
-        this.handlers.onDragEnd(drag.marker, drag.moved);
-      } else if (drag && drag.click) {
+      if (drag && drag.click) {
         const uv = this.toUv(e.offsetX, e.offsetY);
         if (uv[0] >= 0 && uv[0] <= 1 && uv[1] >= 0 && uv[1] <= 1) this.handlers.onPlace(uv);
       }
@@ -655,8 +667,7 @@ export class TextureView {
       const f = this.frame();
       const before = this.toUv(e.offsetX, e.offsetY, f);
       this.zoom = Math.max(0.5, Math.min(40, this.zoom * Math.exp(-e.deltaY * 0.001)));
-      const g = this.frame();
-      const after = this.toScreen(before, g);
+      const after = this.toScreen(before, this.frame());
       this.pan[0] += e.offsetX - after[0];
       this.pan[1] += e.offsetY - after[1];
       this.draw();
