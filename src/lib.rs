@@ -26,8 +26,10 @@
 //! per system, tick by tick, for the daemon.
 //!
 //! Cargo features: `cli` (default) gives the command line, the daemon
-//! (`daemon`), sweeps and the pictures (`pictures`); without default
-//! features the crate is the library and its ECS pipeline.
+//! (`daemon`), the landmark editor's server (`editor`), sweeps and the
+//! pictures (`pictures`); without default features the crate is the
+//! library and its ECS pipeline (with [`inspect`] and the constraint-file
+//! edits of [`edit::text`]).
 
 pub mod api;
 pub mod chart;
