@@ -271,15 +271,37 @@ fn solve_chart_timed(
     options: &SolverOptions,
     load_ms: f64,
 ) -> Result<SolvedChart, Error> {
-    let solved = solve_chart_reusing(source, asset, options, None, &|| false, load_ms)?;
+    let solved = solve_chart_reusing(source, asset, options, Reuse::Nothing, &|| false, load_ms)?;
     Ok(solved.expect("never stopped"))
 }
 
-/// As [`solve_chart`], reusing what `previous` (a solve of the same asset
-/// content) computed that still applies: the weld, the chart's topology
-/// and hole fill, step 1 when the corners are the same, and the Newton
-/// pattern. `stop` is asked between ticks; when it says so the solve is
-/// dropped (`Ok(None)`). The editor solves dragged targets this way.
+/// What a solve may take from an earlier solve of the same asset content.
+#[derive(Debug, Clone, Copy)]
+pub enum Reuse<'a> {
+    /// Nothing: everything from scratch.
+    Nothing,
+    /// The weld, the chart's topology and hole fill, step 1 when the corners
+    /// are the same, and the Newton pattern.
+    Setup(&'a SolvedChart),
+    /// As `Setup`, and the spline path starts from that solve's final layout
+    /// instead of step 1's when the chart's boundary is on the square (a
+    /// dragged target moves a little from where it was: the spline path
+    /// then rarely stalls).
+    SetupAndLayout(&'a SolvedChart),
+}
+
+impl<'a> Reuse<'a> {
+    fn solved(self) -> Option<&'a SolvedChart> {
+        match self {
+            Reuse::Nothing => None,
+            Reuse::Setup(s) | Reuse::SetupAndLayout(s) => Some(s),
+        }
+    }
+}
+
+/// As [`solve_chart`], reusing what `previous` computed that still applies
+/// (see [`Reuse`]). `stop` is asked between ticks; when it says so the
+/// solve is dropped (`Ok(None)`). The editor solves dragged targets this way.
 ///
 /// # Errors
 /// As [`solve_chart`].
@@ -287,10 +309,11 @@ pub fn solve_chart_reusing(
     source: &ConstraintSource,
     asset: &SourceAsset,
     options: &SolverOptions,
-    previous: Option<&SolvedChart>,
+    reuse: Reuse,
     stop: &dyn Fn() -> bool,
     load_ms: f64,
 ) -> Result<Option<SolvedChart>, Error> {
+    let previous = reuse.solved();
     let t0 = Instant::now();
     let prepared = chart::prepare_reusing(source, asset, previous.map(|p| &p.prepared))?;
     let topology_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -308,12 +331,18 @@ pub fn solve_chart_reusing(
         solve_ms: t.solve_ms,
         ..StageTimes::default()
     };
+    let warm = match reuse {
+        Reuse::SetupAndLayout(p) if matches!(prepared.boundary, crate::free::BoundarySetup::Square) => same
+            .filter(|s| s.prepared.corners == prepared.corners)
+            .map(|_| p.solver.layout()),
+        _ => None,
+    };
     let mut solver = ChartSolver::start(SolveStart {
         prepared: &prepared,
         source,
         options,
         boundary: &step1.boundary,
-        step1: &step1.layout,
+        step1: warm.unwrap_or(&step1.layout),
         bar_net: Some(&step1.bar_net),
         pattern: same.map(|p| p.solver.pattern()),
         elapsed_ms: times.total_ms(),

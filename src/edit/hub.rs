@@ -5,6 +5,7 @@
 //! and wait for the next version (server-sent events).
 
 use super::text::ExistingItem;
+use crate::api::SolvedChart;
 use crate::chart::PrimitiveUvs;
 use crate::constraints::LoadedConstraints;
 use crate::io::SourceAsset;
@@ -34,6 +35,9 @@ pub struct SolvedView {
     pub uvs: PrimitiveUvs,
     /// Per primitive and vertex: 1 in the solved chart, 0 outside it.
     pub in_chart: Vec<Vec<u8>>,
+    /// The solve itself, which drag previews start from, and its asset.
+    pub chart: Arc<SolvedChart>,
+    pub asset: Arc<SourceAsset>,
 }
 
 /// One served constraint file.

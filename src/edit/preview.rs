@@ -3,11 +3,12 @@
 //! one waiting and stops the one running (between ticks of the chart
 //! solver), so the layout follows the pointer instead of queueing behind
 //! it. Solves reuse the previous one's chart, step 1 and Newton pattern,
-//! and skip the distortion polish (the daemon's solve on release polishes).
+//! start from its layout (the targets moved a little), and skip the
+//! distortion polish (the daemon's solve on release polishes).
 
 use super::hub::EditInputs;
 use super::text::WantedConstraint;
-use crate::api::{SolvedChart, solve_chart_reusing};
+use crate::api::{Reuse, SolvedChart, solve_chart_reusing};
 use crate::chart::{self, PrimitiveUvs};
 use crate::constraints::{ConstraintSource, ConstraintSpec, LoadedConstraints};
 use crate::options::SolverOptions;
@@ -39,6 +40,7 @@ pub struct Preview {
 struct Job {
     ticket: u64,
     inputs: Arc<EditInputs>,
+    seed: Option<Arc<SolvedChart>>,
     wanted: Vec<WantedConstraint>,
     reply: crossbeam_channel::Sender<PreviewReply>,
     at: Instant,
@@ -75,13 +77,21 @@ impl Previewer {
         }
     }
 
-    /// Solves `wanted` against `inputs`; blocks until solved or superseded.
-    pub fn solve(&self, inputs: Arc<EditInputs>, wanted: Vec<WantedConstraint>) -> PreviewReply {
+    /// Solves `wanted` against `inputs`, starting from `seed` (the daemon's
+    /// solve of the file) unless a preview of the same asset came since;
+    /// blocks until solved or superseded.
+    pub fn solve(
+        &self,
+        inputs: Arc<EditInputs>,
+        seed: Option<Arc<SolvedChart>>,
+        wanted: Vec<WantedConstraint>,
+    ) -> PreviewReply {
         let (reply, answer) = crossbeam_channel::bounded(1);
         let ticket = self.shared.newest.fetch_add(1, Ordering::SeqCst) + 1;
         let job = Job {
             ticket,
             inputs,
+            seed,
             wanted,
             reply,
             at: Instant::now(),
@@ -132,7 +142,8 @@ fn work(shared: &Shared) {
         let previous = last
             .as_ref()
             .filter(|(inputs, _)| Arc::ptr_eq(&inputs.asset, &job.inputs.asset))
-            .map(|(_, solved)| solved);
+            .map(|(_, solved)| solved)
+            .or(job.seed.as_deref());
         let stop = || shared.newest.load(Ordering::SeqCst) != job.ticket;
         let reply = match solve(&job.inputs, &job.wanted, previous, &stop) {
             Ok(Some(solved)) => {
@@ -181,7 +192,8 @@ fn solve(
         ..loaded.solver
     };
     let source = ConstraintSource::File(Arc::new(loaded));
-    solve_chart_reusing(&source, &inputs.asset, &options, previous, stop, 0.0).map_err(|e| e.to_string())
+    let reuse = previous.map_or(Reuse::Nothing, Reuse::SetupAndLayout);
+    solve_chart_reusing(&source, &inputs.asset, &options, reuse, stop, 0.0).map_err(|e| e.to_string())
 }
 
 fn answer(job: &Job, solved: &SolvedChart) -> PreviewReply {
@@ -242,7 +254,7 @@ mod tests {
             .map(|k| {
                 let (p, i) = (previewer.clone(), inputs.clone());
                 let wanted = targets(&inputs, 0.002 * k as f64);
-                std::thread::spawn(move || p.solve(i, wanted))
+                std::thread::spawn(move || p.solve(i, None, wanted))
             })
             .collect();
         let replies: Vec<PreviewReply> = threads.into_iter().map(|t| t.join().unwrap()).collect();
@@ -259,12 +271,12 @@ mod tests {
             assert_eq!(p.report.status, crate::Status::Reached);
         }
         // Alone, a request is solved (reusing the last chart and step 1).
-        let again = previewer.solve(inputs.clone(), targets(&inputs, 0.01));
+        let again = previewer.solve(inputs.clone(), None, targets(&inputs, 0.01));
         let PreviewReply::Solved(p) = again else {
             panic!("{again:?}")
         };
         assert!(p.report.constraints.iter().all(|c| c.reached));
-        let bad = previewer.solve(inputs.clone(), targets(&inputs, 2.0));
+        let bad = previewer.solve(inputs.clone(), None, targets(&inputs, 2.0));
         assert!(matches!(bad, PreviewReply::Invalid(m) if m.contains("outside")));
     }
 }

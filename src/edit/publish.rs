@@ -5,10 +5,12 @@
 
 use super::hub::{EditInputs, FileUpdate, Hub, SolvedView};
 use super::text::ExistingItem;
+use crate::api::SolvedChart;
 use crate::constraints::ConstraintSource;
 use crate::ecs::watch::{DaemonLog, WatchSettings, WatchedFile};
-use crate::ecs::{ChartData, Exported, SolveJob, Solver};
+use crate::ecs::{BarNetFactor, BoundaryLayout, ChartData, Exported, SolveJob, Solver, Step1Layout};
 use crate::report::Status;
+use crate::solver::step1::{Step1, Step1Times};
 use crate::watch::registry::display;
 use bevy_ecs::prelude::*;
 use std::sync::Arc;
@@ -41,7 +43,7 @@ fn inputs(job: &SolveJob, data: &ChartData, text_hash: Option<u64>) -> Option<Ar
 }
 
 /// The written solve of a file.
-fn solved(job: &SolveJob, data: &ChartData, solver: &Solver, report: &crate::Report) -> Arc<SolvedView> {
+fn solved(job: &SolveJob, data: &ChartData, solver: &Solver, step1: Step1, report: &crate::Report) -> Arc<SolvedView> {
     let prepared = &data.0;
     let in_chart = prepared
         .welded
@@ -57,6 +59,13 @@ fn solved(job: &SolveJob, data: &ChartData, solver: &Solver, report: &crate::Rep
         report: report.clone(),
         uvs: crate::chart::assemble_uvs(&job.asset, prepared, solver.0.layout()),
         in_chart,
+        chart: Arc::new(SolvedChart {
+            prepared: (**prepared).clone(),
+            step1,
+            solver: solver.0.clone(),
+            report: report.clone(),
+        }),
+        asset: job.asset.clone(),
     })
 }
 
@@ -66,7 +75,20 @@ type FileParts<'a> = (
     Option<&'a ChartData>,
     Option<&'a Solver>,
     Option<Ref<'a, Exported>>,
+    Option<Step1Parts<'a>>,
 );
+
+/// Step 1's components (the boundary on the square, the factor, the layout).
+type Step1Parts<'a> = (&'a BoundaryLayout, &'a BarNetFactor, &'a Step1Layout);
+
+fn step1_of((boundary, bar_net, layout): Step1Parts) -> Step1 {
+    Step1 {
+        boundary: boundary.0.clone(),
+        bar_net: bar_net.0.clone(),
+        layout: layout.0.clone(),
+        times: Step1Times::default(),
+    }
+}
 
 /// Publishes every watched file when the status board changed this tick.
 pub fn publish_to_editor(
@@ -80,16 +102,18 @@ pub fn publish_to_editor(
     }
     let updates = files
         .iter()
-        .filter_map(|(watched, job, data, solver, exported)| {
+        .filter_map(|(watched, job, data, solver, exported, step1)| {
             let name = display(&watched.path, &settings.cwd);
             let status = log.status.files.get(&name)?;
             let new_inputs = match (&job, data) {
                 (Some(job), Some(data)) if job.is_changed() => inputs(job, data, watched.hash),
                 _ => None,
             };
-            let new_solve = match (&job, data, solver, &exported) {
-                (Some(job), Some(data), Some(solver), Some(e)) if e.is_changed() && e.0.status != Status::Error => {
-                    Some(solved(job, data, solver, &e.0))
+            let new_solve = match (&job, data, solver, &exported, step1) {
+                (Some(job), Some(data), Some(solver), Some(e), Some(step1))
+                    if e.is_changed() && e.0.status != Status::Error =>
+                {
+                    Some(solved(job, data, solver, step1_of(step1), &e.0))
                 }
                 _ => None,
             };

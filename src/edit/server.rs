@@ -369,7 +369,13 @@ fn preview(context: &Context, view: &FileView, body: &serde_json::Value) -> Repl
         Err(e) => return Reply::error(400, e),
     };
     let seq = body.get("seq").cloned().unwrap_or(serde_json::Value::Null);
-    match context.previewer.solve(inputs, wanted) {
+    // The daemon's solve is a start only if it solved this very asset.
+    let seed = view
+        .solved
+        .as_ref()
+        .filter(|s| Arc::ptr_eq(&s.asset, &inputs.asset))
+        .map(|s| s.chart.clone());
+    match context.previewer.solve(inputs, seed, wanted) {
         PreviewReply::Solved(p) => Reply::json(200, &payload::preview(&p, seq)),
         PreviewReply::Superseded => Reply::json(200, &serde_json::json!({ "seq": seq, "superseded": true })),
         PreviewReply::Invalid(message) => Reply::json(200, &serde_json::json!({ "seq": seq, "invalid": message })),
