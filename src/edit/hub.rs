@@ -106,45 +106,41 @@ impl Hub {
         let mut s = self.lock();
         let mut any = false;
         for u in updates {
-            let next = s.version + 1;
-            let id = s.files.len();
-            let file = match s.files.iter().position(|f| f.path == u.path) {
-                Some(k) => &mut s.files[k],
-                None => {
-                    s.files.push(FileView {
-                        id,
-                        name: u.name.clone(),
-                        path: u.path.clone(),
-                        state: u.state,
-                        error: None,
-                        text_hash: None,
-                        inputs: None,
-                        solved: None,
-                        version: next,
-                    });
-                    s.files.last_mut().expect("pushed")
-                }
-            };
-            let changed = file.state != u.state
+            let known = s.files.iter().position(|f| f.path == u.path);
+            let k = known.unwrap_or_else(|| {
+                let id = s.files.len();
+                s.files.push(FileView {
+                    id,
+                    name: u.name.clone(),
+                    path: u.path.clone(),
+                    state: u.state,
+                    error: None,
+                    text_hash: None,
+                    inputs: None,
+                    solved: None,
+                    version: 0,
+                });
+                id
+            });
+            let file = &s.files[k];
+            let changed = known.is_none()
+                || file.state != u.state
                 || file.error != u.error
                 || file.text_hash != u.text_hash
                 || u.inputs.is_some()
-                || u.solved.is_some()
-                || file.version == next;
+                || u.solved.is_some();
             if !changed {
                 continue;
             }
+            s.version += 1;
+            let version = s.version;
+            let file = &mut s.files[k];
             file.state = u.state;
             file.error = u.error;
             file.text_hash = u.text_hash;
-            if let Some(i) = u.inputs {
-                file.inputs = Some(i);
-            }
-            if let Some(v) = u.solved {
-                file.solved = Some(v);
-            }
-            file.version = next;
-            s.version = next;
+            file.inputs = u.inputs.or(file.inputs.take());
+            file.solved = u.solved.or(file.solved.take());
+            file.version = version;
             any = true;
         }
         if any {
