@@ -145,7 +145,13 @@ fn work(shared: &Shared) {
             .map(|(_, solved)| solved)
             .or(job.seed.as_deref());
         let stop = || shared.newest.load(Ordering::SeqCst) != job.ticket;
-        let reply = match solve(&job.inputs, &job.wanted, previous, &stop) {
+        // A bug in one solve must not stop the worker (every later preview
+        // would wait for it forever).
+        let solved = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            solve(&job.inputs, &job.wanted, previous, &stop)
+        }))
+        .unwrap_or_else(|_| Err("internal error while solving the preview".into()));
+        let reply = match solved {
             Ok(Some(solved)) => {
                 let reply = answer(&job, &solved);
                 last = Some((job.inputs.clone(), solved));

@@ -180,7 +180,9 @@ fn serve(server: &Server, context: &Arc<Context>) {
             }
             continue;
         }
-        let reply = route(context, &mut request);
+        // A bug in one request must not take a thread of the server down.
+        let reply = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| route(context, &mut request)))
+            .unwrap_or_else(|_| Reply::error(500, "internal error"));
         respond(request, reply);
     }
 }
