@@ -404,7 +404,9 @@ export class MeshView {
         return;
       }
       this.hover.hidden = false;
-      this.hover.textContent = `vertex ${picked.vertex}` + (this.primitives.length > 1 ? ` (primitive ${picked.primitive})` : '');
+      const marker = this.markers.find((m) => sameAs(m, picked));
+      this.hover.textContent = `vertex ${picked.vertex}` + (this.primitives.length > 1 ? ` (primitive ${picked.primitive})` : '') +
+        (marker ? ` — ${marker.number}${marker.label ? `: ${marker.label}` : ''}` : '');
       this.hover.style.left = `${x + 14}px`;
       this.hover.style.top = `${y + 10}px`;
     });
