@@ -56,6 +56,11 @@ pub struct NewtonContext {
     /// The least relative height of a scaffold rest shape
     /// ([`SCAFFOLD_MIN_HEIGHT`], or 0: each in its own shape).
     scaffold_floor: f64,
+    /// The last scaffold triangulation and the boundary positions it was
+    /// made for: the scaffold depends on nothing else (its other points are
+    /// fixed), so a rebuild for an unchanged boundary (the polish starting
+    /// right after a snap, an attempt restarting where it stood) reuses it.
+    last_scaffold: Option<(Vec<DVec2>, Vec<[u32; 3]>)>,
 }
 
 /// A free chart's room and scaffold.
@@ -118,6 +123,7 @@ impl NewtonContext {
             free: None,
             scaffold_ms: 0.0,
             scaffold_floor: 0.0,
+            last_scaffold: None,
         }
     }
 
@@ -147,6 +153,7 @@ impl NewtonContext {
             storable: false,
             scaffold_ms: 0.0,
             scaffold_floor: SCAFFOLD_MIN_HEIGHT,
+            last_scaffold: None,
         };
         context.recount(layout);
         context
@@ -299,22 +306,27 @@ impl NewtonContext {
     /// The scaffold around `layout`'s boundary, each triangle at rest in its
     /// own shape, no thinner than the floor (kept as it was if the boundary
     /// cannot be triangulated around, which an accepted layout never asks).
+    /// Triangulated anew only when the boundary moved since the last time.
     fn rebuild_scaffold(&mut self, layout: &[DVec2]) {
         let Some(domain) = &self.free else {
             return;
         };
         let t0 = std::time::Instant::now();
         let boundary = domain.room.boundary_vertices();
-        let scaffold = domain
-            .scaffold
-            .triangulate(layout, boundary, &domain.edges, domain.offset);
+        let at: Vec<DVec2> = boundary.iter().map(|&v| layout[v as usize]).collect();
+        if self.last_scaffold.as_ref().is_none_or(|(was, _)| *was != at) {
+            let scaffold = domain
+                .scaffold
+                .triangulate(layout, boundary, &domain.edges, domain.offset);
+            self.last_scaffold = scaffold.map(|s| (at, s));
+        }
         self.scaffold_ms += t0.elapsed().as_secs_f64() * 1e3;
-        let Some(scaffold) = scaffold else {
+        let Some((_, scaffold)) = &self.last_scaffold else {
             return;
         };
         self.triangles.truncate(self.n_chart);
         self.rest.truncate(self.n_chart);
-        for t in scaffold {
+        for &t in scaffold {
             let [a, b, c] = t.map(|v| layout[v as usize]);
             if let Some(r) = own_shape(a, b, c, self.scaffold_floor) {
                 self.triangles.push(t);
