@@ -31,9 +31,12 @@ struct Outcome {
     linf: Vec<f64>,
     residual: Vec<f64>,
     ms: Vec<f64>,
-    /// Flipped triangles, and pairs of boundary edges that cross (last run).
+    /// Flipped triangles, pairs of boundary edges that cross, and boundary
+    /// loops turned inside out (a hole covering its surroundings twice
+    /// without any edge crossing), in the last run.
     flips: usize,
     crossings: usize,
+    inside_out: usize,
     reached: bool,
 }
 
@@ -43,9 +46,9 @@ impl Outcome {
             return "– | – | – | –".into();
         }
         let m = |v: &[f64]| common::median(v.to_vec());
-        let broken = match (self.flips, self.crossings) {
-            (0, 0) => String::new(),
-            (f, c) => format!(" ({f} flipped, {c} crossings)"),
+        let broken = match (self.flips, self.crossings, self.inside_out) {
+            (0, 0, 0) => String::new(),
+            (f, c, h) => format!(" ({f} flipped, {c} crossings, {h} loops inside out)"),
         };
         format!(
             "{:.3} | {:.2} | {:.1e}{broken} | {:.0}",
@@ -83,7 +86,7 @@ fn witnessed_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Case> {
             smooth_warp(DVec2::splat(0.5) + (p - 0.5) * 0.8, 0.12)
         })
         .collect();
-    if !uvpin::guard::all_positive(&warped, &mesh.triangles) {
+    if !uvpin::guard::all_positive(&warped, &mesh.triangles) || inside_out_loops(mesh, &warped) > 0 {
         return None;
     }
     let topology = uvpin::mesh::topology::Topology::build(mesh).ok()?;
@@ -155,6 +158,26 @@ fn record_layout(mesh: &TriMesh, layout: &[DVec2], constraints: &[(u32, DVec2)],
     out.residual.push(residual);
 }
 
+/// Boundary loops of `layout` whose signed area has the wrong sign for a
+/// one-to-one layout (in the faces' winding the outer loop turns
+/// counter-clockwise, every hole clockwise).
+fn inside_out_loops(mesh: &TriMesh, layout: &[DVec2]) -> usize {
+    let Ok(topology) = uvpin::mesh::topology::Topology::build(mesh) else {
+        return 0;
+    };
+    let area = |lp: &[u32]| -> f64 {
+        (0..lp.len())
+            .map(|k| layout[lp[k] as usize].perp_dot(layout[lp[(k + 1) % lp.len()] as usize]))
+            .sum::<f64>()
+    };
+    topology
+        .loops
+        .iter()
+        .enumerate()
+        .filter(|(k, lp)| (area(lp) > 0.0) != (*k == topology.outer))
+        .count()
+}
+
 /// A Python with libigl: `target/bench-venv`, made (and libigl installed
 /// from PyPI) on first use. `None` (with why) when it cannot be had.
 fn slim_python() -> Result<PathBuf, String> {
@@ -215,22 +238,23 @@ fn run_slim(python: &Path, mesh: &TriMesh, case: &Case, tmp: &Path, out: &mut Ou
     let edges = uvpin::injective::boundary_edges(&mesh.triangles);
     out.crossings =
         uvpin::injective::meeting_pairs(&layout, &edges, uvpin::injective::Contact::Proper, 10_000, |_, _| false).len();
+    out.inside_out = inside_out_loops(mesh, &layout);
 }
 
-fn main() {
-    let filter = common::filter();
+/// A mesh to measure: its name, the mesh, rounds, landmark counts.
+type Subject = (String, TriMesh, usize, &'static [usize]);
+
+/// The paper's case size (a 41² curved grid, 50 landmarks), then the shared
+/// meshes with 24 and 40 (when `../shared/meshes` is there).
+fn subjects() -> Vec<Subject> {
+    let mut rng = Rng::new(1);
+    let grid = uvpin::testing::random_disk(&mut rng, 41, 0);
+    let mut out: Vec<Subject> = vec![("paper size: 41² curved grid".into(), grid, 11, &[50])];
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
     if !shared.is_dir() {
-        eprintln!("(../shared/meshes not found: nothing to measure)");
-        return;
+        eprintln!("(../shared/meshes not found: shared meshes skipped)");
+        return out;
     }
-    let python = slim_python();
-    if let Err(why) = &python {
-        eprintln!("(SLIM skipped: {why})");
-    }
-    let tmp = std::env::temp_dir().join(format!("uvpin-bench-free-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).expect("tmp");
-    let mut rows = Vec::new();
     for (file, runs) in [
         ("woody.glb", 5),
         ("halftunnel.glb", 5),
@@ -239,30 +263,54 @@ fn main() {
         ("camelhead.glb", 3),
         ("face.glb", 5),
     ] {
-        for k in [24usize, 40] {
-            let name = format!("{file}, {k} landmarks");
+        let asset = uvpin::io::load_asset(&shared.join(file), None, 0, &Default::default()).expect("mesh");
+        out.push((
+            file.into(),
+            uvpin::mesh::weld::weld(&asset.primitives).mesh,
+            runs,
+            &[24, 40],
+        ));
+    }
+    out
+}
+
+/// One row: step 1, square, free and SLIM side by side, one run of each per round.
+fn measure(mesh: &TriMesh, case: &Case, runs: usize, python: Option<&Path>, tmp: &Path) -> [Outcome; 4] {
+    let (mut step1, mut square, mut free, mut slim) = Default::default();
+    let constraints = &case.constraints;
+    for round in 0..runs {
+        run_step1(mesh, constraints, &mut step1);
+        run_uvpin(mesh, constraints, BoundaryChoice::Square, &mut square);
+        run_uvpin(mesh, constraints, BoundaryChoice::Free, &mut free);
+        if let Some(python) = python
+            && (round < 2 || mesh.positions.len() < 10_000)
+        {
+            run_slim(python, mesh, case, tmp, &mut slim);
+        }
+    }
+    [step1, square, free, slim]
+}
+
+fn main() {
+    let filter = common::filter();
+    let python = slim_python();
+    if let Err(why) = &python {
+        eprintln!("(SLIM skipped: {why})");
+    }
+    let tmp = std::env::temp_dir().join(format!("uvpin-bench-free-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).expect("tmp");
+    let mut rows = Vec::new();
+    for (label, mesh, runs, ks) in subjects() {
+        for &k in ks {
+            let name = format!("{label}, {k} landmarks");
             if filter.as_ref().is_some_and(|f| !name.contains(f.as_str())) {
                 continue;
             }
-            let asset = uvpin::io::load_asset(&shared.join(file), None, 0, &Default::default()).expect("mesh");
-            let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
             let Some(case) = witnessed_case(&mesh, k, 7) else {
                 eprintln!("{name}: no witness");
                 continue;
             };
-            let (mut step1, mut square, mut free, mut slim) = Default::default();
-            // Side by side: one run of each per round.
-            for round in 0..runs {
-                let constraints = &case.constraints;
-                run_step1(&mesh, constraints, &mut step1);
-                run_uvpin(&mesh, constraints, BoundaryChoice::Square, &mut square);
-                run_uvpin(&mesh, constraints, BoundaryChoice::Free, &mut free);
-                if let Ok(python) = &python
-                    && (round < 2 || mesh.positions.len() < 10_000)
-                {
-                    run_slim(python, &mesh, &case, &tmp, &mut slim);
-                }
-            }
+            let [step1, square, free, slim] = measure(&mesh, &case, runs, python.as_deref().ok(), &tmp);
             eprintln!("{name}: free {}", free.cells());
             rows.push((name, mesh.positions.len(), step1, square, free, slim));
         }
