@@ -130,7 +130,7 @@ fn main() {
     let cases = [
         ("sample (assets/face.glb), 12 landmarks", Case::Sample),
         (
-            "shared face.glb, 24 landmarks",
+            "shared face.glb, 24 landmarks (the spline path stalls)",
             Case::Witnessed {
                 mesh: shared_face.clone(),
                 landmarks: 24,
