@@ -332,9 +332,14 @@ pub fn solve_chart_reusing(
         ..StageTimes::default()
     };
     let warm = match reuse {
-        Reuse::SetupAndLayout(p) if matches!(prepared.boundary, crate::free::BoundarySetup::Square) => same
-            .filter(|s| s.prepared.corners == prepared.corners)
-            .map(|_| p.solver.layout()),
+        // Both on the square: a free layout's boundary is not on it.
+        Reuse::SetupAndLayout(p)
+            if matches!(prepared.boundary, crate::free::BoundarySetup::Square)
+                && matches!(p.prepared.boundary, crate::free::BoundarySetup::Square) =>
+        {
+            same.filter(|s| s.prepared.corners == prepared.corners)
+                .map(|_| p.solver.layout())
+        }
         _ => None,
     };
     let mut solver = ChartSolver::start(SolveStart {

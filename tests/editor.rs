@@ -260,7 +260,12 @@ fn a_save_is_solved_written_and_a_broken_file_shows_its_error_until_fixed() {
     );
     assert_eq!(std::fs::read(&out).unwrap(), good);
     std::fs::write(&ron, &text).unwrap();
-    wait_state(&addr, &d, |s| s["state"] == "reached" && s["editable"] == true);
+    let fixed = wait_state(&addr, &d, |s| s["state"] == "reached" && s["editable"] == true);
+    // Saving what the file already says writes nothing.
+    let same = json!({ "base": fixed["hash"], "constraints": page_list(&fixed) });
+    let (status, reply) = post(&addr, "/api/file/0/save", &same);
+    assert_eq!((status, &reply["unchanged"]), (200, &json!(true)), "{reply}");
+    assert_eq!(std::fs::read_to_string(&ron).unwrap(), text);
     assert!(d.terminate().success());
 }
 

@@ -90,10 +90,12 @@ fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Resul
             constraints.display()
         ));
     };
-    let asset = absolute(asset)?;
     if !asset.is_file() {
         return Err(format!("--asset {}: not a file", asset.display()));
     }
+    // Both without `..` or links, so the relative path climbs out right.
+    let canonical = |p: &Path| p.canonicalize().map_err(|e| format!("{}: {e}", p.display()));
+    let (asset, folder) = (canonical(asset)?, canonical(&folder)?);
     let named = relative_to(&asset, &folder);
     let text = crate::edit::text::new_file(&named.to_string_lossy());
     crate::io::atomic::write_atomically(&file, text.as_bytes()).map_err(|e| e.message)?;

@@ -46,8 +46,9 @@ fn report(r: &Report) -> Value {
 }
 
 /// A constraint file's state: its list as the page edits it, the last
-/// written solve, the current error.
-pub fn state(view: &FileView) -> Value {
+/// written solve (of the asset as it is now), the current error;
+/// `has_texture`: whether the page may ask for a texture.
+pub fn state(view: &FileView, has_texture: bool) -> Value {
     let constraints: Vec<Value> = view
         .inputs
         .iter()
@@ -69,6 +70,12 @@ pub fn state(view: &FileView) -> Value {
         .inputs
         .as_ref()
         .is_some_and(|i| Some(i.text_hash) == view.text_hash);
+    // A solve of the asset before an edit of it is not this mesh's layout.
+    let solved = view.solved.as_ref().filter(|s| {
+        view.inputs
+            .as_ref()
+            .is_some_and(|i| std::sync::Arc::ptr_eq(&s.asset, &i.asset))
+    });
     json!({
         "id": view.id,
         "name": view.name,
@@ -79,23 +86,14 @@ pub fn state(view: &FileView) -> Value {
         "editable": editable,
         "asset": view.inputs.as_ref().map(|i| format!("{:p}", std::sync::Arc::as_ptr(&i.asset))),
         "primitive": view.inputs.as_ref().map(|i| i.loaded.file.primitive),
-        "has_texture": view.inputs.as_ref().is_some_and(|i| has_texture(i)),
+        "has_texture": has_texture,
         "constraints": constraints,
-        "solved": view.solved.as_ref().map(|s| json!({
+        "solved": solved.map(|s| json!({
             "report": report(&s.report),
             "uvs": flat_uvs(&s.uvs),
             "in_chart": s.in_chart,
         })),
     })
-}
-
-/// Whether the file names an image that is there, or else its asset's
-/// material has a base-colour texture (decoded once per asset and kept).
-fn has_texture(inputs: &super::hub::EditInputs) -> bool {
-    match &inputs.loaded.file.image {
-        Some(image) => inputs.loaded.path.parent().is_some_and(|dir| dir.join(image).is_file()),
-        None => crate::preview::texture::base_colour_texture(&inputs.asset).is_some(),
-    }
 }
 
 /// The mesh: per primitive its positions and triangle indices, flat.

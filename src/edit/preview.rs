@@ -147,13 +147,12 @@ fn work(shared: &Shared) {
         let stop = || shared.newest.load(Ordering::SeqCst) != job.ticket;
         // A bug in one solve must not stop the worker (every later preview
         // would wait for it forever).
-        let solved = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            solve(&job.inputs, &job.wanted, previous, &stop)
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            solve(&job.inputs, &job.wanted, previous, &stop).map(|s| s.map(|solved| (answer(&job, &solved), solved)))
         }))
         .unwrap_or_else(|_| Err("internal error while solving the preview".into()));
-        let reply = match solved {
-            Ok(Some(solved)) => {
-                let reply = answer(&job, &solved);
+        let reply = match outcome {
+            Ok(Some((reply, solved))) => {
                 last = Some((job.inputs.clone(), solved));
                 reply
             }

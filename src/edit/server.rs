@@ -34,6 +34,9 @@ const WORKERS: usize = 4;
 /// How often an idle event stream sends a comment (to notice closed pages).
 const KEEPALIVE: Duration = Duration::from_secs(10);
 
+/// Event streams open at once at most (each holds a thread).
+const MAX_STREAMS: usize = 32;
+
 /// A reply: status, content type, body.
 struct Reply {
     status: u16,
@@ -66,6 +69,11 @@ struct Context {
     any_ip: bool,
     input: InputRules,
     textures: Mutex<Vec<EncodedTexture>>,
+    /// Held across a save's read, check and write: two saves of one base
+    /// never both pass the check.
+    saving: Mutex<()>,
+    /// Event streams open now.
+    streams: std::sync::atomic::AtomicUsize,
 }
 
 /// A texture encoded as PNG for one file, and what it was made from.
@@ -81,6 +89,8 @@ pub struct EditorServer {
     context: Arc<Context>,
     threads: Vec<std::thread::JoinHandle<()>>,
     pub url: String,
+    /// Bound to a loopback address only.
+    pub loopback: bool,
 }
 
 /// The `Host` values a server bound to `addr` answers to.
@@ -124,6 +134,8 @@ impl EditorServer {
             any_ip: bound.ip().is_unspecified(),
             input,
             textures: Mutex::new(Vec::new()),
+            saving: Mutex::new(()),
+            streams: std::sync::atomic::AtomicUsize::new(0),
         });
         let server = Arc::new(server);
         let threads = (0..WORKERS)
@@ -145,6 +157,7 @@ impl EditorServer {
             context,
             threads,
             url: format!("http://{host}/"),
+            loopback: bound.ip().is_loopback(),
         })
     }
 
@@ -171,19 +184,31 @@ fn serve(server: &Server, context: &Arc<Context>) {
             continue;
         }
         if request.method() == &Method::Get && request.url() == "/api/events" {
-            let context = context.clone();
-            let spawned = std::thread::Builder::new()
-                .name("uvpin-events".into())
-                .spawn(move || stream_events(request, &context));
-            if spawned.is_err() {
-                break;
-            }
+            open_stream(request, context);
             continue;
         }
         // A bug in one request must not take a thread of the server down.
         let reply = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| route(context, &mut request)))
             .unwrap_or_else(|_| Reply::error(500, "internal error"));
         respond(request, reply);
+    }
+}
+
+/// Streams events to `request` on a thread of its own, or answers 503 when
+/// too many streams are open.
+fn open_stream(request: Request, context: &Arc<Context>) {
+    use std::sync::atomic::Ordering;
+    if context.streams.fetch_add(1, Ordering::SeqCst) >= MAX_STREAMS {
+        context.streams.fetch_sub(1, Ordering::SeqCst);
+        return respond(request, Reply::error(503, "too many open editor pages"));
+    }
+    let (mine, slot) = (context.clone(), context.clone());
+    let spawned = std::thread::Builder::new().name("uvpin-events".into()).spawn(move || {
+        stream_events(request, &mine);
+        mine.streams.fetch_sub(1, Ordering::SeqCst);
+    });
+    if spawned.is_err() {
+        slot.streams.fetch_sub(1, Ordering::SeqCst);
     }
 }
 
@@ -281,7 +306,7 @@ fn route(context: &Context, request: &mut Request) -> Reply {
         return Reply::error(404, "no such constraint file");
     };
     match (method, tail) {
-        (Method::Get, "") => Reply::json(200, &payload::state(&view)),
+        (Method::Get, "") => Reply::json(200, &payload::state(&view, has_texture(context, &view))),
         (Method::Get, "mesh") => match &view.inputs {
             Some(i) => Reply::json(200, &payload::mesh(&i.asset)),
             None => Reply::error(409, "the file has not loaded yet"),
@@ -311,6 +336,31 @@ fn read_json(request: &mut Request) -> Result<serde_json::Value, Reply> {
     serde_json::from_slice(&body).map_err(|e| Reply::error(400, format!("not JSON: {e}")))
 }
 
+/// The file's `image:` path, if it names one.
+fn image_path(inputs: &super::hub::EditInputs) -> Option<std::path::PathBuf> {
+    let image = inputs.loaded.file.image.as_ref()?;
+    Some(
+        inputs
+            .loaded
+            .path
+            .parent()
+            .unwrap_or(std::path::Path::new("."))
+            .join(image),
+    )
+}
+
+/// Whether the file names an image it may read, or else its asset's material
+/// has a base-colour texture (decoded once per asset and kept).
+fn has_texture(context: &Context, view: &FileView) -> bool {
+    let Some(inputs) = &view.inputs else {
+        return false;
+    };
+    match image_path(inputs) {
+        Some(path) => path.is_file() && context.input.scope.allows(&path),
+        None => crate::preview::texture::base_colour_texture(&inputs.asset).is_some(),
+    }
+}
+
 fn texture(context: &Context, view: &FileView) -> Reply {
     let Some(inputs) = &view.inputs else {
         return Reply::error(409, "the file has not loaded yet");
@@ -326,16 +376,8 @@ fn texture(context: &Context, view: &FileView) -> Reply {
     if let Some(t) = cache.iter().find(|t| t.file == view.id && t.source == source) {
         return png_reply(&t.png);
     }
-    let image = match &inputs.loaded.file.image {
-        Some(image) => {
-            let path = inputs
-                .loaded
-                .path
-                .parent()
-                .unwrap_or(std::path::Path::new("."))
-                .join(image);
-            crate::preview::texture::load_image(&path, &context.input).map(Arc::new)
-        }
+    let image = match image_path(inputs) {
+        Some(path) => crate::preview::texture::load_image(&path, &context.input).map(Arc::new),
         None => crate::preview::texture::base_colour_texture(&inputs.asset)
             .ok_or_else(|| "the asset's material has no base-colour texture".to_string()),
     };
@@ -395,6 +437,7 @@ fn save(context: &Context, view: &FileView, body: &serde_json::Value) -> Reply {
         Err(e) => return Reply::error(400, e),
     };
     let base = body.get("base").and_then(serde_json::Value::as_str);
+    let _one_at_a_time = context.saving.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let limit = context.input.limits.max_text_bytes;
     let bytes = match crate::io::read::read_regular(&view.path, limit, &crate::io::ReadScope::Anywhere) {
         Ok(b) => b,
@@ -415,6 +458,14 @@ fn save(context: &Context, view: &FileView, body: &serde_json::Value) -> Reply {
         Err(e @ EditError::Mismatch(_)) => return Reply::error(500, e),
         Err(e) => return Reply::error(400, e),
     };
+    if new_text == text {
+        // Nothing to write (a label trimmed back, a target rounded to where
+        // it was): the daemon has this content already.
+        return Reply::json(
+            200,
+            &serde_json::json!({ "hash": payload::hash_text(hash), "unchanged": true }),
+        );
+    }
     if let Err(e) = check_against_asset(&new_text, inputs) {
         return Reply::error(400, e);
     }

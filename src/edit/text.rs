@@ -311,14 +311,34 @@ fn new_item(wanted: &WantedConstraint) -> String {
 /// A byte-range replacement.
 type Splice = (Range<usize>, String);
 
-/// The splices that turn an existing item (tokens `item`) into `wanted`
-/// (its target rewritten only if `moved`).
+/// How an existing item changes: its target form (`px` with the image
+/// size, or `uv`), whether the target moved, and the primitive to name
+/// when the item has none but needs one (a `near:` item that resolved
+/// outside the file's primitive becomes a `vertex:` there).
+#[derive(Debug, Clone, Copy)]
+struct ItemChange {
+    px: Option<(u32, u32)>,
+    moved: bool,
+    add_primitive: Option<usize>,
+}
+
+/// Where fields are appended to an item: after its last significant token
+/// (never inside a comment), and whether that token is a comma.
+fn append_point(tokens: &[Token], item: &Range<usize>) -> (usize, bool) {
+    let last = (item.start + 1..item.end - 1)
+        .rev()
+        .find(|&k| tokens[k].kind != Kind::Trivia)
+        .unwrap_or(item.start);
+    (tokens[last].span.end, tokens[last].kind == Kind::Comma)
+}
+
+/// The splices that turn an existing item (tokens `item`) into `wanted`.
 fn item_splices(
     text: &str,
     tokens: &[Token],
     item: &Range<usize>,
     wanted: &WantedConstraint,
-    (px, moved): (Option<(u32, u32)>, bool),
+    change: ItemChange,
 ) -> Vec<Splice> {
     let span = |r: &Range<usize>| tokens[r.start].span.start..tokens[r.end - 1].span.end;
     let found = fields(text, tokens, item.start);
@@ -347,21 +367,25 @@ fn item_splices(
         }
         (None, None) => {}
     }
-    let (name, value) = target_text(wanted.uv, px);
-    if let Some(t) = field("uv").or_else(|| field("px")).filter(|_| moved) {
+    let (name, value) = target_text(wanted.uv, change.px);
+    if let Some(t) = field("uv").or_else(|| field("px")).filter(|_| change.moved) {
         splices.push((name_span(&t), name.into()));
         splices.push((span(&t), value));
     }
-    let close = tokens[item.end - 1].span.start;
+    let mut appended = Vec::new();
+    if let Some(p) = change.add_primitive.filter(|_| field("primitive").is_none()) {
+        appended.push(format!("primitive: {p}"));
+    }
     match (field("label"), &wanted.label) {
         (Some(l), Some(new)) => splices.push((span(&l), quoted(new))),
         (Some(l), None) => splices.push((remove_field_span(text, tokens, item, &l, name_span(&l)), String::new())),
-        (None, Some(new)) => {
-            let before = text[..close].trim_end();
-            let comma = if before.ends_with(',') { " " } else { ", " };
-            splices.push((before.len()..close, format!("{comma}label: {}", quoted(new))));
-        }
+        (None, Some(new)) => appended.push(format!("label: {}", quoted(new))),
         (None, None) => {}
+    }
+    if !appended.is_empty() {
+        let (at, after_comma) = append_point(tokens, item);
+        let lead = if after_comma { " " } else { ", " };
+        splices.push((at..at, format!("{lead}{}", appended.join(", "))));
     }
     splices
 }
@@ -408,8 +432,8 @@ fn apply(text: &str, mut splices: Vec<Splice>) -> String {
     out
 }
 
-/// Checks what the editor asks for: targets inside the square, labels
-/// without control characters, one target per vertex.
+/// Checks what the editor asks for: targets inside the square, one target
+/// per vertex.
 ///
 /// # Errors
 /// The first of those that fails.
@@ -422,9 +446,6 @@ pub fn check_wanted(wanted: &[WantedConstraint]) -> Result<(), EditError> {
                 u: w.uv.x,
                 v: w.uv.y,
             });
-        }
-        if w.label.as_deref().is_some_and(|l| l.chars().any(char::is_control)) {
-            return Err(EditError::BadLabel { index });
         }
         if let Some(a) = wanted[..index]
             .iter()
@@ -467,6 +488,12 @@ pub fn rewrite_constraints(
             .iter()
             .find(|e| e.vertex == w.vertex && e.primitive == primitive)
             .filter(|e| e.index < list.items.len() && e.index < loaded.file.constraints.len());
+        // Only a label the edit writes must be one line (one kept as the
+        // user wrote it is theirs).
+        let writes_label = old.is_none_or(|e| loaded.file.constraints[e.index].label != w.label);
+        if writes_label && w.label.as_deref().is_some_and(|l| l.chars().any(char::is_control)) {
+            return Err(EditError::BadLabel { index: k });
+        }
         let (lead, item, spec) = match old {
             Some(e) => {
                 let spec = &loaded.file.constraints[e.index];
@@ -474,19 +501,28 @@ pub fn rewrite_constraints(
                 let item = &list.items[e.index];
                 let moved = loaded.target_uv(spec) != w.uv;
                 let unchanged = !moved && spec.label == w.label;
+                // A `near:` item resolved outside the file's primitive names it.
+                let add_primitive =
+                    (spec.near.is_some() && spec.primitive.is_none() && e.primitive != default_primitive)
+                        .then_some(e.primitive);
                 let item_text = &text[tokens[item.start].span.start..tokens[item.end - 1].span.end];
                 if unchanged {
                     (layout.lead(e.index), item_text.to_string(), spec.clone())
                 } else {
                     let base = tokens[item.start].span.start;
-                    let splices = item_splices(text, &tokens, item, w, (px, moved))
+                    let change = ItemChange {
+                        px,
+                        moved,
+                        add_primitive,
+                    };
+                    let splices = item_splices(text, &tokens, item, w, change)
                         .into_iter()
                         .map(|(r, s)| (r.start - base..r.end - base, s))
                         .collect();
                     let mut spec = expected_spec(w, px);
                     // The item's own `primitive` field is left as it was, and
                     // its target if it did not move.
-                    spec.primitive = loaded.file.constraints[e.index].primitive;
+                    spec.primitive = loaded.file.constraints[e.index].primitive.or(add_primitive);
                     if !moved {
                         (spec.uv, spec.px) = (loaded.file.constraints[e.index].uv, loaded.file.constraints[e.index].px);
                     }
@@ -576,11 +612,16 @@ impl ListLayout {
                 .collect::<String>()
         };
         let key_indent = line_indent(tokens[list.open].span.start);
+        // A new item goes on a line of its own where the items are, or
+        // after a line comment (anything after it would be commented out).
+        let after_line_comment = trailings.last().is_some_and(|t| t.contains("//"));
         let new_lead = match leads.last() {
-            Some(l) if l.contains('\n') => format!(
-                "\n{}",
-                line_indent(tokens[list.items[leads.len() - 1].start].span.start)
-            ),
+            Some(l) if l.contains('\n') || after_line_comment => {
+                format!(
+                    "\n{}",
+                    line_indent(tokens[list.items[leads.len() - 1].start].span.start)
+                )
+            }
             Some(_) => " ".into(),
             None => format!("\n{key_indent}    "),
         };
@@ -800,6 +841,51 @@ mod tests {
             rewrite_constraints(FILE, &l, &existing(), &w),
             Err(EditError::BadLabel { index: 0 })
         );
+    }
+
+    #[test]
+    fn comments_never_swallow_what_is_added() {
+        let text = "(asset: \"a.glb\", constraints: [(vertex: 1, uv: (0.5, 0.5) // the nose\n), // eye\n])";
+        let items = [ExistingItem {
+            index: 0,
+            primitive: 0,
+            vertex: 1,
+        }];
+        let w = [wanted(1, 0.5, 0.5, Some("nose")), wanted(2, 0.25, 0.5, None)];
+        let out = rewrite_constraints(text, &loaded(text), &items, &w).unwrap();
+        assert_eq!(
+            out,
+            "(asset: \"a.glb\", constraints: [(vertex: 1, uv: (0.5, 0.5), label: \"nose\" // the nose\n), // eye\n(vertex: 2, uv: (0.25, 0.5)),\n])"
+        );
+    }
+
+    #[test]
+    fn a_near_item_on_another_primitive_names_it() {
+        let text = "(asset: \"a.glb\", constraints: [(near: (0, 0, 0), uv: (0.5, 0.5))])";
+        let items = [ExistingItem {
+            index: 0,
+            primitive: 1,
+            vertex: 88,
+        }];
+        let mut w = wanted(88, 0.25, 0.5, None);
+        w.primitive = Some(1);
+        let out = rewrite_constraints(text, &loaded(text), &items, &[w]).unwrap();
+        assert_eq!(
+            out,
+            "(asset: \"a.glb\", constraints: [(vertex: 88, uv: (0.25, 0.5), primitive: 1)])"
+        );
+    }
+
+    #[test]
+    fn a_label_the_edit_does_not_touch_may_be_anything() {
+        let text = "(asset: \"a.glb\", constraints: [(vertex: 1, uv: (0.5, 0.5), label: \"a\\tb\")])";
+        let items = [ExistingItem {
+            index: 0,
+            primitive: 0,
+            vertex: 1,
+        }];
+        let w = [wanted(1, 0.5, 0.5, Some("a\tb")), wanted(2, 0.25, 0.5, None)];
+        assert!(rewrite_constraints(text, &loaded(text), &items, &w).is_ok());
     }
 
     #[test]

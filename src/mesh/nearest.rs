@@ -158,6 +158,14 @@ pub fn surface_distance(primitives: &[PrimitiveGeometry], only: Option<usize>, p
 pub fn too_far(primitives: &[PrimitiveGeometry], only: Option<usize>, p: DVec3) -> Option<String> {
     let diagonal = bounds(primitives)?.diagonal();
     let limit = NEAR_TOLERANCE * diagonal;
+    // The surface is no farther than the nearest vertex: most points need
+    // no scan of the triangles.
+    if nearest_vertices(primitives, only, p, 1)
+        .first()
+        .is_some_and(|v| v.distance <= limit)
+    {
+        return None;
+    }
     let distance = surface_distance(primitives, only, p);
     if distance <= limit {
         return None;

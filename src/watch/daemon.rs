@@ -231,6 +231,11 @@ fn serve_editor(
     schedule.add_systems(publish_to_editor.after(report_results).before(write_status_file));
     let message = format!("editor at {} (open it in a browser)", server.url);
     logger.info("serve", None, &message, json!({ "url": server.url }));
+    if !server.loopback {
+        let warning =
+            "the editor is served beyond this machine: anyone who can reach it can change the constraint files";
+        logger.warn("serve", None, warning, json!({}));
+    }
     if open {
         let opened = ["xdg-open", "open"].iter().any(|opener| {
             std::process::Command::new(opener)

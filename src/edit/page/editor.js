@@ -20,7 +20,8 @@ const app = {
   image: null, // the texture, or an image the user loaded
   userImage: false,
   savedHash: null, // what our last save wrote, until the daemon has read it
-  saveAgain: false,
+  saving: false, // a save is on its way
+  saveAgain: false, // a change came while a save was pending
   preview: { inFlight: false, pending: false, seq: 0, shown: 0 },
 };
 
@@ -95,6 +96,9 @@ async function loadFiles() {
 async function openFile(id) {
   app.fileId = id;
   app.file = null;
+  app.savedHash = null;
+  app.saveAgain = false;
+  app.dragStart = null;
   app.meshKey = null;
   app.undo = [];
   app.redo = [];
@@ -108,10 +112,13 @@ function uvArrays(uvs) {
 }
 
 async function refreshFile() {
-  const file = await getJson(`/api/file/${app.fileId}`);
+  const id = app.fileId;
+  const file = await getJson(`/api/file/${id}`);
+  // An answer to an older request, or about another file: nothing to do.
+  if (id !== app.fileId || (app.file && file.version < app.file.version)) return;
   app.file = file;
   // The daemon has read our last save: a save waiting on it may go now.
-  const caughtUp = app.savedHash !== null && file.hash === app.savedHash && file.editable;
+  const caughtUp = app.savedHash !== null && file.hash === app.savedHash;
   if (caughtUp) app.savedHash = null;
   if (file.asset && file.asset !== app.meshKey) {
     app.mesh = await getJson(`/api/file/${app.fileId}/mesh`);
@@ -350,21 +357,36 @@ function wantedList() {
   return app.constraints.map((c) => ({ primitive: primitiveOf(c), vertex: c.vertex, uv: c.uv, label: c.label || null }));
 }
 
+// One save at a time, each on the file the daemon has read: a save made
+// while one is on its way, or before the daemon has read the last one, is
+// sent once that has happened (with the list as it is then).
 async function save() {
   if (!app.file) return;
-  if (app.savedHash) {
-    // The daemon has not read our last save yet: save again once it has.
+  if (app.saving || app.savedHash) {
     app.saveAgain = true;
     return;
   }
-  const r = await postJson(`/api/file/${app.fileId}/save`, { base: app.file.hash, constraints: wantedList() });
+  app.saving = true;
+  const id = app.fileId;
+  const r = await postJson(`/api/file/${id}/save`, { base: app.file.hash, constraints: wantedList() });
+  app.saving = false;
+  if (id !== app.fileId) return;
   if (r.ok) {
     window.uvpinEditor.saves += 1;
+    if (r.body.unchanged) {
+      // The file already says this: nothing for the daemon to read.
+      if (app.saveAgain) {
+        app.saveAgain = false;
+        save();
+      }
+      return;
+    }
     app.savedHash = r.body.hash;
     setStatus('solving', 'saved; the daemon is solving');
   } else {
     setStatus('error', r.body.error || `save failed (${r.status})`);
     app.savedHash = null;
+    app.saveAgain = false;
     if (r.status === 409) await refreshFile();
   }
 }
@@ -426,8 +448,9 @@ const textureHandlers = {
   onDragEnd(marker, moved) {
     const before = app.dragStart;
     app.dragStart = null;
-    if (!moved || !before) {
-      redraw();
+    if (!moved || !before || !app.file || !app.file.editable) {
+      if (before && moved) app.constraints = before;
+      redraw({ layout: true });
       return;
     }
     app.undo.push(before);
