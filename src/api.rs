@@ -318,7 +318,8 @@ pub fn solve_chart_reusing(
     let prepared = chart::prepare_reusing(source, asset, previous.map(|p| &p.prepared))?;
     let topology_ms = t0.elapsed().as_secs_f64() * 1e3;
     let same = previous.filter(|p| prepared.same_geometry(&p.prepared));
-    let step1 = match same.filter(|p| p.prepared.corners == prepared.corners) {
+    let same_step1 = previous.filter(|p| prepared.same_step1(&p.prepared));
+    let step1 = match same_step1 {
         Some(p) => p.step1.clone(),
         None => step1::step1(&prepared, source, &asset.path)?,
     };
@@ -337,8 +338,7 @@ pub fn solve_chart_reusing(
             if matches!(prepared.boundary, crate::free::BoundarySetup::Square)
                 && matches!(p.prepared.boundary, crate::free::BoundarySetup::Square) =>
         {
-            same.filter(|s| s.prepared.corners == prepared.corners)
-                .map(|_| p.solver.layout())
+            same_step1.map(|_| p.solver.layout())
         }
         _ => None,
     };

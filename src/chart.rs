@@ -194,6 +194,12 @@ impl PreparedChart {
     pub fn same_geometry(&self, other: &PreparedChart) -> bool {
         Arc::ptr_eq(&self.filled, &other.filled)
     }
+
+    /// Whether `other`'s step 1 (boundary map, factor, layout) is this
+    /// chart's too: the same geometry and the same corners.
+    pub fn same_step1(&self, other: &PreparedChart) -> bool {
+        self.same_geometry(other) && self.corners == other.corners
+    }
 }
 
 /// Tolerance for a constraint on the outer boundary to agree with the boundary map.

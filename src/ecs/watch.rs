@@ -671,7 +671,7 @@ fn restart_solve(
         .map(|d| d.0.clone());
     let prepared = chart::prepare_reusing(&job.source, &job.asset, previous.as_deref())?;
     let reuse = match &previous {
-        Some(p) if prepared.same_geometry(p) && p.corners == prepared.corners => Reuse::Step1,
+        Some(p) if prepared.same_step1(p) => Reuse::Step1,
         Some(p) if prepared.same_geometry(p) => Reuse::Geometry,
         _ => Reuse::FromScratch,
     };
