@@ -701,14 +701,17 @@ mod tests {
         LoadedConstraints::parse(Path::new("f.uvpin.ron"), text).unwrap()
     }
 
+    /// Item `index` of a file, resolved to `vertex` of `primitive`.
+    fn item(index: usize, primitive: usize, vertex: u32) -> ExistingItem {
+        ExistingItem {
+            index,
+            primitive,
+            vertex,
+        }
+    }
+
     fn existing() -> Vec<ExistingItem> {
-        [(0, 12), (1, 3), (2, 40)]
-            .map(|(index, vertex)| ExistingItem {
-                index,
-                primitive: 0,
-                vertex,
-            })
-            .to_vec()
+        vec![item(0, 0, 12), item(1, 0, 3), item(2, 0, 40)]
     }
 
     fn wanted(vertex: u32, u: f64, v: f64, label: Option<&str>) -> WantedConstraint {
@@ -793,11 +796,7 @@ mod tests {
             out,
             "(\n    asset: \"a.glb\",\n    constraints: [\n        (vertex: 5, uv: (0.5, 0.25)),\n    ],\n)\n"
         );
-        let items = [ExistingItem {
-            index: 0,
-            primitive: 0,
-            vertex: 5,
-        }];
+        let items = [item(0, 0, 5)];
         let back = rewrite_constraints(&out, &loaded(&out), &items, &[]).unwrap();
         assert_eq!(back, text);
         assert_eq!(new_file("a.glb").matches("constraints: []").count(), 1);
@@ -807,11 +806,7 @@ mod tests {
     #[test]
     fn one_line_lists_stay_on_one_line() {
         let text = "(asset: \"a.glb\", constraints: [(vertex: 1, uv: (0.5, 0.5))])";
-        let items = [ExistingItem {
-            index: 0,
-            primitive: 0,
-            vertex: 1,
-        }];
+        let items = [item(0, 0, 1)];
         let w = [wanted(1, 0.5, 0.5, None), wanted(2, 0.25, 0.5, None)];
         let out = rewrite_constraints(text, &loaded(text), &items, &w).unwrap();
         assert_eq!(
@@ -846,11 +841,7 @@ mod tests {
     #[test]
     fn comments_never_swallow_what_is_added() {
         let text = "(asset: \"a.glb\", constraints: [(vertex: 1, uv: (0.5, 0.5) // the nose\n), // eye\n])";
-        let items = [ExistingItem {
-            index: 0,
-            primitive: 0,
-            vertex: 1,
-        }];
+        let items = [item(0, 0, 1)];
         let w = [wanted(1, 0.5, 0.5, Some("nose")), wanted(2, 0.25, 0.5, None)];
         let out = rewrite_constraints(text, &loaded(text), &items, &w).unwrap();
         assert_eq!(
@@ -862,11 +853,7 @@ mod tests {
     #[test]
     fn a_near_item_on_another_primitive_names_it() {
         let text = "(asset: \"a.glb\", constraints: [(near: (0, 0, 0), uv: (0.5, 0.5))])";
-        let items = [ExistingItem {
-            index: 0,
-            primitive: 1,
-            vertex: 88,
-        }];
+        let items = [item(0, 1, 88)];
         let mut w = wanted(88, 0.25, 0.5, None);
         w.primitive = Some(1);
         let out = rewrite_constraints(text, &loaded(text), &items, &[w]).unwrap();
@@ -879,11 +866,7 @@ mod tests {
     #[test]
     fn a_label_the_edit_does_not_touch_may_be_anything() {
         let text = "(asset: \"a.glb\", constraints: [(vertex: 1, uv: (0.5, 0.5), label: \"a\\tb\")])";
-        let items = [ExistingItem {
-            index: 0,
-            primitive: 0,
-            vertex: 1,
-        }];
+        let items = [item(0, 0, 1)];
         let w = [wanted(1, 0.5, 0.5, Some("a\tb")), wanted(2, 0.25, 0.5, None)];
         assert!(rewrite_constraints(text, &loaded(text), &items, &w).is_ok());
     }
