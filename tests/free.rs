@@ -108,12 +108,16 @@ fn pick(rng: &mut Rng, n: usize, k: usize) -> Vec<u32> {
 }
 
 fn witnessed_free_cases_are_reached_exactly_and_one_to_one() {
-    let warps: [(&str, &dyn Fn(DVec2) -> DVec2); 3] = [
+    let squeeze = |p: DVec2| DVec2::new(0.5 + (p.x - 0.5) * 1.3, 0.5 + (p.y - 0.5) * 0.3);
+    let warps: [(&str, &dyn Fn(DVec2) -> DVec2); 5] = [
         ("as laid out", &|p| p),
         ("smooth warp", &|p| smooth_warp(p, 0.15)),
         ("swirl", &|p| swirl(p, 1.5)),
+        ("squeezed", &squeeze),
+        ("squeezed swirl", &|p| swirl(squeeze(p), 2.0)),
     ];
     let mut cases = 0;
+    let mut starts = std::collections::BTreeSet::new();
     for outline in [Outline::Circle, Outline::Blob] {
         for (seed, k) in [(1u64, 6usize), (2, 25)] {
             let (mesh, witness) = witness_disk(9, outline, seed);
@@ -134,6 +138,7 @@ fn witnessed_free_cases_are_reached_exactly_and_one_to_one() {
                 assert!(report["max_residual"].as_f64().unwrap() <= 1e-9, "{name}");
                 assert_eq!(report["boundary_mode"], "free", "{name}");
                 assert_eq!(report["free"]["crossings"], 0, "{name}");
+                starts.insert(report["free"]["start"].as_str().unwrap_or_default().to_string());
                 assert_eq!(check["crossings"], 0, "{name}: {check}");
                 assert_eq!(check["overlapping_pairs"], 0, "{name}: {check}");
                 let (lo, hi) = (&check["min"], &check["max"]);
@@ -150,6 +155,12 @@ fn witnessed_free_cases_are_reached_exactly_and_one_to_one() {
         }
     }
     assert!(cases >= 10, "only {cases} witnessed cases");
+    // Both ways in: conformal through the targets where that is one-to-one,
+    // else fitted, relaxed and moved by the spline path and the completion.
+    assert!(
+        starts.contains("through") && starts.contains("conformal"),
+        "{starts:?}"
+    );
 }
 
 /// A random region inside the texture, at least a third of it on each side.

@@ -1,7 +1,10 @@
-//! A free chart's start: the island as it was when it fits, else a
-//! least-squares conformal layout (Lévy et al. 2002) if it is injective,
-//! else step 1's; moved by the similarity that best fits its constrained
-//! vertices to their targets, and shrunk until it fits its room.
+//! A free chart's start: the island as it was when it fits; else the
+//! least-squares conformal layout (Lévy et al. 2002) through the targets
+//! (the constrained vertices held on them) when it is one-to-one inside its
+//! room, which reaches them at once; else the least-squares conformal layout
+//! if it is injective, else step 1's, moved by the similarity that best
+//! fits its constrained vertices to their targets and shrunk until it fits
+//! its room.
 
 use super::room::Room;
 use crate::complete::energy::RestTriangle;
@@ -17,6 +20,9 @@ use glam::{DVec2, DVec3};
 pub enum StartKind {
     /// The chart's own UVs (its atlas island), unchanged.
     Island,
+    /// Least-squares conformal with the constrained vertices on their
+    /// targets: one-to-one inside its room, so the targets are met.
+    Through,
     /// Least-squares conformal, fitted to the targets.
     Conformal,
     /// Step 1's square layout, fitted to the targets (the conformal one folded).
@@ -75,6 +81,9 @@ pub fn free_start(
             return Some(start);
         }
     }
+    if let Some(start) = through_targets(room, &shape, rest, system, step1, problem) {
+        return Some(start);
+    }
     let mut conformal = step1.to_vec();
     let kind = if conformal_layout(&mut conformal, &shape, rest, system, room.boundary_vertices())
         && room.embeds(&conformal)
@@ -85,6 +94,38 @@ pub fn free_start(
         StartKind::StepOne
     };
     fit_into_room(room, &shape, &conformal, problem, kind, Fit::ToTargets)
+}
+
+/// The least-squares conformal layout with every constrained vertex held on
+/// its target, when it is one-to-one and its room admits it as stored (it
+/// then needs no spline path and no completion). `None` with fewer than two
+/// targets, or when it folds, overlaps itself or leaves its room.
+fn through_targets(
+    room: &Room,
+    shape: &Shape,
+    rest: &[RestTriangle],
+    system: &NewtonSystem,
+    step1: &[DVec2],
+    problem: &StepProblem,
+) -> Option<FreeStart> {
+    if problem.targets.len() < 2 {
+        return None;
+    }
+    let mut layout = step1.to_vec();
+    let mut held = vec![false; layout.len()];
+    for (&v, &t) in problem.constraint_vertices.iter().zip(&problem.targets) {
+        held[v as usize] = true;
+        layout[v as usize] = t;
+    }
+    let fits = system.solve_conformal(&mut layout, rest, shape.triangles, &held)
+        && guard::all_positive_as_stored(&layout, shape.triangles)
+        && room.admits(&layout).is_ok();
+    fits.then(|| FreeStart {
+        rest_area: layout_area(&layout, &shape.triangles[..shape.n_real_triangles]),
+        layout,
+        kind: StartKind::Through,
+        shrink: 1.0,
+    })
 }
 
 /// The chart's own UVs, each hole's virtual vertex at the mean of its loop.

@@ -42,6 +42,7 @@ fn free_line(s: &SolveSummary) -> Option<String> {
     };
     let start = match free.start {
         crate::free::start::StartKind::Island => "its island as it was",
+        crate::free::start::StartKind::Through => "least-squares conformal through the targets",
         crate::free::start::StartKind::Conformal => "least-squares conformal",
         crate::free::start::StartKind::StepOne => "step 1 (the conformal layout folded)",
     };

@@ -602,7 +602,7 @@ fn start_free(
     layout.extend_from_slice(scaffold.fixed_points());
     let domain = FreeDomain::new(room, scaffold, offset);
     let (mut rest_area, mut shrink, mut relax_steps) = (rest_area, shrink, 0);
-    if kind != StartKind::Island && problem.targets.len() >= 2 {
+    if matches!(kind, StartKind::Conformal | StartKind::StepOne) && problem.targets.len() >= 2 {
         let relaxed = relax(filled, system.pattern(), &mut layout, &domain, rest_area, problem, kind);
         if let Some((refit, steps)) = relaxed {
             layout[..refit.layout.len()].copy_from_slice(&refit.layout);
