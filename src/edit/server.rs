@@ -365,9 +365,14 @@ fn texture(context: &Context, view: &FileView) -> Reply {
     let Some(inputs) = &view.inputs else {
         return Reply::error(409, "the file has not loaded yet");
     };
-    let source = match &inputs.loaded.file.image {
-        Some(image) => format!("image {image}"),
-        None => format!("asset {:p}", Arc::as_ptr(&inputs.asset)),
+    // An image is known by its size and modification time too, so a
+    // repainted image is served anew.
+    let source = match (&inputs.loaded.file.image, image_path(inputs)) {
+        (Some(image), Some(path)) => {
+            let stamp = std::fs::metadata(&path).map(|m| (m.len(), m.modified().ok())).ok();
+            format!("image {image} {stamp:?}")
+        }
+        _ => format!("asset {:p}", Arc::as_ptr(&inputs.asset)),
     };
     let mut cache = context
         .textures
