@@ -391,7 +391,8 @@ fn item_splices(
 }
 
 /// The bytes of a field to remove: from its name through its value and the
-/// comma after it (or the comma before it, for the last field).
+/// comma after it with the spaces that follow (or from the comma before it,
+/// for the last field, when only spaces lie between). Comments stay.
 fn remove_field_span(
     text: &str,
     tokens: &[Token],
@@ -402,8 +403,9 @@ fn remove_field_span(
     let after = (value.end..item.end - 1).find(|&k| tokens[k].kind != Kind::Trivia);
     match after {
         Some(k) if tokens[k].kind == Kind::Comma => {
+            let blank = |j: usize| tokens[j].kind == Kind::Trivia && text[tokens[j].span.clone()].trim().is_empty();
             let end = (k + 1..item.end - 1)
-                .find(|&j| tokens[j].kind != Kind::Trivia)
+                .find(|&j| !blank(j))
                 .map_or(tokens[k].span.end, |j| tokens[j].span.start);
             name.start..end
         }
@@ -770,6 +772,19 @@ mod tests {
                 "(vertex: 12, uv: (0.25, 0.5))",
             )
             .replace("(vertex: 3, uv: (1, 0))", r#"(vertex: 3, uv: (1, 0), label: "ear")"#);
+        assert_eq!(out, expect);
+    }
+
+    #[test]
+    fn a_removed_label_keeps_the_comments_around_it() {
+        let text = "(\n    asset: \"m.glb\",\n    constraints: [\n        (vertex: 12, label: \"eye\", /* kept */ uv: (0.25, 0.5)),\n        (vertex: 3, uv: (1, 0), // also kept\n            label: \"ear\"),\n    ],\n)\n";
+        let loaded = loaded(text);
+        let existing = vec![item(0, 0, 12), item(1, 0, 3)];
+        let w = vec![wanted(12, 0.25, 0.5, None), wanted(3, 1.0, 0.0, None)];
+        let out = rewrite_constraints(text, &loaded, &existing, &w).unwrap();
+        let expect = text
+            .replace("label: \"eye\", /* kept */", "/* kept */")
+            .replace(", // also kept\n            label: \"ear\")", ", // also kept\n            )");
         assert_eq!(out, expect);
     }
 
