@@ -19,7 +19,7 @@ use uvpin::mesh::TriMesh;
 use uvpin::metrics::sander_stretch;
 use uvpin::options::SolverOptions;
 use uvpin::param::{uv_to_xy, xy_to_uv};
-use uvpin::testing::{Rng, smooth_warp};
+use uvpin::testing::Rng;
 
 /// SLIM iterations per solve.
 const SLIM_ITERATIONS: usize = 100;
@@ -67,43 +67,11 @@ struct Case {
     scale: f64,
 }
 
-/// Witnessed targets for `k` interior vertices of `mesh`; `None` when the
-/// witness does not hold up (the unconstrained free layout failed, or the
-/// warp folds it).
+/// Witnessed targets for `k` interior vertices of `mesh`
+/// ([`uvpin::testing::witnessed_free_case`]) and the scale that takes the
+/// mesh to their layout's area.
 fn witnessed_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Case> {
-    let pins = uvpin::Pins::new(&[]).with_boundary(BoundaryChoice::Free);
-    let free = uvpin::solve_mesh(mesh, &pins, &SolverOptions::DEFAULT.into()).ok()?;
-    let one_to_one = free.report.free.as_ref().is_some_and(|f| f.crossings == 0);
-    if !one_to_one || !free.report.orientation.is_clean() {
-        return None;
-    }
-    // Shrunk to leave the region's border alone, then warped.
-    let warped: Vec<DVec2> = free
-        .uvs
-        .iter()
-        .map(|uv| {
-            let p = uv_to_xy(DVec2::new(uv[0] as f64, uv[1] as f64));
-            smooth_warp(DVec2::splat(0.5) + (p - 0.5) * 0.8, 0.12)
-        })
-        .collect();
-    if !uvpin::guard::all_positive(&warped, &mesh.triangles) || inside_out_loops(mesh, &warped) > 0 {
-        return None;
-    }
-    let topology = uvpin::mesh::topology::Topology::build(mesh).ok()?;
-    let mut on_boundary = vec![false; mesh.positions.len()];
-    topology
-        .loops
-        .iter()
-        .flatten()
-        .for_each(|&v| on_boundary[v as usize] = true);
-    let mut rng = Rng::new(seed);
-    let mut out: Vec<(u32, DVec2)> = Vec::new();
-    while out.len() < k {
-        let v = rng.below(mesh.positions.len()) as u32;
-        if !on_boundary[v as usize] && out.iter().all(|(w, _)| *w != v) {
-            out.push((v, xy_to_uv(warped[v as usize])));
-        }
-    }
+    let (constraints, warped) = uvpin::testing::witnessed_free_case(mesh, k, seed)?;
     let area = |l: &[DVec2]| uvpin::free::start::layout_area(l, &mesh.triangles);
     let area_3d: f64 = mesh
         .triangles
@@ -114,7 +82,7 @@ fn witnessed_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Case> {
         })
         .sum();
     Some(Case {
-        constraints: out,
+        constraints,
         scale: (area(&warped) / area_3d).sqrt(),
     })
 }
@@ -156,26 +124,6 @@ fn record_layout(mesh: &TriMesh, layout: &[DVec2], constraints: &[(u32, DVec2)],
         .map(|(v, t)| xy_to_uv(layout[*v as usize]).distance(*t))
         .fold(0.0, f64::max);
     out.residual.push(residual);
-}
-
-/// Boundary loops of `layout` whose signed area has the wrong sign for a
-/// one-to-one layout (in the faces' winding the outer loop turns
-/// counter-clockwise, every hole clockwise).
-fn inside_out_loops(mesh: &TriMesh, layout: &[DVec2]) -> usize {
-    let Ok(topology) = uvpin::mesh::topology::Topology::build(mesh) else {
-        return 0;
-    };
-    let area = |lp: &[u32]| -> f64 {
-        (0..lp.len())
-            .map(|k| layout[lp[k] as usize].perp_dot(layout[lp[(k + 1) % lp.len()] as usize]))
-            .sum::<f64>()
-    };
-    topology
-        .loops
-        .iter()
-        .enumerate()
-        .filter(|(k, lp)| (area(lp) > 0.0) != (*k == topology.outer))
-        .count()
 }
 
 /// A Python with libigl: `target/bench-venv`, made (and libigl installed
@@ -238,7 +186,7 @@ fn run_slim(python: &Path, mesh: &TriMesh, case: &Case, tmp: &Path, out: &mut Ou
     let edges = uvpin::injective::boundary_edges(&mesh.triangles);
     out.crossings =
         uvpin::injective::meeting_pairs(&layout, &edges, uvpin::injective::Contact::Proper, 10_000, |_, _| false).len();
-    out.inside_out = inside_out_loops(mesh, &layout);
+    out.inside_out = uvpin::testing::inside_out_loops(mesh, &layout);
 }
 
 /// A mesh to measure: its name, the mesh, rounds, landmark counts.

@@ -225,8 +225,9 @@ pub fn step_problem(
     let mut problem = StepProblem::default();
     if prepared.boundary.free().is_some() {
         // A free boundary moves: every constraint is the spline's and every
-        // vertex movable (hole centres too); the spline path still holds a sample of the
-        // outer loop (as the square does), so its field stays tame there.
+        // vertex movable (hole centres too); the spline path first holds a
+        // sample of the outer loop (as the square does), so its field stays
+        // tame there, and lets it go if it stalls so (`ChartSolver`).
         for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
             problem.constraint_vertices.push(v);
             problem.targets.push(uv_to_xy(c.target_uv));

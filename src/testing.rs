@@ -138,3 +138,75 @@ pub fn swirl(p: glam::DVec2, angle: f64) -> glam::DVec2 {
     let t = (1.0 - d.length() / 0.45).max(0.0);
     centre + glam::DVec2::from_angle(angle * t * t).rotate(d)
 }
+
+/// Landmarks (vertex, target in texture coordinates) and the witness layout.
+pub type WitnessedCase = (Vec<(u32, glam::DVec2)>, Vec<glam::DVec2>);
+
+/// A witnessed free-boundary case on `mesh`: uvpin's own free layout of it
+/// without landmarks (globally injective), shrunk to leave the region's
+/// border alone and pushed through [`smooth_warp`]; `k` random interior
+/// vertices get their warped positions as targets (texture coordinates), so
+/// a fold-free, one-to-one layout meeting them exists. Also the warped
+/// layout (layout coordinates). `None` when the witness does not hold up
+/// (the free layout failed, or the warp folds it or turns a loop inside out).
+pub fn witnessed_free_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<WitnessedCase> {
+    use crate::param::{uv_to_xy, xy_to_uv};
+    use glam::DVec2;
+    let pins = crate::Pins::new(&[]).with_boundary(crate::constraints::BoundaryChoice::Free);
+    let free = crate::solve_mesh(mesh, &pins, &crate::options::SolverOptions::DEFAULT.into()).ok()?;
+    let one_to_one = free.report.free.as_ref().is_some_and(|f| f.crossings == 0);
+    if !one_to_one || !free.report.orientation.is_clean() {
+        return None;
+    }
+    let warped: Vec<DVec2> = free
+        .uvs
+        .iter()
+        .map(|uv| {
+            let p = uv_to_xy(DVec2::new(uv[0] as f64, uv[1] as f64));
+            smooth_warp(DVec2::splat(0.5) + (p - 0.5) * 0.8, 0.12)
+        })
+        .collect();
+    if !crate::guard::all_positive(&warped, &mesh.triangles) || inside_out_loops(mesh, &warped) > 0 {
+        return None;
+    }
+    let topology = crate::mesh::topology::Topology::build(mesh).ok()?;
+    let mut on_boundary = vec![false; mesh.positions.len()];
+    topology
+        .loops
+        .iter()
+        .flatten()
+        .for_each(|&v| on_boundary[v as usize] = true);
+    if on_boundary.iter().filter(|b| !**b).count() < k {
+        return None;
+    }
+    let mut rng = Rng::new(seed);
+    let mut out: Vec<(u32, DVec2)> = Vec::new();
+    while out.len() < k {
+        let v = rng.below(mesh.positions.len()) as u32;
+        if !on_boundary[v as usize] && out.iter().all(|(w, _)| *w != v) {
+            out.push((v, xy_to_uv(warped[v as usize])));
+        }
+    }
+    Some((out, warped))
+}
+
+/// Boundary loops of `layout` whose signed area has the wrong sign for a
+/// one-to-one layout (in the faces' winding the outer loop turns
+/// counter-clockwise, every hole clockwise): a hole turned inside out covers
+/// its surroundings twice without any edge crossing.
+pub fn inside_out_loops(mesh: &TriMesh, layout: &[glam::DVec2]) -> usize {
+    let Ok(topology) = crate::mesh::topology::Topology::build(mesh) else {
+        return 0;
+    };
+    let area = |lp: &[u32]| -> f64 {
+        (0..lp.len())
+            .map(|k| layout[lp[k] as usize].perp_dot(layout[lp[(k + 1) % lp.len()] as usize]))
+            .sum::<f64>()
+    };
+    topology
+        .loops
+        .iter()
+        .enumerate()
+        .filter(|(k, lp)| (area(lp) > 0.0) != (*k == topology.outer))
+        .count()
+}

@@ -782,9 +782,10 @@ mod tests {
         let existing = vec![item(0, 0, 12), item(1, 0, 3)];
         let w = vec![wanted(12, 0.25, 0.5, None), wanted(3, 1.0, 0.0, None)];
         let out = rewrite_constraints(text, &loaded, &existing, &w).unwrap();
-        let expect = text
-            .replace("label: \"eye\", /* kept */", "/* kept */")
-            .replace(", // also kept\n            label: \"ear\")", ", // also kept\n            )");
+        let expect = text.replace("label: \"eye\", /* kept */", "/* kept */").replace(
+            ", // also kept\n            label: \"ear\")",
+            ", // also kept\n            )",
+        );
         assert_eq!(out, expect);
     }
 

@@ -245,6 +245,7 @@ fn free_report(s: &SolveSummary) -> Option<FreeReport> {
         start: free.start,
         start_shrink: free.shrink,
         relax_steps: free.relax_steps,
+        spline_loop_freed: s.solver.record().spline_loop_freed,
         crossings: room.crossings(layout, usize::MAX),
         island_triangles: setup.obstacles.triangles.len(),
         scaffold_triangles: scaffold.map_or(0, |t| t.len()),

@@ -107,6 +107,15 @@ fn step1_line(s: &SolveSummary, step1: &Stretch) -> String {
 }
 
 fn spline_line(s: &SolveSummary) -> String {
+    let line = spline_phase_line(s);
+    if s.solver.record().spline_loop_freed {
+        format!("{line}; run again with the outer loop free after stalling with it held")
+    } else {
+        line
+    }
+}
+
+fn spline_phase_line(s: &SolveSummary) -> String {
     let st = s.solver.spline();
     let ms = s.times.stepping_ms + s.times.guard_ms;
     match &st.phase {

@@ -290,6 +290,9 @@ pub struct FreeReport {
     pub start_shrink: f64,
     /// Newton steps that relaxed the start before the spline path.
     pub relax_steps: u32,
+    /// The spline path stalled holding a sample of the outer loop and ran
+    /// again with the loop free.
+    pub spline_loop_freed: bool,
     /// Pairs of boundary edges of the written layout that cross (always 0).
     pub crossings: usize,
     /// Other islands' triangles near the region, kept clear of.

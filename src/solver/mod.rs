@@ -82,6 +82,9 @@ pub struct SolveRecord {
     pub polish_outcome: Option<PolishOutcome>,
     /// Milliseconds a free chart's Newton phases spent triangulating its scaffold.
     pub scaffold_ms: f64,
+    /// A free chart's spline path stalled holding its outer loop and ran
+    /// again from the start with the loop free.
+    pub spline_loop_freed: bool,
 }
 
 /// Everything a chart's solve starts from.
@@ -474,6 +477,9 @@ impl ChartSolver {
                 let context = self.newton_context()?;
                 self.start_polish(context, goal);
             }
+            AfterSpline::Complete if self.free.is_some() && !self.problem.anchors.is_empty() => {
+                self.free_the_loop();
+            }
             AfterSpline::Complete => {
                 let spline = std::mem::replace(&mut self.layout, self.start.clone());
                 self.spline_layout = Some(spline);
@@ -484,6 +490,32 @@ impl ChartSolver {
             }
         }
         Ok(())
+    }
+
+    /// A free chart's spline path holds a sample of its outer loop still
+    /// (zero-displacement centres, as on the square). Where the targets bend
+    /// the chart as a whole (a head turned against its body) that field
+    /// folds at once and the path stalls; the completion from the start then
+    /// drags the boundary along itself, where it can catch (a jaw's tip
+    /// under the other jaw's hook). So the path runs once more from the
+    /// start with the loop free, its counts carried on; only if that stalls
+    /// too does the completion follow.
+    fn free_the_loop(&mut self) {
+        self.problem.anchors.clear();
+        self.layout.clone_from(&self.start);
+        let before = std::mem::replace(
+            &mut self.spline,
+            SteppingState::start(
+                &self.problem,
+                &self.layout,
+                &self.options,
+                self.policy.completion_follows_stall(),
+            ),
+        );
+        self.spline.iterations += before.iterations;
+        self.spline.total_halvings += before.total_halvings;
+        self.record.spline_loop_freed = true;
+        self.phase = Phase::SplineStepping { full_step: None };
     }
 
     fn start_polish(&mut self, mut context: NewtonContext, goal: PolishGoal) {
