@@ -467,7 +467,8 @@ impl ChartSolver {
             self.spline_storable
         };
         let has_free = !self.problem.movable.is_empty();
-        match self.policy.after_spline(reached, has_free, storable) {
+        let loop_held = self.free.is_some() && !self.problem.anchors.is_empty();
+        match self.policy.after_spline(reached, has_free, storable, loop_held) {
             AfterSpline::Done(outcome) => {
                 self.record.polish_outcome = Some(outcome);
                 self.phase = Phase::Done;
@@ -477,9 +478,7 @@ impl ChartSolver {
                 let context = self.newton_context()?;
                 self.start_polish(context, goal);
             }
-            AfterSpline::Complete if self.free.is_some() && !self.problem.anchors.is_empty() => {
-                self.free_the_loop();
-            }
+            AfterSpline::FreeTheLoop => self.free_the_loop(),
             AfterSpline::Complete => {
                 let spline = std::mem::replace(&mut self.layout, self.start.clone());
                 self.spline_layout = Some(spline);
@@ -492,14 +491,15 @@ impl ChartSolver {
         Ok(())
     }
 
-    /// A free chart's spline path holds a sample of its outer loop still
+    /// A free chart's spline path holds a sample of its outer loop at first
     /// (zero-displacement centres, as on the square). Where the targets bend
     /// the chart as a whole (a head turned against its body) that field
     /// folds at once and the path stalls; the completion from the start then
     /// drags the boundary along itself, where it can catch (a jaw's tip
     /// under the other jaw's hook). So the path runs once more from the
-    /// start with the loop free, its counts carried on; only if that stalls
-    /// too does the completion follow.
+    /// start with the loop free, its counts carried on
+    /// ([`AfterSpline::FreeTheLoop`]); only if that stalls too does the
+    /// completion follow.
     fn free_the_loop(&mut self) {
         self.problem.anchors.clear();
         self.layout.clone_from(&self.start);

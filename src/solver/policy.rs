@@ -49,6 +49,9 @@ pub enum Reached {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AfterSpline {
     Polish(PolishGoal),
+    /// The spline path once more from the start, a free chart's outer loop
+    /// no longer held (it stalled holding it).
+    FreeTheLoop,
     /// The completion, from the step-1 layout.
     Complete,
     Done(PolishOutcome),
@@ -104,10 +107,14 @@ impl Policy {
     }
 
     /// What follows the spline path: it `reached` the targets or not, the
-    /// chart `has_free` vertices, its layout is `storable` as f32.
-    pub fn after_spline(&self, reached: bool, has_free: bool, storable: bool) -> AfterSpline {
+    /// chart `has_free` vertices, its layout is `storable` as f32, and
+    /// `loop_held`: a free chart's path held a sample of its outer loop.
+    pub fn after_spline(&self, reached: bool, has_free: bool, storable: bool, loop_held: bool) -> AfterSpline {
         if self.paper_guard {
             return AfterSpline::Done(self.not_run(PolishOutcome::PaperGuard));
+        }
+        if !reached && loop_held {
+            return AfterSpline::FreeTheLoop;
         }
         if !reached {
             return match self.completion {
@@ -184,37 +191,39 @@ mod tests {
     fn after_the_spline_path() {
         use AfterSpline::*;
         let small = policy(10, |_| {});
-        assert_eq!(small.after_spline(true, true, true), Polish(PolishGoal::Distortion));
-        assert_eq!(small.after_spline(false, true, true), Complete);
+        assert_eq!(small.after_spline(true, true, true, false), Polish(PolishGoal::Distortion));
+        assert_eq!(small.after_spline(false, true, true, false), Complete);
+        assert_eq!(small.after_spline(false, true, true, true), FreeTheLoop);
+        assert_eq!(small.after_spline(true, true, true, true), Polish(PolishGoal::Distortion));
         assert_eq!(
-            small.after_spline(true, false, true),
+            small.after_spline(true, false, true, false),
             Done(PolishOutcome::NothingToMove)
         );
         let large = policy(60_000, |_| {});
         let after = Reached::SplinePath;
         assert_eq!(
-            large.after_spline(true, true, true),
+            large.after_spline(true, true, true, false),
             Done(PolishOutcome::AboveLimit { after })
         );
         // A layout f32 cannot store is always spread, whatever the rule...
-        assert_eq!(large.after_spline(true, true, false), Polish(PolishGoal::Storable));
+        assert_eq!(large.after_spline(true, true, false, false), Polish(PolishGoal::Storable));
         let off = policy(10, |o| o.polish = false);
-        assert_eq!(off.after_spline(true, true, false), Polish(PolishGoal::Storable));
-        assert_eq!(off.after_spline(true, true, true), Done(PolishOutcome::Off));
+        assert_eq!(off.after_spline(true, true, false, false), Polish(PolishGoal::Storable));
+        assert_eq!(off.after_spline(true, true, true, false), Done(PolishOutcome::Off));
         // ...but not under the paper's guard, which runs its spline path alone.
         let paper = policy(10, |o| o.guard = Guard::Paper);
-        assert_eq!(paper.after_spline(true, true, false), Done(PolishOutcome::PaperGuard));
-        assert_eq!(paper.after_spline(false, true, true), Done(PolishOutcome::PaperGuard));
+        assert_eq!(paper.after_spline(true, true, false, false), Done(PolishOutcome::PaperGuard));
+        assert_eq!(paper.after_spline(false, true, true, false), Done(PolishOutcome::PaperGuard));
         let never = policy(10, |o| o.completion = Completion::Never);
         assert_eq!(
-            never.after_spline(false, true, true),
+            never.after_spline(false, true, true, false),
             Done(PolishOutcome::TargetsNotReached)
         );
         let never_off = policy(10, |o| {
             o.completion = Completion::Never;
             o.polish = false;
         });
-        assert_eq!(never_off.after_spline(false, true, true), Done(PolishOutcome::Off));
+        assert_eq!(never_off.after_spline(false, true, true, false), Done(PolishOutcome::Off));
     }
 
     #[test]
