@@ -8,7 +8,8 @@
 //! the texture; 24 or 40 interior vertices get their warped positions as
 //! targets, so a fold-free, one-to-one layout meeting them exists. SLIM
 //! (symmetric Dirichlet, free boundary, landmarks as soft constraints with
-//! libigl's default penalty) starts from Tutte's embedding on a circle.
+//! libigl's default penalty) starts from Tutte's embedding on a circle
+//! (its holes fan-filled for the embedding).
 
 mod common;
 use glam::DVec2;
@@ -268,7 +269,7 @@ fn main() {
         "Sander L2 and L∞ stretch (1 = isometry), largest distance of a landmark from its target (texture units), \
          median milliseconds (`cargo bench --bench free`). Targets witnessed by a one-to-one free layout through a \
          smooth warp; uvpin runs with its defaults (polish included). SLIM: libigl {} iterations from Tutte's \
-         embedding on a circle fitted to the landmarks, landmarks as soft constraints; it keeps triangles from \
+         embedding on a circle (holes fan-filled for it) fitted to the landmarks, landmarks as soft constraints; it keeps triangles from \
          flipping, not the boundary from crossing itself or a hole from turning inside out (counted in brackets).\n\n\
          | case | vertices | step 1: L2 | L∞ | residual | ms | square: L2 | L∞ | residual | ms | free: L2 | L∞ | residual | ms | SLIM: L2 | L∞ | residual | ms |\n\
          |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
