@@ -378,7 +378,7 @@ fn item_splices(
     }
     match (field("label"), &wanted.label) {
         (Some(l), Some(new)) => splices.push((span(&l), quoted(new))),
-        (Some(l), None) => splices.push((remove_field_span(text, tokens, item, &l, name_span(&l)), String::new())),
+        (Some(l), None) => splices.push(remove_field_span(text, tokens, item, &l, name_span(&l))),
         (None, Some(new)) => appended.push(format!("label: {}", quoted(new))),
         (None, None) => {}
     }
@@ -390,35 +390,59 @@ fn item_splices(
     splices
 }
 
-/// The bytes of a field to remove: from its name through its value and the
+/// The splice that removes a field: its name through its value and the
 /// comma after it with the spaces that follow (or from the comma before it,
-/// for the last field, when only spaces lie between). Comments stay.
+/// for the last field). Comments inside what goes are put back in its place
+/// (a line comment with the line break after it), so none is lost and none
+/// swallows what follows.
 fn remove_field_span(
     text: &str,
     tokens: &[Token],
     item: &Range<usize>,
     value: &Range<usize>,
     name: Range<usize>,
-) -> Range<usize> {
+) -> Splice {
+    let blank = |j: usize| tokens[j].kind == Kind::Trivia && text[tokens[j].span.clone()].trim().is_empty();
+    let name_token = (item.start..value.start).find(|&k| tokens[k].span.start == name.start);
     let after = (value.end..item.end - 1).find(|&k| tokens[k].kind != Kind::Trivia);
-    match after {
+    let (first, last) = match after {
         Some(k) if tokens[k].kind == Kind::Comma => {
-            let blank = |j: usize| tokens[j].kind == Kind::Trivia && text[tokens[j].span.clone()].trim().is_empty();
-            let end = (k + 1..item.end - 1)
-                .find(|&j| !blank(j))
-                .map_or(tokens[k].span.end, |j| tokens[j].span.start);
-            name.start..end
+            let end = (k + 1..item.end - 1).find(|&j| !blank(j)).unwrap_or(item.end - 1);
+            (name_token.unwrap_or(value.start), end - 1)
         }
         _ => {
-            let before = text[..name.start].trim_end();
-            let start = if before.ends_with(',') {
-                before.len() - 1
-            } else {
-                name.start
-            };
-            start..tokens[value.end - 1].span.end
+            let start = name_token.unwrap_or(value.start);
+            let before = (item.start + 1..start).rev().find(|&k| tokens[k].kind != Kind::Trivia);
+            let from = before.filter(|&k| tokens[k].kind == Kind::Comma).unwrap_or(start);
+            (from, value.end - 1)
+        }
+    };
+    let range = tokens[first].span.start..tokens[last].span.end;
+    let mut kept = kept_comments(text, tokens, first..last + 1);
+    if !kept.is_empty() && !text[..range.start].ends_with(char::is_whitespace) {
+        kept.insert(0, ' ');
+    }
+    (range, kept)
+}
+
+/// The comments among `tokens[range]`, each block comment followed by a
+/// space and each line comment by the whitespace after it (its line break).
+fn kept_comments(text: &str, tokens: &[Token], range: Range<usize>) -> String {
+    let mut out = String::new();
+    for k in range.clone() {
+        let t = &text[tokens[k].span.clone()];
+        if tokens[k].kind != Kind::Trivia || t.trim().is_empty() {
+            continue;
+        }
+        out.push_str(t);
+        let line = t.starts_with("//");
+        match tokens.get(k + 1).map(|n| &text[n.span.clone()]) {
+            Some(ws) if line && k + 1 < range.end && ws.trim().is_empty() => out.push_str(ws),
+            _ if line => out.push('\n'),
+            _ => out.push(' '),
         }
     }
+    out
 }
 
 fn apply(text: &str, mut splices: Vec<Splice>) -> String {
@@ -777,15 +801,22 @@ mod tests {
 
     #[test]
     fn a_removed_label_keeps_the_comments_around_it() {
-        let text = "(\n    asset: \"m.glb\",\n    constraints: [\n        (vertex: 12, label: \"eye\", /* kept */ uv: (0.25, 0.5)),\n        (vertex: 3, uv: (1, 0), // also kept\n            label: \"ear\"),\n    ],\n)\n";
+        let text = "(\n    asset: \"m.glb\",\n    constraints: [\n        (vertex: 12, label: \"eye\", /* kept */ uv: (0.25, 0.5)),\n        (vertex: 3, uv: (1, 0), // also kept, with a comma\n            label: \"ear\"),\n        (vertex: 40, label: \"x\" /* inside */, uv: (0.5, 0.5)),\n    ],\n)\n";
         let loaded = loaded(text);
-        let existing = vec![item(0, 0, 12), item(1, 0, 3)];
-        let w = vec![wanted(12, 0.25, 0.5, None), wanted(3, 1.0, 0.0, None)];
+        let existing = vec![item(0, 0, 12), item(1, 0, 3), item(2, 0, 40)];
+        let w = vec![
+            wanted(12, 0.25, 0.5, None),
+            wanted(3, 1.0, 0.0, None),
+            wanted(40, 0.5, 0.5, None),
+        ];
         let out = rewrite_constraints(text, &loaded, &existing, &w).unwrap();
-        let expect = text.replace("label: \"eye\", /* kept */", "/* kept */").replace(
-            ", // also kept\n            label: \"ear\")",
-            ", // also kept\n            )",
-        );
+        let expect = text
+            .replace("label: \"eye\", /* kept */", "/* kept */")
+            .replace(
+                "(1, 0), // also kept, with a comma\n            label: \"ear\")",
+                "(1, 0) // also kept, with a comma\n            )",
+            )
+            .replace("label: \"x\" /* inside */, uv", "/* inside */ uv");
         assert_eq!(out, expect);
     }
 

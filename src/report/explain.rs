@@ -5,6 +5,7 @@ use super::{CompletionStats, Status};
 use crate::metrics::Stretch;
 use crate::param::boundary::{BoundaryShape, CornerSource};
 use crate::rbf::stepping::SteppingPhase;
+use crate::solver::LoopFreed;
 use crate::solver::policy::{PolishOutcome, Reached};
 
 /// One line per phase: step 1, spline path, completion, polish, result.
@@ -108,10 +109,12 @@ fn step1_line(s: &SolveSummary, step1: &Stretch) -> String {
 
 fn spline_line(s: &SolveSummary) -> String {
     let line = spline_phase_line(s);
-    if s.solver.record().spline_loop_freed {
-        format!("{line}; run again with the outer loop free after stalling with it held")
-    } else {
-        line
+    match s.solver.record().spline_loop_freed {
+        None => line,
+        Some(LoopFreed::Kept) => format!("{line}; run again with the outer loop free after stalling with it held"),
+        Some(LoopFreed::Discarded) => format!(
+            "{line}; the run held the outer loop: run again with the loop free, it ended further from the targets"
+        ),
     }
 }
 
@@ -120,7 +123,9 @@ fn spline_phase_line(s: &SolveSummary) -> String {
     let ms = s.times.stepping_ms + s.times.guard_ms;
     match &st.phase {
         SteppingPhase::Skipped => "spline path (Eq. 6): skipped (completion: Always)".into(),
-        SteppingPhase::Reached if st.iterations == 0 => "spline path (Eq. 6): nothing to move".into(),
+        SteppingPhase::Reached if st.iterations == 0 => {
+            "spline path (Eq. 6): not needed (the start is on the targets)".into()
+        }
         SteppingPhase::Reached => format!(
             "spline path (Eq. 6): reached in {} steps, {} halvings; {ms:.2} ms",
             st.iterations, st.total_halvings

@@ -291,8 +291,9 @@ pub struct FreeReport {
     /// Newton steps that relaxed the start before the spline path.
     pub relax_steps: u32,
     /// The spline path stalled holding a sample of the outer loop and ran
-    /// again with the loop free.
-    pub spline_loop_freed: bool,
+    /// again with the loop free: `kept`, or `discarded` when that run ended
+    /// further from the targets (`null`: not run again).
+    pub spline_loop_freed: Option<crate::solver::LoopFreed>,
     /// Pairs of boundary edges of the written layout that cross (always 0).
     pub crossings: usize,
     /// Other islands' triangles near the region, kept clear of.

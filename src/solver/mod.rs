@@ -83,8 +83,19 @@ pub struct SolveRecord {
     /// Milliseconds a free chart's Newton phases spent triangulating its scaffold.
     pub scaffold_ms: f64,
     /// A free chart's spline path stalled holding its outer loop and ran
-    /// again from the start with the loop free.
-    pub spline_loop_freed: bool,
+    /// again from the start with the loop free: which run was kept.
+    pub spline_loop_freed: Option<LoopFreed>,
+}
+
+/// What came of running a free chart's stalled spline path again with its
+/// outer loop free.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LoopFreed {
+    /// The run with the loop free ended as close to the targets or closer: kept.
+    Kept,
+    /// It ended further from them: the first run's layout kept.
+    Discarded,
 }
 
 /// Everything a chart's solve starts from.
@@ -151,6 +162,9 @@ pub struct ChartSolver {
     /// The spline path's last layout when it stalled: kept if the
     /// completion ends further from the targets.
     spline_layout: Option<Vec<DVec2>>,
+    /// A free chart's first spline path, stalled holding its outer loop,
+    /// while the path runs again with the loop free ([`AfterSpline::FreeTheLoop`]).
+    held_loop_run: Option<(Vec<DVec2>, SteppingState)>,
     phase: Phase,
     pattern: Arc<PendingNewtonPattern>,
     record: SolveRecord,
@@ -232,6 +246,7 @@ impl ChartSolver {
             spline,
             spline_storable,
             spline_layout: None,
+            held_loop_run: None,
             phase: Phase::SplineStepping { full_step: None },
             pattern,
             record: SolveRecord::default(),
@@ -460,6 +475,7 @@ impl ChartSolver {
 
     /// What follows the spline path ([`Policy::after_spline`]).
     fn after_spline(&mut self) -> Result<(), Error> {
+        self.keep_closer_spline_run();
         let reached = self.spline.phase == SteppingPhase::Reached;
         let storable = if self.policy.paper_guard {
             guard::all_positive_as_stored(&self.layout, &self.filled.mesh.triangles)
@@ -467,8 +483,10 @@ impl ChartSolver {
             self.spline_storable
         };
         let has_free = !self.problem.movable.is_empty();
-        let loop_held = self.free.is_some() && !self.problem.anchors.is_empty();
-        match self.policy.after_spline(reached, has_free, storable, loop_held) {
+        match self
+            .policy
+            .after_spline(reached, has_free, storable, self.can_free_the_loop())
+        {
             AfterSpline::Done(outcome) => {
                 self.record.polish_outcome = Some(outcome);
                 self.phase = Phase::Done;
@@ -502,20 +520,57 @@ impl ChartSolver {
     /// completion follow.
     fn free_the_loop(&mut self) {
         self.problem.anchors.clear();
-        self.layout.clone_from(&self.start);
-        let before = std::mem::replace(
-            &mut self.spline,
-            SteppingState::start(
-                &self.problem,
-                &self.layout,
-                &self.options,
-                self.policy.completion_follows_stall(),
-            ),
+        let held = std::mem::replace(&mut self.layout, self.start.clone());
+        let fresh = SteppingState::start(
+            &self.problem,
+            &self.layout,
+            &self.options,
+            self.policy.completion_follows_stall(),
         );
-        self.spline.iterations += before.iterations;
-        self.spline.total_halvings += before.total_halvings;
-        self.record.spline_loop_freed = true;
+        self.held_loop_run = Some((held, std::mem::replace(&mut self.spline, fresh)));
+        self.record.spline_loop_freed = Some(LoopFreed::Kept);
         self.phase = Phase::SplineStepping { full_step: None };
+    }
+
+    /// Whether a stalled spline path may run again with the outer loop
+    /// free: a free chart whose path held a sample of it, stalled (not
+    /// skipped), with time left, and whose constrained vertices can carry a
+    /// spline alone (three or more, not on one line at the start).
+    fn can_free_the_loop(&self) -> bool {
+        let stalled = matches!(self.spline.phase, SteppingPhase::Stalled(_));
+        let centres: Vec<DVec2> = self
+            .problem
+            .constraint_vertices
+            .iter()
+            .map(|&v| self.start[v as usize])
+            .collect();
+        self.free.is_some()
+            && !self.problem.anchors.is_empty()
+            && stalled
+            && !self.budget_spent()
+            && spans_a_plane(&centres)
+    }
+
+    /// After the path with the loop free: the layout of whichever of the two
+    /// runs ended closer to the targets, with that run's state (its stall
+    /// reason) and both runs' counts.
+    fn keep_closer_spline_run(&mut self) {
+        let Some((held, held_state)) = self.held_loop_run.take() else {
+            return;
+        };
+        if self.problem.max_residual(&held) < self.problem.max_residual(&self.layout) {
+            self.layout = held;
+            let freed = std::mem::replace(&mut self.spline, held_state);
+            self.add_counts(&freed);
+            self.record.spline_loop_freed = Some(LoopFreed::Discarded);
+        } else {
+            self.add_counts(&held_state);
+        }
+    }
+
+    fn add_counts(&mut self, other: &SteppingState) {
+        self.spline.iterations += other.iterations;
+        self.spline.total_halvings += other.total_halvings;
     }
 
     fn start_polish(&mut self, mut context: NewtonContext, goal: PolishGoal) {
@@ -568,11 +623,15 @@ impl ChartSolver {
 
     /// Stops the completion or polish once the time budget is spent; the
     /// layout stays the last accepted one.
+    /// Whether the time budget (if any) is spent.
+    fn budget_spent(&self) -> bool {
+        self.options
+            .time_budget_ms
+            .is_some_and(|budget| self.elapsed_before_ms + self.times.total_ms() > budget)
+    }
+
     fn check_budget(&mut self) {
-        let Some(budget) = self.options.time_budget_ms else {
-            return;
-        };
-        if self.is_done() || self.elapsed_before_ms + self.times.total_ms() <= budget {
+        if self.is_done() || !self.budget_spent() {
             return;
         }
         self.record.out_of_time = true;
@@ -585,6 +644,24 @@ impl ChartSolver {
             Phase::SplineStepping { .. } | Phase::Done => {}
         }
     }
+}
+
+/// Whether `points` are three or more not on one line (relative to their
+/// spread): a thin-plate spline's affine part needs that.
+fn spans_a_plane(points: &[DVec2]) -> bool {
+    if points.len() < 3 {
+        return false;
+    }
+    let mean = points.iter().sum::<DVec2>() / points.len() as f64;
+    let (mut xx, mut xy, mut yy) = (0.0, 0.0, 0.0);
+    for p in points {
+        let d = *p - mean;
+        (xx, xy, yy) = (xx + d.x * d.x, xy + d.x * d.y, yy + d.y * d.y);
+    }
+    // The covariance's eigenvalues: the smaller one against the larger.
+    let (half_trace, det) = (0.5 * (xx + yy), xx * yy - xy * xy);
+    let root = (half_trace * half_trace - det).max(0.0).sqrt();
+    half_trace - root > 1e-9 * (half_trace + root)
 }
 
 /// A free chart's start ([`free_start`]) with its scaffold's fixed points
@@ -695,4 +772,20 @@ fn relax(
         Fit::ToTargetsAsShaped,
     )?;
     Some((refit, steps))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spans_a_plane;
+    use glam::DVec2;
+
+    #[test]
+    fn a_spline_needs_three_points_off_one_line() {
+        let p = |x: f64, y: f64| DVec2::new(x, y);
+        assert!(!spans_a_plane(&[p(0.0, 0.0), p(1.0, 1.0)]));
+        assert!(!spans_a_plane(&[p(0.0, 0.0), p(0.5, 0.5), p(1.0, 1.0), p(2.0, 2.0)]));
+        assert!(!spans_a_plane(&[p(0.3, 0.3); 5]));
+        assert!(spans_a_plane(&[p(0.0, 0.0), p(1.0, 0.0), p(0.0, 1e-3)]));
+        assert!(spans_a_plane(&[p(0.2, 0.2), p(0.8, 0.3), p(0.5, 0.9)]));
+    }
 }

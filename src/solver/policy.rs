@@ -108,12 +108,13 @@ impl Policy {
 
     /// What follows the spline path: it `reached` the targets or not, the
     /// chart `has_free` vertices, its layout is `storable` as f32, and
-    /// `loop_held`: a free chart's path held a sample of its outer loop.
-    pub fn after_spline(&self, reached: bool, has_free: bool, storable: bool, loop_held: bool) -> AfterSpline {
+    /// `can_free_loop`: a free chart's path stalled holding a sample of its
+    /// outer loop and can run without it.
+    pub fn after_spline(&self, reached: bool, has_free: bool, storable: bool, can_free_loop: bool) -> AfterSpline {
         if self.paper_guard {
             return AfterSpline::Done(self.not_run(PolishOutcome::PaperGuard));
         }
-        if !reached && loop_held {
+        if !reached && can_free_loop {
             return AfterSpline::FreeTheLoop;
         }
         if !reached {
@@ -191,10 +192,16 @@ mod tests {
     fn after_the_spline_path() {
         use AfterSpline::*;
         let small = policy(10, |_| {});
-        assert_eq!(small.after_spline(true, true, true, false), Polish(PolishGoal::Distortion));
+        assert_eq!(
+            small.after_spline(true, true, true, false),
+            Polish(PolishGoal::Distortion)
+        );
         assert_eq!(small.after_spline(false, true, true, false), Complete);
         assert_eq!(small.after_spline(false, true, true, true), FreeTheLoop);
-        assert_eq!(small.after_spline(true, true, true, true), Polish(PolishGoal::Distortion));
+        assert_eq!(
+            small.after_spline(true, true, true, true),
+            Polish(PolishGoal::Distortion)
+        );
         assert_eq!(
             small.after_spline(true, false, true, false),
             Done(PolishOutcome::NothingToMove)
@@ -206,14 +213,23 @@ mod tests {
             Done(PolishOutcome::AboveLimit { after })
         );
         // A layout f32 cannot store is always spread, whatever the rule...
-        assert_eq!(large.after_spline(true, true, false, false), Polish(PolishGoal::Storable));
+        assert_eq!(
+            large.after_spline(true, true, false, false),
+            Polish(PolishGoal::Storable)
+        );
         let off = policy(10, |o| o.polish = false);
         assert_eq!(off.after_spline(true, true, false, false), Polish(PolishGoal::Storable));
         assert_eq!(off.after_spline(true, true, true, false), Done(PolishOutcome::Off));
         // ...but not under the paper's guard, which runs its spline path alone.
         let paper = policy(10, |o| o.guard = Guard::Paper);
-        assert_eq!(paper.after_spline(true, true, false, false), Done(PolishOutcome::PaperGuard));
-        assert_eq!(paper.after_spline(false, true, true, false), Done(PolishOutcome::PaperGuard));
+        assert_eq!(
+            paper.after_spline(true, true, false, false),
+            Done(PolishOutcome::PaperGuard)
+        );
+        assert_eq!(
+            paper.after_spline(false, true, true, false),
+            Done(PolishOutcome::PaperGuard)
+        );
         let never = policy(10, |o| o.completion = Completion::Never);
         assert_eq!(
             never.after_spline(false, true, true, false),
@@ -223,7 +239,10 @@ mod tests {
             o.completion = Completion::Never;
             o.polish = false;
         });
-        assert_eq!(never_off.after_spline(false, true, true, false), Done(PolishOutcome::Off));
+        assert_eq!(
+            never_off.after_spline(false, true, true, false),
+            Done(PolishOutcome::Off)
+        );
     }
 
     #[test]
