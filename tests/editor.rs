@@ -192,15 +192,19 @@ fn a_save_is_solved_written_and_a_broken_file_shows_its_error_until_fixed() {
     let addr = address(&d);
     let state = wait_state(&addr, &d, |s| s["state"] == "reached");
     let out = dir.path("out/face.glb");
-    // The file's image, served anew once it is repainted.
+    // The file's image, served anew (under a new key) once it is repainted.
     let texture = || http(&addr, "GET", "/api/file/0/texture", &[], "");
     let (status, guide) = texture();
     assert_eq!((status, &guide[1..4]), (200, &b"PNG"[..]));
     assert_eq!(texture().1, guide);
+    let key = state["texture"].clone();
+    assert!(key.as_str().is_some_and(|k| k.contains("face-guide.png")), "{state}");
+    std::thread::sleep(Duration::from_millis(20));
     std::fs::copy(repo().join("docs/editor-error.png"), dir.path("assets/face-guide.png")).unwrap();
     let (status, repainted) = texture();
     assert_eq!(status, 200);
     assert_ne!(repainted, guide, "the repainted image");
+    assert_ne!(get_json(&addr, "/api/file/0")["texture"], key);
     // A drag preview: solved in memory, nothing written.
     let mut list = page_list(&state);
     list[4]["uv"] = json!([0.52, 0.6]);

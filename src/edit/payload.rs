@@ -47,8 +47,9 @@ fn report(r: &Report) -> Value {
 
 /// A constraint file's state: its list as the page edits it, the last
 /// written solve (of the asset as it is now), the current error;
-/// `has_texture`: whether the page may ask for a texture.
-pub fn state(view: &FileView, has_texture: bool) -> Value {
+/// `texture`: the key of the texture the page may ask for (it changes when
+/// the texture does), if any.
+pub fn state(view: &FileView, texture: Option<String>) -> Value {
     let constraints: Vec<Value> = view
         .inputs
         .iter()
@@ -86,7 +87,8 @@ pub fn state(view: &FileView, has_texture: bool) -> Value {
         "editable": editable,
         "asset": view.inputs.as_ref().map(|i| format!("{:p}", std::sync::Arc::as_ptr(&i.asset))),
         "primitive": view.inputs.as_ref().map(|i| i.loaded.file.primitive),
-        "has_texture": has_texture,
+        "has_texture": texture.is_some(),
+        "texture": texture,
         "constraints": constraints,
         "solved": solved.map(|s| json!({
             "report": report(&s.report),

@@ -306,7 +306,7 @@ fn route(context: &Context, request: &mut Request) -> Reply {
         return Reply::error(404, "no such constraint file");
     };
     match (method, tail) {
-        (Method::Get, "") => Reply::json(200, &payload::state(&view, has_texture(context, &view))),
+        (Method::Get, "") => Reply::json(200, &payload::state(&view, texture_key(context, &view))),
         (Method::Get, "mesh") => match &view.inputs {
             Some(i) => Reply::json(200, &payload::mesh(&i.asset)),
             None => Reply::error(409, "the file has not loaded yet"),
@@ -349,16 +349,24 @@ fn image_path(inputs: &super::hub::EditInputs) -> Option<std::path::PathBuf> {
     )
 }
 
-/// Whether the file names an image it may read, or else its asset's material
-/// has a base-colour texture (decoded once per asset and kept).
-fn has_texture(context: &Context, view: &FileView) -> bool {
-    let Some(inputs) = &view.inputs else {
-        return false;
-    };
+/// The key of the file's texture when it has one: the image it names (if
+/// it may read it) with its size and modification time, so a repainted or
+/// renamed image gets a new key; else its asset's base-colour texture
+/// (decoded once per asset and kept).
+fn texture_key(context: &Context, view: &FileView) -> Option<String> {
+    let inputs = view.inputs.as_ref()?;
     match image_path(inputs) {
-        Some(path) => path.is_file() && context.input.scope.allows(&path),
-        None => crate::preview::texture::base_colour_texture(&inputs.asset).is_some(),
+        Some(path) => (path.is_file() && context.input.scope.allows(&path)).then(|| image_key(inputs, &path)),
+        None => crate::preview::texture::base_colour_texture(&inputs.asset)
+            .map(|_| format!("asset {:p}", Arc::as_ptr(&inputs.asset))),
     }
+}
+
+/// An `image:` file's key: its name, size and modification time.
+fn image_key(inputs: &super::hub::EditInputs, path: &std::path::Path) -> String {
+    let image = inputs.loaded.file.image.as_deref().unwrap_or_default();
+    let stamp = std::fs::metadata(path).map(|m| (m.len(), m.modified().ok())).ok();
+    format!("image {image} {stamp:?}")
 }
 
 fn texture(context: &Context, view: &FileView) -> Reply {
@@ -367,12 +375,9 @@ fn texture(context: &Context, view: &FileView) -> Reply {
     };
     // An image is known by its size and modification time too, so a
     // repainted image is served anew.
-    let source = match (&inputs.loaded.file.image, image_path(inputs)) {
-        (Some(image), Some(path)) => {
-            let stamp = std::fs::metadata(&path).map(|m| (m.len(), m.modified().ok())).ok();
-            format!("image {image} {stamp:?}")
-        }
-        _ => format!("asset {:p}", Arc::as_ptr(&inputs.asset)),
+    let source = match image_path(inputs) {
+        Some(path) => image_key(inputs, &path),
+        None => format!("asset {:p}", Arc::as_ptr(&inputs.asset)),
     };
     let mut cache = context
         .textures

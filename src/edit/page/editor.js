@@ -10,6 +10,7 @@ const app = {
   file: null, // the server's state of the file
   mesh: null,
   meshKey: null,
+  textureKey: undefined, // the server's key of the texture shown (null: none)
   constraints: [], // [{primitive, vertex, uv: [u, v], label}]
   results: null, // {report, uvs: [Float32Array]} of the last solve or preview
   inChart: null,
@@ -100,6 +101,7 @@ async function openFile(id) {
   app.saveAgain = false;
   app.dragStart = null;
   app.meshKey = null;
+  app.textureKey = undefined;
   app.undo = [];
   app.redo = [];
   app.selected = null;
@@ -125,7 +127,11 @@ async function refreshFile() {
     app.meshKey = file.asset;
     meshView.setMesh(app.mesh);
     textureView.setMesh(app.mesh);
-    if (!app.userImage) loadTexture(file.has_texture);
+  }
+  // A new mesh, another image: named, repainted: the texture anew.
+  if (file.asset && file.texture !== app.textureKey) {
+    app.textureKey = file.texture;
+    if (!app.userImage) loadTexture(file.texture);
   }
   // The page's own list stays while it is ahead of the file (saves pending).
   const ahead = app.savedHash !== null || app.saveAgain;
@@ -144,8 +150,8 @@ async function refreshFile() {
   }
 }
 
-function loadTexture(available) {
-  if (!available) {
+function loadTexture(key) {
+  if (!key) {
     app.image = null;
     meshView.setImage(null);
     textureView.setImage(null);
@@ -163,7 +169,7 @@ function loadTexture(available) {
     meshView.setImage(null);
     textureView.setImage(null);
   };
-  img.src = `/api/file/${app.fileId}/texture?asset=${encodeURIComponent(app.meshKey)}`;
+  img.src = `/api/file/${app.fileId}/texture?key=${encodeURIComponent(key)}`;
 }
 
 function showStatus() {
