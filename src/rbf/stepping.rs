@@ -21,13 +21,16 @@ use glam::DVec2;
 /// The fixed data of one chart's stepping.
 #[derive(Debug, Clone, Default)]
 pub struct StepProblem {
-    /// Constrained vertices (filled-chart ids; never on the outer boundary).
+    /// Constrained vertices (filled-chart ids; on the square, never on the
+    /// outer boundary, which the boundary map places).
     pub constraint_vertices: Vec<u32>,
     /// Their targets in layout coordinates (same order).
     pub targets: Vec<DVec2>,
-    /// Outer-boundary vertices used as zero-displacement centres.
+    /// Outer-boundary vertices used as zero-displacement centres (a free
+    /// chart's are let go if the path stalls holding them).
     pub anchors: Vec<u32>,
-    /// Vertices the spline moves: everything but the outer boundary, virtual hole vertices included.
+    /// Vertices the spline moves: on the square everything but the outer
+    /// boundary, on a free chart every vertex (virtual hole vertices included).
     pub movable: Vec<u32>,
 }
 
