@@ -423,19 +423,9 @@ fn sample_free(name: &str, constraints: Option<&str>, solver: &str) -> serde_jso
     );
     let ron = tmp.path("face.uvpin.ron");
     std::fs::write(&ron, text).unwrap();
-    let out = tmp.path("out.glb");
-    let o = uvpin(&[
-        "solve",
-        ron.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--report",
-        "-",
-        "--quiet",
-        "--explain",
-    ]);
+    let (o, report) = solve_json_with(&ron, &tmp.path("out.glb"), &["--explain"]);
     assert!(matches!(o.status.code(), Some(0 | 2)), "{name}: {}", stderr(&o));
-    serde_json::from_slice(&o.stdout).unwrap()
+    report
 }
 
 /// The spline path runs again with the outer loop free only after it

@@ -132,7 +132,12 @@ pub fn uvpin(args: &[&str]) -> Output {
 /// Runs `uvpin solve RON -o OUT --report - --quiet`: the process output and
 /// the JSON report it printed (`Null` when it printed none, as on errors).
 pub fn solve_json(ron: &Path, out: &Path) -> (Output, serde_json::Value) {
-    let o = uvpin(&[
+    solve_json_with(ron, out, &[])
+}
+
+/// [`solve_json`] with more arguments (`--explain`, ...).
+pub fn solve_json_with(ron: &Path, out: &Path, more: &[&str]) -> (Output, serde_json::Value) {
+    let mut args = vec![
         "solve",
         ron.to_str().unwrap(),
         "-o",
@@ -140,7 +145,9 @@ pub fn solve_json(ron: &Path, out: &Path) -> (Output, serde_json::Value) {
         "--report",
         "-",
         "--quiet",
-    ]);
+    ];
+    args.extend_from_slice(more);
+    let o = uvpin(&args);
     let report = serde_json::from_slice(&o.stdout).unwrap_or(serde_json::Value::Null);
     (o, report)
 }
