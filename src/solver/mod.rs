@@ -515,9 +515,9 @@ impl ChartSolver {
     /// folds at once and the path stalls; the completion from the start then
     /// drags the boundary along itself, where it can catch (a jaw's tip
     /// under the other jaw's hook). So the path runs once more from the
-    /// start with the loop free, its counts carried on
-    /// ([`AfterSpline::FreeTheLoop`]); only if that stalls too does the
-    /// completion follow.
+    /// start with the loop free ([`AfterSpline::FreeTheLoop`]); the first
+    /// run is kept aside, and the closer of the two goes on
+    /// ([`Self::keep_closer_spline_run`]): to the completion if both stalled.
     fn free_the_loop(&mut self) {
         self.problem.anchors.clear();
         let held = std::mem::replace(&mut self.layout, self.start.clone());
@@ -538,17 +538,16 @@ impl ChartSolver {
     /// spline alone (three or more, not on one line at the start).
     fn can_free_the_loop(&self) -> bool {
         let stalled = matches!(self.spline.phase, SteppingPhase::Stalled(_));
+        if self.free.is_none() || self.problem.anchors.is_empty() || !stalled || self.budget_spent() {
+            return false;
+        }
         let centres: Vec<DVec2> = self
             .problem
             .constraint_vertices
             .iter()
             .map(|&v| self.start[v as usize])
             .collect();
-        self.free.is_some()
-            && !self.problem.anchors.is_empty()
-            && stalled
-            && !self.budget_spent()
-            && spans_a_plane(&centres)
+        spans_a_plane(&centres)
     }
 
     /// After the path with the loop free: the layout of whichever of the two
