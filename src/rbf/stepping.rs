@@ -71,6 +71,17 @@ pub fn pick_anchors(outer_loop: &[u32], max: usize, must: &[u32]) -> Vec<u32> {
 /// # Errors
 /// A [`TpsError`] when the centres make the spline system singular.
 pub fn full_step(layout: &[DVec2], problem: &StepProblem) -> Result<FullStep, TpsError> {
+    let spline = fit_spline(layout, problem)?;
+    let field = displace_all(&spline, layout, &problem.movable);
+    Ok(FullStep { spline, field })
+}
+
+/// The spline of a full step from `layout`: each constrained vertex
+/// displaced onto its target, each anchor held.
+///
+/// # Errors
+/// A [`TpsError`] when the centres make the spline system singular.
+pub fn fit_spline(layout: &[DVec2], problem: &StepProblem) -> Result<ThinPlateSpline, TpsError> {
     let mut centres = Vec::with_capacity(problem.constraint_vertices.len() + problem.anchors.len());
     let mut displacements = Vec::with_capacity(centres.capacity());
     for (&v, &target) in problem.constraint_vertices.iter().zip(&problem.targets) {
@@ -82,9 +93,7 @@ pub fn full_step(layout: &[DVec2], problem: &StepProblem) -> Result<FullStep, Tp
         centres.push(layout[v as usize]);
         displacements.push(DVec2::ZERO);
     }
-    let spline = ThinPlateSpline::fit(&centres, &displacements)?;
-    let field = displace_all(&spline, layout, &problem.movable);
-    Ok(FullStep { spline, field })
+    ThinPlateSpline::fit(&centres, &displacements)
 }
 
 /// The spline of a full step and its displacement of every movable vertex.

@@ -30,7 +30,7 @@ use crate::metrics::{Stretch, sander_stretch};
 use crate::options::SolverOptions;
 use crate::param::bar_net::{BarNet, FilledChart};
 use crate::param::boundary::BoundaryMap;
-use crate::rbf::stepping::{FullStep, StepProblem, SteppingPhase, SteppingState, apply_step, full_step};
+use crate::rbf::stepping::{FullStep, StepProblem, SteppingPhase, SteppingState, apply_step, fit_spline, full_step};
 use glam::DVec2;
 use policy::{AfterSpline, Policy, PolishOutcome};
 use std::sync::Arc;
@@ -535,19 +535,18 @@ impl ChartSolver {
     /// Whether a stalled spline path may run again with the outer loop
     /// free: a free chart whose path held a sample of it, stalled (not
     /// skipped), with time left, and whose constrained vertices can carry a
-    /// spline alone (three or more, not on one line at the start).
+    /// spline alone from the start (its fit succeeds: three or more, not on
+    /// one line, none coinciding).
     fn can_free_the_loop(&self) -> bool {
         let stalled = matches!(self.spline.phase, SteppingPhase::Stalled(_));
         if self.free.is_none() || self.problem.anchors.is_empty() || !stalled || self.budget_spent() {
             return false;
         }
-        let centres: Vec<DVec2> = self
-            .problem
-            .constraint_vertices
-            .iter()
-            .map(|&v| self.start[v as usize])
-            .collect();
-        spans_a_plane(&centres)
+        let freed = StepProblem {
+            anchors: Vec::new(),
+            ..self.problem.clone()
+        };
+        fit_spline(&self.start, &freed).is_ok()
     }
 
     /// After the path with the loop free: the layout of whichever of the two
@@ -643,24 +642,6 @@ impl ChartSolver {
             Phase::SplineStepping { .. } | Phase::Done => {}
         }
     }
-}
-
-/// Whether `points` are three or more not on one line (relative to their
-/// spread): a thin-plate spline's affine part needs that.
-fn spans_a_plane(points: &[DVec2]) -> bool {
-    if points.len() < 3 {
-        return false;
-    }
-    let mean = points.iter().sum::<DVec2>() / points.len() as f64;
-    let (mut xx, mut xy, mut yy) = (0.0, 0.0, 0.0);
-    for p in points {
-        let d = *p - mean;
-        (xx, xy, yy) = (xx + d.x * d.x, xy + d.x * d.y, yy + d.y * d.y);
-    }
-    // The covariance's eigenvalues: the smaller one against the larger.
-    let (half_trace, det) = (0.5 * (xx + yy), xx * yy - xy * xy);
-    let root = (half_trace * half_trace - det).max(0.0).sqrt();
-    half_trace - root > 1e-9 * (half_trace + root)
 }
 
 /// A free chart's start ([`free_start`]) with its scaffold's fixed points
@@ -771,20 +752,4 @@ fn relax(
         Fit::ToTargetsAsShaped,
     )?;
     Some((refit, steps))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::spans_a_plane;
-    use glam::DVec2;
-
-    #[test]
-    fn a_spline_needs_three_points_off_one_line() {
-        let p = |x: f64, y: f64| DVec2::new(x, y);
-        assert!(!spans_a_plane(&[p(0.0, 0.0), p(1.0, 1.0)]));
-        assert!(!spans_a_plane(&[p(0.0, 0.0), p(0.5, 0.5), p(1.0, 1.0), p(2.0, 2.0)]));
-        assert!(!spans_a_plane(&[p(0.3, 0.3); 5]));
-        assert!(spans_a_plane(&[p(0.0, 0.0), p(1.0, 0.0), p(0.0, 1e-3)]));
-        assert!(spans_a_plane(&[p(0.2, 0.2), p(0.8, 0.3), p(0.5, 0.9)]));
-    }
 }
