@@ -76,7 +76,10 @@ try {
   await until('12 constraints listed', async () => (await items.count()) === 12);
   check(true, 'the page lists the 12 constraints and says reached');
 
-  // The mesh view is not blank: many colours in the WebGL canvas.
+  // The mesh view is not blank: many colours in the WebGL canvas, sampled
+  // once the page says this frame painted the solved mesh and its texture.
+  const meshView = page.getByTestId('mesh-view');
+  await until('the mesh view is painted', async () => (await meshView.getAttribute('data-ready')) === 'true');
   const colours = await page.evaluate(() => {
     const c = document.querySelector('[data-testid=mesh-view]');
     const t = document.createElement('canvas');
@@ -155,6 +158,7 @@ try {
   });
   check(true, 'the dragged target is saved and the output re-solved');
   await stateIs('reached');
+  await until('the mesh view is painted', async () => (await meshView.getAttribute('data-ready')) === 'true');
   if (shots) await page.screenshot({ path: path.join(shots, 'editor-added.png') });
 
   // A broken save outside the page: the error with line:column; the output kept.

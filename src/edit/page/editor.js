@@ -158,16 +158,24 @@ function loadTexture(key) {
     return;
   }
   const img = new Image();
+  app.textureLoading = key;
+  // Either way the views are drawn anew, and the page may then be ready.
+  const settle = () => {
+    if (app.textureLoading === key) app.textureLoading = null;
+    redraw({ list: false });
+  };
   img.onload = () => {
-    if (app.userImage) return;
+    if (app.userImage) return settle();
     app.image = img;
     meshView.setImage(img);
     textureView.setImage(img);
+    settle();
   };
   img.onerror = () => {
     app.image = null;
     meshView.setImage(null);
     textureView.setImage(null);
+    settle();
   };
   img.src = `/api/file/${app.fileId}/texture?key=${encodeURIComponent(key)}`;
 }
@@ -257,6 +265,20 @@ function render() {
     window.uvpinEditor.latencies.push(performance.now() - app.drawnMove);
     app.drawnMove = undefined;
   }
+  markReady();
+}
+
+// `data-ready` on the mesh view: "true" once this frame has painted the
+// file's mesh through its latest solved UVs with its texture settled (loaded
+// or failed), so a reader of the canvas (the browser test, a screenshot)
+// waits for the picture itself rather than for the status text.
+function markReady() {
+  const f = app.file;
+  const ready = Boolean(f && f.state !== 'solving' && app.mesh && app.meshKey === f.asset &&
+    app.results && app.textureLoading == null && !frameRequested);
+  const view = $('mesh-view');
+  view.dataset.ready = String(ready);
+  view.dataset.drawnHash = ready ? String(f.hash) : '';
 }
 
 function renderList() {
