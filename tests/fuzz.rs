@@ -4,9 +4,11 @@
 //! write, read back). It fails on a panic, a hang, an allocation past the
 //! address-space limit, or an output that folds when read back.
 //!
-//! `cargo test --release --test fuzz` runs for `UVPIN_FUZZ_SECONDS` seconds
-//! (default 20; CI runs 120), from seed `UVPIN_FUZZ_SEED` (default: the
-//! clock, printed). A failing input is saved under `target/fuzz-failures/`
+//! `cargo test --release --test fuzz` runs a fixed list of seeds, the same in
+//! every run: `UVPIN_FUZZ_CASES` inputs (default 300) from seed
+//! `UVPIN_FUZZ_SEED` (default 1), stopping early (and saying so) after
+//! `UVPIN_FUZZ_SECONDS` seconds (default 60). `UVPIN_FUZZ_SEED=random`
+//! starts from the clock (printed) for exploring. A failing input is saved under `target/fuzz-failures/`
 //! with the seed that made it; each one found becomes a named test in
 //! `tests/hostile.rs` or a unit test beside the fix.
 
@@ -408,21 +410,28 @@ fn limit_memory() {
 
 fn main() {
     limit_memory();
-    let seconds: u64 = std::env::var("UVPIN_FUZZ_SECONDS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(20);
-    let base_seed: u64 = std::env::var("UVPIN_FUZZ_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| {
-            std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(1, |d| d.as_secs())
-        });
+    let number = |name: &str, default: u64| {
+        std::env::var(name).map_or(default, |s| {
+            s.parse()
+                .unwrap_or_else(|_| panic!("{name}={s:?} is not a whole number"))
+        })
+    };
+    let seconds = number("UVPIN_FUZZ_SECONDS", 60);
+    let cases = number("UVPIN_FUZZ_CASES", 300);
+    let base_seed: u64 = match std::env::var("UVPIN_FUZZ_SEED").as_deref() {
+        Err(_) => 1,
+        Ok("random") => std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(1, |d| d.as_secs()),
+        Ok(s) => s
+            .parse()
+            .unwrap_or_else(|_| panic!("UVPIN_FUZZ_SEED={s:?}: a number or `random`")),
+    };
     let failures = common::repo().join("target/fuzz-failures");
     let dir = std::env::temp_dir().join(format!("uvpin-fuzz-{}", std::process::id()));
-    eprintln!("fuzzing for {seconds} s from seed {base_seed} (UVPIN_FUZZ_SEED={base_seed} repeats this run)");
+    eprintln!(
+        "fuzzing {cases} inputs from seed {base_seed} within {seconds} s (UVPIN_FUZZ_SEED={base_seed} repeats this run)"
+    );
     // The watchdog: the input running too long is saved and the run aborted.
     let current: Arc<Mutex<Option<(u64, Instant)>>> = Arc::new(Mutex::new(None));
     let watched = current.clone();
@@ -445,7 +454,11 @@ fn main() {
     let count = AtomicU64::new(0);
     let start = Instant::now();
     let mut seed = base_seed;
-    while start.elapsed() < Duration::from_secs(seconds) {
+    while count.load(Ordering::Relaxed) < cases {
+        if start.elapsed() >= Duration::from_secs(seconds) {
+            eprintln!("the time box of {seconds} s ran out before seed {seed}: the seeds after it were not run");
+            break;
+        }
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let case = generate(&mut Rng::new(seed));
