@@ -110,7 +110,7 @@ pub fn inspect(path: &Path, request: &InspectRequest, rules: &InputRules) -> Res
         point: p,
         surface_distance: nearest::surface_distance(&asset.primitives, None, p),
         nearest: nearest::nearest_vertices(&asset.primitives, None, p, NEAREST_LISTED),
-        too_far: nearest::too_far(&asset.primitives, None, p),
+        too_far: nearest::too_far(&asset.primitives, None, p, nearest::FarReader::Inspect),
     });
     Ok(Inspection {
         asset: path.display().to_string(),

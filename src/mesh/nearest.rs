@@ -152,10 +152,20 @@ pub fn surface_distance(primitives: &[PrimitiveGeometry], only: Option<usize>, p
     best
 }
 
+/// Who reads a [`too_far`] message, and so what it advises beyond the
+/// Y-up reading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FarReader {
+    /// A constraint file's author: `uvpin inspect --near` lists the nearest vertices.
+    ConstraintFile,
+    /// `uvpin inspect --near` itself, which has just listed them.
+    Inspect,
+}
+
 /// Why a `near:` point is too far from the mesh (or glTF primitive
 /// `only`), if it is: how far, and the Y-up reading of the point when that
 /// one lies on the mesh.
-pub fn too_far(primitives: &[PrimitiveGeometry], only: Option<usize>, p: DVec3) -> Option<String> {
+pub fn too_far(primitives: &[PrimitiveGeometry], only: Option<usize>, p: DVec3, reader: FarReader) -> Option<String> {
     let diagonal = bounds(primitives)?.diagonal();
     let limit = NEAR_TOLERANCE * diagonal;
     // The surface is no farther than the nearest vertex: most points need
@@ -178,7 +188,11 @@ pub fn too_far(primitives: &[PrimitiveGeometry], only: Option<usize>, p: DVec3) 
             swapped.x, swapped.y, swapped.z
         )
     } else {
-        "; glTF is Y-up (Blender shows it Z-up: (x, y, z) there is (x, z, -y) here); `uvpin inspect ASSET --near X,Y,Z` lists the nearest vertices".into()
+        let next = match reader {
+            FarReader::ConstraintFile => "`uvpin inspect ASSET --near X,Y,Z` lists the nearest vertices",
+            FarReader::Inspect => "the vertices listed above are the nearest, by `vertex:` id",
+        };
+        format!("; glTF is Y-up (Blender shows it Z-up: (x, y, z) there is (x, z, -y) here); {next}")
     };
     Some(format!(
         "the point ({}, {}, {}) is {distance:.4} from the mesh, more than {} of its bounding box's diagonal ({diagonal:.4}){hint}",
@@ -233,14 +247,20 @@ mod tests {
     #[test]
     fn far_points_are_named_with_the_y_up_reading() {
         let q = quad();
-        assert_eq!(too_far(&q, None, DVec3::new(0.5, 0.5, 0.05)), None);
+        assert_eq!(
+            too_far(&q, None, DVec3::new(0.5, 0.5, 0.05), FarReader::ConstraintFile),
+            None
+        );
         // (0.5, 0.0, 0.5) in Z-up is (0.5, 0.5, 0.0) in Y-up: on the quad.
-        let m = too_far(&q, None, DVec3::new(0.5, 0.0, 0.5)).unwrap();
+        let m = too_far(&q, None, DVec3::new(0.5, 0.0, 0.5), FarReader::ConstraintFile).unwrap();
         assert!(
             m.contains("is 0.5000 from the mesh") && m.contains("(0.5, 0.5, 0)"),
             "{m}"
         );
-        let m = too_far(&q, None, DVec3::new(40.0, 0.0, 0.0)).unwrap();
+        let m = too_far(&q, None, DVec3::new(40.0, 0.0, 0.0), FarReader::ConstraintFile).unwrap();
         assert!(m.contains("uvpin inspect"), "{m}");
+        // `uvpin inspect` itself points at its own list instead.
+        let m = too_far(&q, None, DVec3::new(40.0, 0.0, 0.0), FarReader::Inspect).unwrap();
+        assert!(!m.contains("uvpin inspect") && m.contains("listed above"), "{m}");
     }
 }
