@@ -84,11 +84,13 @@ fn constraint_reports(s: &SolveSummary, on_outer: &[bool]) -> Vec<ConstraintRepo
         .collect()
 }
 
-/// The status, and why stepping stopped short.
+/// The status and its message: that every constraint is on target, or why
+/// stepping stopped short.
 fn status_and_message(s: &SolveSummary, all_reached: bool) -> (Status, Option<String>) {
     let record = s.solver.record();
     if all_reached {
-        return (Status::Reached, None);
+        let message = "every constraint is on its target and no triangle is flipped or degenerate";
+        return (Status::Reached, Some(message.into()));
     }
     let message = if record.soft.is_some() {
         if record.out_of_time {

@@ -339,7 +339,8 @@ impl Report {
             "  {} iterations, {} halvings, {:.1} ms\n",
             self.iterations, self.halvings, self.total_ms
         );
-        if let Some(m) = &self.message {
+        // The first line already says a reached result is on target.
+        if let Some(m) = self.message.as_ref().filter(|_| self.status != Status::Reached) {
             s += &format!("  {m}\n");
         }
         if let Some(h) = &self.hint {
