@@ -1,5 +1,6 @@
 //! The README gallery: the sample's layout before (step 1) and after, the
-//! checker render through both, and the contact sheet of the sample sweep.
+//! render through both (over the file's guide image), and the contact sheet
+//! of the sample sweep.
 //!
 //! `cargo run --release --example gallery` writes `docs/gallery/*.png`
 //! (run from the repository root; the sweep's results go to `out/sweep/`).
@@ -9,7 +10,8 @@ use std::sync::Arc;
 use uvpin::constraints::ConstraintSource;
 use uvpin::options::SolverOptions;
 
-const SIZE: u32 = 512;
+/// Large enough for the landmarks' labels (768 px and up).
+const SIZE: u32 = 800;
 
 fn main() {
     let docs = Path::new("docs/gallery");
@@ -22,6 +24,8 @@ fn main() {
     .expect("load the sample");
     let options = loaded.solver;
     let source = ConstraintSource::File(Arc::new(loaded));
+    // The pictures show the layout over the file's guide image.
+    let background = source.image_path();
     let solved = uvpin::api::solve_chart(&source, &asset, &options).expect("solve");
     let report = &solved.report;
     let data = &solved.prepared;
@@ -39,6 +43,7 @@ fn main() {
             layout: Some(docs.join(format!("{name}-layout.png"))),
             render: Some(docs.join(format!("{name}-render.png"))),
             size: SIZE,
+            background: background.clone(),
         };
         uvpin::preview::draw_chart(&asset, data, boundary, layout, report, &pictures).expect("pictures");
     };

@@ -15,7 +15,7 @@
 
 use crate::error::Error;
 use crate::free::Region;
-use crate::mesh::nearest::{nearest_vertices, too_far};
+use crate::mesh::nearest::{FarReader, nearest_vertices, too_far};
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use crate::options::SolverOptions;
 use crate::pins::{PinError, Pins};
@@ -355,6 +355,17 @@ impl LoadedConstraints {
         }
     }
 
+    /// The file's `image:` (the picture its targets are placed on), beside
+    /// the file unless absolute.
+    pub fn image_path(&self) -> Option<PathBuf> {
+        let image = Path::new(self.file.image.as_deref()?);
+        Some(if image.is_absolute() {
+            image.to_path_buf()
+        } else {
+            self.path.parent().unwrap_or(Path::new(".")).join(image)
+        })
+    }
+
     /// An error located at constraint `index`.
     pub fn error_at(&self, index: usize, field: &str, message: impl Into<String>) -> ConstraintFileError {
         let (line, column) = self.item_positions.get(index).copied().unwrap_or((1, 1));
@@ -504,7 +515,7 @@ impl LoadedConstraints {
                     let Some(best) = nearest_vertices(primitives, c.primitive, point, 1).pop() else {
                         return Err(self.error_at(i, "near", "the mesh has no vertices to snap to"));
                     };
-                    if let Some(why) = too_far(primitives, c.primitive, point) {
+                    if let Some(why) = too_far(primitives, c.primitive, point, FarReader::ConstraintFile) {
                         return Err(self.error_at(i, "near", why));
                     }
                     let p = self.primitive_position(primitives, best.primitive, Some(i))?;
@@ -658,6 +669,14 @@ pub enum ConstraintSource {
 }
 
 impl ConstraintSource {
+    /// The constraint file's `image:`, if it names one.
+    pub fn image_path(&self) -> Option<PathBuf> {
+        match self {
+            ConstraintSource::File(loaded) => loaded.image_path(),
+            ConstraintSource::Memory(_) => None,
+        }
+    }
+
     /// How reports name the source: the file's path, or `<memory>`.
     pub fn name(&self) -> String {
         match self {

@@ -100,10 +100,15 @@ fn a_small_sweep_runs_end_to_end_and_reruns_deterministically() {
     );
     assert!(dir.path("results/summary.md").is_file());
     let sheet = image::open(dir.path("results/contact_sheet.png")).unwrap();
-    assert_eq!(sheet.width(), 3 * (64 + 4) + 4, "one column per blend value");
+    // Row labels on the left, column labels above, the bars' key below (12 px lines).
+    let labels = sheet.width() - (3 * (64 + 4) + 4);
+    assert!(
+        (8 * 8..=45 * 8).contains(&labels),
+        "one column per blend value, then labels: {labels}"
+    );
     assert_eq!(
         sheet.height(),
-        8 * (64 + 6 + 4) + 4,
+        12 + 8 * (64 + 6 + 4) + 4 + 12 + 4,
         "one row per file, setting and sample"
     );
     let thumbs = std::fs::read_dir(dir.path("results/thumbs")).unwrap().count();

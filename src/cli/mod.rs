@@ -192,6 +192,7 @@ pub fn main() -> ExitCode {
                 layout: preview,
                 render,
                 size: preview_size,
+                background: None,
             };
             let print = Printing { quiet, explain };
             solve(

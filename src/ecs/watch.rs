@@ -699,7 +699,11 @@ fn restart_solve(
     #[cfg(feature = "pictures")]
     match (settings.previews, &job.output) {
         (Some(size), Some(output)) => {
-            e.insert(PreviewRequest(crate::preview::Pictures::beside(output, size)));
+            let pictures = crate::preview::Pictures {
+                background: job.source.image_path(),
+                ..crate::preview::Pictures::beside(output, size)
+            };
+            e.insert(PreviewRequest(pictures));
         }
         _ => {
             e.remove::<PreviewRequest>();

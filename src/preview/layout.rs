@@ -29,11 +29,46 @@ pub fn margin(size: u32) -> f32 {
     (size as f32 / 32.0).max(4.0)
 }
 
+/// Pictures of at least this size carry a title band above the square and a
+/// legend band below it; thumbnails (sweeps) are the layout alone.
+pub const CAPTIONED_FROM: u32 = 256;
+
+/// Lines of the title band (file and status; landmarks; stretch and time).
+pub const TITLE_LINES: u32 = 3;
+/// Lines of the legend band (the stretch ramp; the marker key).
+pub const LEGEND_LINES: u32 = 2;
+
+/// Where the unit square sits in a layout picture of `size`: its top-left
+/// pixel and its side. Depends on the size alone, so a reader of the PNG
+/// can find any texture coordinate with [`uv_to_pixel`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    pub left: f32,
+    pub top: f32,
+    pub span: f32,
+}
+
+/// The frame of a layout picture of `size` pixels a side.
+pub fn frame(size: u32) -> Frame {
+    let m = margin(size);
+    let (title, legend) = if size >= CAPTIONED_FROM {
+        let line = super::text::line_height(super::text::scale_for(size)) as f32;
+        (TITLE_LINES as f32 * line, LEGEND_LINES as f32 * line)
+    } else {
+        (0.0, 0.0)
+    };
+    let span = (size as f32 - 2.0 * m - title - legend).max(1.0);
+    Frame {
+        left: (size as f32 - span) / 2.0,
+        top: m + title,
+        span,
+    }
+}
+
 /// The pixel centre of texture coordinate `uv` in a layout picture of `size`.
 pub fn uv_to_pixel(uv: DVec2, size: u32) -> (f32, f32) {
-    let m = margin(size);
-    let span = size as f32 - 2.0 * m;
-    (m + uv.x as f32 * span, m + uv.y as f32 * span)
+    let f = frame(size);
+    (f.left + uv.x as f32 * f.span, f.top + uv.y as f32 * f.span)
 }
 
 fn paint(rgb: [u8; 3], alpha: u8) -> Paint<'static> {
@@ -60,11 +95,39 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
     pixmap
 }
 
+/// Draws the layout picture with its words (on pictures of at least
+/// [`CAPTIONED_FROM`] px): `caption` above, the legend below, and each
+/// landmark's number beside its target.
+pub fn draw_captioned(scene: &LayoutScene, size: u32, caption: &super::caption::Caption) -> image::RgbaImage {
+    let mut image = to_image(&draw_layout(scene, size));
+    if size < CAPTIONED_FROM {
+        return image;
+    }
+    let radius = (size as f32 / 110.0).max(3.0);
+    super::caption::draw_numbers(&mut image, scene.markers, radius, |uv| uv_to_pixel(uv, size));
+    // The dots again, over any number that came near them.
+    for m in scene.markers {
+        let (x, y) = uv_to_pixel(m.result, size);
+        let colour = if m.reached { REACHED_COLOUR } else { UNREACHED_COLOUR };
+        super::text::disc(
+            &mut image,
+            f64::from(x),
+            f64::from(y),
+            f64::from(radius),
+            colour,
+            [255, 255, 255],
+        );
+    }
+    super::caption::draw_title(&mut image, caption, margin(size));
+    let holes = scene.triangles.len() > scene.n_real_triangles;
+    super::caption::draw_layout_legend(&mut image, margin(size), holes);
+    image
+}
+
 /// The texture (or a light grey square) under the layout.
 fn draw_background(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
-    let m = margin(size);
-    let span = size as f32 - 2.0 * m;
-    let square = tiny_skia::Rect::from_xywh(m, m, span, span).expect("square");
+    let Frame { left, top, span } = frame(size);
+    let square = tiny_skia::Rect::from_xywh(left, top, span, span).expect("square");
     match scene.texture.and_then(texture_pixmap) {
         Some(tex) => {
             let sx = span / tex.width() as f32;
@@ -77,7 +140,7 @@ fn draw_background(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
                     quality: tiny_skia::FilterQuality::Bilinear,
                     ..Default::default()
                 },
-                Transform::from_row(sx, 0.0, 0.0, sy, m, m),
+                Transform::from_row(sx, 0.0, 0.0, sy, left, top),
                 None,
             );
         }

@@ -3,8 +3,10 @@
 //! checker or its texture mapped through the new UVs ([`render::render_mesh`]).
 //! Plain data in, pixels out; [`render_chart`] gives the PNG files to write.
 
+pub mod caption;
 pub mod layout;
 pub mod render;
+pub mod text;
 pub mod texture;
 
 use glam::DVec2;
@@ -19,6 +21,9 @@ pub struct Pictures {
     pub render: Option<PathBuf>,
     /// Width and height in pixels.
     pub size: u32,
+    /// An image drawn under the layout and through the UVs on the render in
+    /// place of the material's texture: the constraint file's `image:`.
+    pub background: Option<PathBuf>,
 }
 
 impl Pictures {
@@ -37,13 +42,17 @@ impl Pictures {
             layout: Some(output.with_file_name(format!("{stem}.uv.png"))),
             render: Some(output.with_file_name(format!("{stem}.render.png"))),
             size,
+            background: None,
         }
     }
 }
 
 /// One constraint as drawn: glTF texture coordinates (u right, v down).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Marker {
+    /// Its number in the picture: its place in the constraint file, from 1.
+    pub number: usize,
+    pub label: Option<String>,
     /// Where step 1 (the bar-net) put the vertex.
     pub step1: DVec2,
     pub target: DVec2,
@@ -73,22 +82,25 @@ pub fn render_chart(
     let size = pictures.size.clamp(16, MAX_SIZE);
     let filled = &prepared.filled;
     let uvs: Vec<DVec2> = layout.iter().map(|&p| crate::param::xy_to_uv(p)).collect();
-    let texture = texture::base_colour_texture(asset);
+    let (texture, over) = background(asset, pictures);
     let real_triangles = &filled.mesh.triangles[..filled.n_real_triangles];
     let real_positions = &prepared.chart.mesh.positions;
+    let caption = caption::Caption::of_report(report, over.as_deref());
+    let markers: Vec<Marker> = report
+        .constraints
+        .iter()
+        .map(|c| Marker {
+            number: c.index + 1,
+            label: c.label.clone(),
+            step1: c.step1,
+            target: c.target,
+            result: c.result,
+            reached: c.reached,
+        })
+        .collect();
     if let Some(path) = &pictures.layout {
         let stretch =
             crate::metrics::triangle_stretch(real_positions, &layout[..filled.n_real_vertices], real_triangles);
-        let markers: Vec<Marker> = report
-            .constraints
-            .iter()
-            .map(|c| Marker {
-                step1: c.step1,
-                target: c.target,
-                result: c.result,
-                reached: c.reached,
-            })
-            .collect();
         let scene = layout::LayoutScene {
             uvs: &uvs,
             triangles: &filled.mesh.triangles,
@@ -98,23 +110,49 @@ pub fn render_chart(
             markers: &markers,
             texture: texture.as_deref(),
         };
-        let pixmap = layout::draw_layout(&scene, size);
-        let png = render::encode_png(&layout::to_image(&pixmap))
-            .map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
+        let image = layout::draw_captioned(&scene, size, &caption);
+        let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
         out.push((path.clone(), png));
     }
     if let Some(path) = &pictures.render {
-        let image = render::render_mesh(
-            real_positions,
-            real_triangles,
-            &uvs[..filled.n_real_vertices],
-            texture.as_deref(),
-            size,
-        );
+        // The report lists the constraints in the order they were resolved.
+        let marks: Vec<render::RenderMark> = report
+            .constraints
+            .iter()
+            .zip(&prepared.constraint_vertices)
+            .map(|(c, &vertex)| render::RenderMark {
+                vertex,
+                number: c.index + 1,
+                reached: c.reached,
+            })
+            .collect();
+        let scene = render::RenderScene {
+            positions: real_positions,
+            triangles: real_triangles,
+            uvs: &uvs[..filled.n_real_vertices],
+            texture: texture.as_deref(),
+            marks: &marks,
+        };
+        let image = render::render_captioned(&scene, size, &caption);
         let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
         out.push((path.clone(), png));
     }
     Ok(out)
+}
+
+/// The image under the pictures: `pictures.background` when it can be read
+/// (and its file name, for the title), else the material's texture.
+fn background(
+    asset: &crate::io::SourceAsset,
+    pictures: &Pictures,
+) -> (Option<std::sync::Arc<image::RgbaImage>>, Option<String>) {
+    if let Some(path) = &pictures.background
+        && let Ok(image) = texture::load_image(path, &asset.rules)
+    {
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+        return (Some(std::sync::Arc::new(image)), name);
+    }
+    (texture::base_colour_texture(asset), None)
 }
 
 /// Draws and writes the pictures `pictures` asks for (see [`render_chart`]).

@@ -9,6 +9,25 @@ use image::{Rgba, RgbaImage};
 /// Checker squares per texture side.
 pub const CHECKER_SQUARES: f64 = 10.0;
 
+/// A landmark marked on the render: its chart vertex and number.
+#[derive(Debug, Clone, Copy)]
+pub struct RenderMark {
+    pub vertex: u32,
+    pub number: usize,
+    pub reached: bool,
+}
+
+/// What the render shows: triangles of `positions` with texture coordinates
+/// `uvs` (glTF, one per vertex), the texture (else a checker), the landmarks.
+#[derive(Debug, Clone, Copy)]
+pub struct RenderScene<'a> {
+    pub positions: &'a [DVec3],
+    pub triangles: &'a [[u32; 3]],
+    pub uvs: &'a [DVec2],
+    pub texture: Option<&'a RgbaImage>,
+    pub marks: &'a [RenderMark],
+}
+
 /// Renders `triangles` of `positions` with texture coordinates `uvs` (glTF,
 /// one per vertex), `size` × `size` pixels, over white.
 pub fn render_mesh(
@@ -18,9 +37,80 @@ pub fn render_mesh(
     texture: Option<&RgbaImage>,
     size: u32,
 ) -> RgbaImage {
+    let scene = RenderScene {
+        positions,
+        triangles,
+        uvs,
+        texture,
+        marks: &[],
+    };
+    rasterise(&scene, size, (0.0, 0.0)).0
+}
+
+/// The render with its words (on pictures of at least
+/// [`super::layout::CAPTIONED_FROM`] px): the title above, the legend below,
+/// and each landmark as a numbered dot (a ring when it is hidden behind the
+/// mesh).
+pub fn render_captioned(scene: &RenderScene, size: u32, caption: &super::caption::Caption) -> RgbaImage {
+    use super::text;
+    if size < super::layout::CAPTIONED_FROM {
+        return rasterise(scene, size, (0.0, 0.0)).0;
+    }
+    let scale = text::scale_for(size);
+    let line = f64::from(text::line_height(scale));
+    let (mut image, marks) = rasterise(scene, size, (line * caption.lines.len() as f64, line));
+    let radius = (f64::from(size) / 110.0).max(3.0);
+    for m in &marks {
+        let colour = if m.reached {
+            super::REACHED_COLOUR
+        } else {
+            super::UNREACHED_COLOUR
+        };
+        let (fill, ring) = if m.visible {
+            (colour, [255, 255, 255])
+        } else {
+            ([255, 255, 255], colour)
+        };
+        text::disc(&mut image, m.x, m.y, radius, fill, ring);
+        let at = (m.x + radius * 1.3) as i64;
+        text::draw(
+            &mut image,
+            at,
+            (m.y - radius * 1.3) as i64 - i64::from(text::GLYPH * scale),
+            &m.number.to_string(),
+            text::Ink::dark(scale),
+        );
+    }
+    let margin = f64::from(size) * 0.05;
+    super::caption::draw_title(&mut image, caption, margin as f32);
+    let what = if scene.texture.is_some() {
+        "texture through the UVs"
+    } else {
+        "even checker = low stretch"
+    };
+    let y = i64::from(size) - margin as i64 - line as i64 + (line as i64) / 4;
+    super::caption::draw_marker_key(&mut image, margin as i64, y, scale, &format!("ring: hidden   {what}"));
+    image
+}
+
+/// A landmark where the render put it: pixel centre, and whether it is in
+/// front (not hidden behind another part of the mesh).
+#[derive(Debug, Clone, Copy)]
+struct PlacedMark {
+    x: f64,
+    y: f64,
+    visible: bool,
+    number: usize,
+    reached: bool,
+}
+
+/// The z-buffered render, leaving `bands` (top, bottom) pixels free for
+/// words, and where each landmark landed.
+fn rasterise(scene: &RenderScene, size: u32, bands: (f64, f64)) -> (RgbaImage, Vec<PlacedMark>) {
+    let (positions, triangles) = (scene.positions, scene.triangles);
     let mut image = RgbaImage::from_pixel(size, size, Rgba([255, 255, 255, 255]));
     if triangles.is_empty() || size == 0 {
-        return image;
+        return (image, Vec::new());
     }
     let (right, up, forward) = view_basis(positions, triangles);
     let project = |p: DVec3| DVec3::new(p.dot(right), p.dot(up), p.dot(forward));
@@ -35,55 +125,93 @@ pub fn render_mesh(
     }
     let margin = size as f64 * 0.05;
     let extent = (hi - lo).max_element().max(1e-12);
-    let scale = (size as f64 - 2.0 * margin) / extent;
+    let room = (size as f64 - 2.0 * margin - bands.0 - bands.1).max(1.0);
+    let scale = room / extent;
     let centre = (lo + hi) * 0.5;
-    let half = size as f64 * 0.5;
+    let (half_x, half_y) = (size as f64 * 0.5, margin + bands.0 + room * 0.5);
     // Screen: x right, y down.
-    let screen = |p: DVec3| DVec3::new(half + (p.x - centre.x) * scale, half - (p.y - centre.y) * scale, p.z);
+    let screen = |p: DVec3| {
+        DVec3::new(
+            half_x + (p.x - centre.x) * scale,
+            half_y - (p.y - centre.y) * scale,
+            p.z,
+        )
+    };
     let mut depth = vec![f64::INFINITY; (size * size) as usize];
     for t in triangles {
-        let [a, b, c] = t.map(|v| screen(projected[v as usize]));
-        let [pa, pb, pc] = t.map(|v| positions[v as usize]);
-        let normal = (pb - pa).cross(pc - pa);
-        if normal.length_squared() == 0.0 {
-            continue;
-        }
-        let light = 0.3 + 0.7 * normal.normalize().dot(forward).abs();
-        let [ua, ub, uc] = t.map(|v| uvs[v as usize]);
-        let area = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
-        if area.abs() < 1e-12 {
-            continue;
-        }
-        let x0 = a.x.min(b.x).min(c.x).floor().max(0.0) as u32;
-        let x1 = (a.x.max(b.x).max(c.x).ceil() as i64).clamp(0, size as i64 - 1) as u32;
-        let y0 = a.y.min(b.y).min(c.y).floor().max(0.0) as u32;
-        let y1 = (a.y.max(b.y).max(c.y).ceil() as i64).clamp(0, size as i64 - 1) as u32;
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let (sx, sy) = (x as f64 + 0.5, y as f64 + 0.5);
-                let w0 = ((b.x - sx) * (c.y - sy) - (c.x - sx) * (b.y - sy)) / area;
-                let w1 = ((c.x - sx) * (a.y - sy) - (a.x - sx) * (c.y - sy)) / area;
-                let w2 = 1.0 - w0 - w1;
-                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
-                    continue;
-                }
-                let z = w0 * a.z + w1 * b.z + w2 * c.z;
-                let k = (y * size + x) as usize;
-                if z >= depth[k] {
-                    continue;
-                }
-                depth[k] = z;
-                let uv = ua * w0 + ub * w1 + uc * w2;
-                let base = match texture {
-                    Some(tex) => sample(tex, uv),
-                    None => checker(uv),
-                };
-                let shaded = base.map(|ch| (ch as f64 * light).round().clamp(0.0, 255.0) as u8);
-                image.put_pixel(x, y, Rgba([shaded[0], shaded[1], shaded[2], 255]));
+        let corners = t.map(|v| screen(projected[v as usize]));
+        fill_triangle(&mut image, &mut depth, scene, *t, corners, forward);
+    }
+    let tolerance = 1e-3 * (hi - lo).length().max(1e-12) + 2.0 / scale;
+    let marks = scene
+        .marks
+        .iter()
+        .filter_map(|m| {
+            let p = screen(*projected.get(m.vertex as usize)?);
+            let (x, y) = (p.x.floor(), p.y.floor());
+            let inside = x >= 0.0 && y >= 0.0 && x < size as f64 && y < size as f64;
+            let front = inside && p.z <= depth[(y as u32 * size + x as u32) as usize] + tolerance;
+            Some(PlacedMark {
+                x: p.x,
+                y: p.y,
+                visible: front,
+                number: m.number,
+                reached: m.reached,
+            })
+        })
+        .collect();
+    (image, marks)
+}
+
+/// Draws one triangle, lit by its normal against the view, z-buffered.
+fn fill_triangle(
+    image: &mut RgbaImage,
+    depth: &mut [f64],
+    scene: &RenderScene,
+    t: [u32; 3],
+    [a, b, c]: [DVec3; 3],
+    forward: DVec3,
+) {
+    let size = image.width();
+    let [pa, pb, pc] = t.map(|v| scene.positions[v as usize]);
+    let normal = (pb - pa).cross(pc - pa);
+    if normal.length_squared() == 0.0 {
+        return;
+    }
+    let light = 0.3 + 0.7 * normal.normalize().dot(forward).abs();
+    let [ua, ub, uc] = t.map(|v| scene.uvs[v as usize]);
+    let area = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+    if area.abs() < 1e-12 {
+        return;
+    }
+    let x0 = a.x.min(b.x).min(c.x).floor().max(0.0) as u32;
+    let x1 = (a.x.max(b.x).max(c.x).ceil() as i64).clamp(0, size as i64 - 1) as u32;
+    let y0 = a.y.min(b.y).min(c.y).floor().max(0.0) as u32;
+    let y1 = (a.y.max(b.y).max(c.y).ceil() as i64).clamp(0, size as i64 - 1) as u32;
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let (sx, sy) = (x as f64 + 0.5, y as f64 + 0.5);
+            let w0 = ((b.x - sx) * (c.y - sy) - (c.x - sx) * (b.y - sy)) / area;
+            let w1 = ((c.x - sx) * (a.y - sy) - (a.x - sx) * (c.y - sy)) / area;
+            let w2 = 1.0 - w0 - w1;
+            if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                continue;
             }
+            let z = w0 * a.z + w1 * b.z + w2 * c.z;
+            let k = (y * size + x) as usize;
+            if z >= depth[k] {
+                continue;
+            }
+            depth[k] = z;
+            let uv = ua * w0 + ub * w1 + uc * w2;
+            let base = match scene.texture {
+                Some(tex) => sample(tex, uv),
+                None => checker(uv),
+            };
+            let shaded = base.map(|ch| (ch as f64 * light).round().clamp(0.0, 255.0) as u8);
+            image.put_pixel(x, y, Rgba([shaded[0], shaded[1], shaded[2], 255]));
         }
     }
-    image
 }
 
 /// The view: right, up and forward (into the screen) unit vectors. Forward
