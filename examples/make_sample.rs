@@ -103,18 +103,30 @@ fn clean_patch(pts: &[DVec2], mut tris: Vec<[u32; 3]>) -> TriMesh {
     welded.chart(biggest).mesh
 }
 
-/// Snaps boundary vertices onto their outline where that keeps every triangle positive.
+/// Snaps boundary vertices onto their own outline (the outer loop onto the
+/// face's, each hole's loop onto the hole nearest its centroid) where the
+/// move is short (under a grid step) and keeps every triangle positive.
 fn snap_to_outline(mesh: &mut TriMesh) {
+    const STEP: f64 = 0.06;
     let topo = Topology::build(mesh).expect("clean patch");
+    let outer = topo.outer_loop().to_vec();
     for lp in &topo.loops {
+        let centroid = lp.iter().map(|&v| mesh.positions[v as usize].truncate()).sum::<DVec2>() / lp.len() as f64;
+        let shape = if *lp == outer {
+            OUTER
+        } else {
+            *HOLES
+                .iter()
+                .min_by(|a, b| a.0.distance(centroid).total_cmp(&b.0.distance(centroid)))
+                .expect("holes")
+        };
         for &v in lp {
             let p = mesh.positions[v as usize].truncate();
-            let shape = std::iter::once(OUTER)
-                .chain(HOLES)
-                .min_by(|a, b| (inside(p, *a) - 1.0).abs().total_cmp(&(inside(p, *b) - 1.0).abs()))
-                .expect("shapes");
             let q = (p - shape.0) / shape.1;
             let snapped = shape.0 + q.normalize() * shape.1;
+            if snapped.distance(p) > STEP {
+                continue;
+            }
             let old = mesh.positions[v as usize];
             mesh.positions[v as usize] = snapped.extend(0.0);
             let layout: Vec<DVec2> = mesh.positions.iter().map(|p| p.truncate()).collect();
