@@ -347,8 +347,8 @@ fn an_asset_outside_the_watched_folders_is_watched_too() {
     );
     let d = Daemon::watch(&dir.0, &["--allow", "meshes"]);
     d.wait_count("solved", "grid.uvpin.ron", 1);
-    // Give the daemon a moment to add the watch on meshes/ after the first solve.
-    std::thread::sleep(SETTLE);
+    // The daemon says when it has armed a watch on meshes/ (after the first solve).
+    d.wait_count("asset_folder", "meshes", 1);
     let mut mesh = grid_mesh(N, N);
     for p in &mut mesh.positions {
         p.z = 0.2 * (p.y * 2.0).sin();

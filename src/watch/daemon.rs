@@ -305,6 +305,13 @@ struct Watches {
 }
 
 impl Watches {
+    /// Whether `dir` is already watched: itself, or inside a folder watched recursively.
+    fn covers(&self, dir: &Path) -> bool {
+        self.watched
+            .iter()
+            .any(|(d, recursive)| d == dir || (*recursive && dir.starts_with(d)))
+    }
+
     fn watch(&mut self, dir: &Path, recursive: bool, logger: &Logger, cwd: &Path) -> bool {
         if self.watched.contains(&(dir.to_path_buf(), recursive)) {
             return true;
@@ -488,7 +495,14 @@ fn run_daemon(
             .cloned()
             .collect();
         for folder in folders {
+            let covered = watches.covers(&folder);
             if folder.is_dir() && watches.watch(&folder, false, logger, cwd) {
+                // A folder outside every watched one: said once it is armed,
+                // so a script (or a test) knows edits there are seen.
+                if !covered {
+                    let name = display(&folder, cwd);
+                    logger.info("asset_folder", Some(&name), "watching an asset's folder", json!({}));
+                }
                 asset_folders_watched.insert(folder);
             }
         }
