@@ -128,8 +128,8 @@ pub fn draw_marker_key(image: &mut RgbaImage, mut x: i64, y: i64, scale: u32, mo
 }
 
 /// Each landmark's number (with its label on pictures of 768 px or more)
-/// beside its target, where it overlaps no other: up-right, up-left,
-/// down-right or down-left of it. Numbers are placed first, then each label
+/// beside its target, where it overlaps no other: up-right, down-right,
+/// up-left or down-left of it. Numbers are placed first, then each label
 /// where it fits without covering another; `at` gives a texture
 /// coordinate's pixel.
 pub fn draw_numbers(image: &mut RgbaImage, markers: &[Marker], radius: f32, at: impl Fn(glam::DVec2) -> (f32, f32)) {
@@ -141,8 +141,8 @@ pub fn draw_numbers(image: &mut RgbaImage, markers: &[Marker], radius: f32, at: 
         let (x, y) = (f64::from(x), f64::from(y));
         [
             (x + gap, y - gap - height as f64),
-            (x - gap - width as f64, y - gap - height as f64),
             (x + gap, y + gap),
+            (x - gap - width as f64, y - gap - height as f64),
             (x - gap - width as f64, y + gap),
         ]
         .map(|(cx, cy)| [cx as i64, cy as i64, width, height])
@@ -161,18 +161,23 @@ pub fn draw_numbers(image: &mut RgbaImage, markers: &[Marker], radius: f32, at: 
             ]
         })
         .collect();
-    let free = |r: &[i64; 4], placed: &[[i64; 4]], own: usize| {
+    // `clear`: the room kept around other dots (a label passing close by
+    // another landmark reads as that landmark's).
+    let free = |r: &[i64; 4], placed: &[[i64; 4]], own: usize, clear: i64| {
         r[0] >= 0
             && r[0] + r[2] <= i64::from(image.width())
             && !placed.iter().enumerate().any(|(k, p)| k != own && overlap(p, r))
-            && !dots.iter().any(|d| overlap(d, r))
+            && !dots.iter().enumerate().any(|(k, d)| {
+                let room = if k == own { 0 } else { clear };
+                overlap(&[d[0] - room, d[1] - room, d[2] + 2 * room, d[3] + 2 * room], r)
+            })
     };
     let mut placed: Vec<[i64; 4]> = Vec::new();
     let mut words: Vec<String> = Vec::new();
     for (k, m) in markers.iter().enumerate() {
         let number = m.number.to_string();
         let options = spots(m, i64::from(text::width(&number, scale)));
-        let rect = options.iter().find(|r| free(r, &placed, k)).unwrap_or(&options[0]);
+        let rect = options.iter().find(|r| free(r, &placed, k, 0)).unwrap_or(&options[0]);
         placed.push(*rect);
         words.push(number);
     }
@@ -182,7 +187,7 @@ pub fn draw_numbers(image: &mut RgbaImage, markers: &[Marker], radius: f32, at: 
             let long = format!("{} {label}", m.number);
             if let Some(r) = spots(m, i64::from(text::width(&long, scale)))
                 .into_iter()
-                .find(|r| free(r, &placed, k))
+                .find(|r| free(r, &placed, k, height))
             {
                 placed[k] = r;
                 words[k] = long;
