@@ -123,7 +123,12 @@ async function refreshFile() {
   const caughtUp = app.savedHash !== null && file.hash === app.savedHash;
   if (caughtUp) app.savedHash = null;
   if (file.asset && file.asset !== app.meshKey) {
-    app.mesh = await getJson(`/api/file/${app.fileId}/mesh`);
+    const mesh = await getJson(`/api/file/${app.fileId}/mesh`);
+    // A newer state came while the mesh loaded: it has drawn what is
+    // current (the mesh with its solved UVs); this older one would draw
+    // the mesh anew without them.
+    if (app.file !== file) return;
+    app.mesh = mesh;
     app.meshKey = file.asset;
     meshView.setMesh(app.mesh);
     textureView.setMesh(app.mesh);
@@ -221,6 +226,8 @@ let frameRequested = false;
 function redraw({ layout = false, list = true } = {}) {
   dirty.layout ||= layout;
   dirty.list ||= list;
+  // Something changed since the last frame: not ready until it is painted.
+  $('mesh-view').dataset.ready = 'false';
   if (!frameRequested) {
     frameRequested = true;
     requestAnimationFrame(render);
