@@ -27,7 +27,7 @@ use crate::io::{self, SourceAsset};
 use crate::mesh::TriMesh;
 use crate::options::SolverOptions;
 use crate::pins::Pins;
-use crate::report::{self, Report, StageTimes};
+use crate::report::{self, Report, StageTimes, Status};
 use crate::solver::step1::{self, Step1};
 use crate::solver::{ChartSolver, SolveStart};
 use glam::DVec2;
@@ -51,6 +51,21 @@ pub struct Options {
     pub pictures: crate::preview::Pictures,
     /// What input may be read: size limits, and from where.
     pub input: io::InputRules,
+    /// What is written when the result is an error (the model never is).
+    pub on_error: OnError,
+}
+
+/// What [`SolvedChart::export`] writes when the layout is refused or the
+/// model cannot be written.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum OnError {
+    /// Nothing: every named output (report, pictures) stays as it was, as the
+    /// command line promises for exit code 1.
+    #[default]
+    WriteNothing,
+    /// The pictures, which show what failed (a sweep's thumbnails of the
+    /// paper guard's folds).
+    DrawPictures,
 }
 
 impl Options {
@@ -113,7 +128,16 @@ pub fn load(
 /// not a regular file.
 pub fn solve_file(constraints_path: &Path, options: &Options) -> Result<Report, Error> {
     let t0 = Instant::now();
-    for target in options.output.iter().chain(&options.report) {
+    let named = options.output.iter().chain(&options.report);
+    #[cfg(feature = "pictures")]
+    let named = named.chain(&options.pictures.layout).chain(&options.pictures.render);
+    io::atomic::check_distinct(named.clone().map(PathBuf::as_path)).map_err(|e| {
+        Error::Asset(io::AssetError::Write {
+            path: e.path,
+            message: e.message,
+        })
+    })?;
+    for target in named {
         io::read::check_output_target(target).map_err(|e| {
             Error::Asset(io::AssetError::Write {
                 path: target.clone(),
@@ -390,6 +414,8 @@ impl SolvedChart {
 
     /// Checks the layout as stored, then writes `options.output`, the
     /// pictures and the report together (all or none); the final report.
+    /// A refused layout writes nothing (or only the pictures, as
+    /// `options.on_error` says).
     pub fn export(self, asset: &SourceAsset, options: &Options) -> Report {
         let t0 = Instant::now();
         let output = options.output.as_deref();
@@ -399,6 +425,10 @@ impl SolvedChart {
         let mut staged = crate::export::stage_chart(asset, &self.prepared, layout, &mut report, output, guard);
         report.times.export_ms = t0.elapsed().as_secs_f64() * 1e3;
         report.total_ms = report.times.total_ms();
+        let refused = report.status == Status::Error;
+        if refused && options.on_error == OnError::WriteNothing {
+            return report;
+        }
         #[cfg(feature = "pictures")]
         {
             let outer = &self.step1.boundary.loop_vertices;
@@ -407,7 +437,7 @@ impl SolvedChart {
                 Err(e) => report.warnings.push(format!("preview: {e}")),
             }
         }
-        if let Some(path) = &options.report {
+        if let Some(path) = options.report.as_ref().filter(|_| !refused) {
             let json = serde_json::to_string_pretty(&report).expect("the report serialises");
             staged.add(path.clone(), format!("{json}\n").into_bytes());
         }

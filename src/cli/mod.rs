@@ -176,7 +176,14 @@ pub enum LogArg {
 
 /// Runs the command line; returns the process exit code.
 pub fn main() -> ExitCode {
-    match Cli::parse().command {
+    // A usage error exits 1 (nothing done), never 2, which means "partial,
+    // written"; `--help` and `--version` exit 0.
+    let cli = Cli::try_parse().unwrap_or_else(|e| {
+        let code = if e.use_stderr() { 1 } else { 0 };
+        let _ = e.print();
+        std::process::exit(code)
+    });
+    match cli.command {
         Command::Solve {
             constraints,
             output,
@@ -385,6 +392,7 @@ fn solve(
                     limits: config.limits,
                     scope: crate::io::ReadScope::Anywhere,
                 },
+                on_error: crate::api::OnError::WriteNothing,
             };
             crate::api::solve_file(constraints, &options)
         });

@@ -2,30 +2,38 @@
 //! target, flushed to disk, then renamed over the target. Readers see the
 //! old file or the new one, never a half-written one. [`Staged`] does this
 //! for several files at once (a model and its buffer, a report, pictures):
-//! all temporary files first, then the renames in order, so a failure before
-//! the renames replaces nothing.
+//! all temporary files first, then the renames in order, each old file kept
+//! under a second name until every rename is done, so a failure at any
+//! point puts back every file and removes every folder it made.
 
 use super::read::{ReadError, check_output_target};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
-/// The marker in uvpin's temporary file names: `.NAME.uvpin-PID.tmp`.
+/// The marker in uvpin's temporary file names: `.NAME.uvpin-PID-N.tmp`.
 const TEMP_MARK: &str = ".uvpin-";
 
-/// The temporary name used while writing `path` (same directory, hidden).
+/// Temporary names made by this process so far (each one is new).
+static TEMPORARIES: AtomicU64 = AtomicU64::new(0);
+
+/// A new temporary name for writing `path` (same folder, hidden), unique in
+/// this process and, by its process id, among processes.
 pub fn temp_path(path: &Path) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    path.with_file_name(format!(".{name}{TEMP_MARK}{}.tmp", std::process::id()))
+    let n = TEMPORARIES.fetch_add(1, Ordering::Relaxed);
+    path.with_file_name(format!(".{name}{TEMP_MARK}{}-{n}.tmp", std::process::id()))
 }
 
-/// The process id of a temporary file of uvpin's (`.NAME.uvpin-PID.tmp`).
+/// The process id of a temporary file of uvpin's (`.NAME.uvpin-PID-N.tmp`,
+/// or `.NAME.uvpin-PID.tmp` as older versions named them).
 fn temp_owner(name: &str) -> Option<u32> {
     let rest = name.strip_prefix('.')?.strip_suffix(".tmp")?;
-    let (_, pid) = rest.rsplit_once(TEMP_MARK)?;
-    pid.parse().ok()
+    let (_, owner) = rest.rsplit_once(TEMP_MARK)?;
+    owner.split('-').next()?.parse().ok()
 }
 
 /// Removes uvpin's temporary files in `dir` (not recursively) whose process
@@ -60,12 +68,99 @@ impl WriteError {
     }
 }
 
+/// `path` made absolute and with `.` and `..` taken out by name, for telling
+/// whether two outputs name one file.
+fn lexical(path: &Path) -> PathBuf {
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut out = PathBuf::new();
+    for c in absolute.components() {
+        match c {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                out.pop();
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// Whether two existing paths are one file (the same device and inode).
+fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+        _ => false,
+    }
+}
+
+/// Checks that no two of `paths` name one file: by name, or (for files that
+/// exist) through a link.
+///
+/// # Errors
+/// The second path that names a file named before.
+pub fn check_distinct<'a>(paths: impl IntoIterator<Item = &'a Path>) -> Result<(), WriteError> {
+    let paths: Vec<&Path> = paths.into_iter().collect();
+    for (k, b) in paths.iter().enumerate() {
+        if let Some(a) = paths[..k].iter().find(|a| lexical(a) == lexical(b) || same_file(a, b)) {
+            return Err(WriteError::new(
+                b,
+                format!(
+                    "two outputs name this one file ({} too); nothing was written",
+                    a.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Files to replace together, renamed into place in the order they were added.
 #[derive(Debug, Default)]
 pub struct Staged {
     files: Vec<(PathBuf, Vec<u8>)>,
     /// Removed once every file is in place (an earlier output's buffer).
     obsolete: Vec<PathBuf>,
+}
+
+/// What a commit has done so far, to be undone on failure: folders made,
+/// temporary files written, old files kept aside, new files renamed in.
+#[derive(Debug, Default)]
+struct Progress {
+    folders: Vec<PathBuf>,
+    temps: Vec<PathBuf>,
+    /// Per renamed target: where its old file is kept, if it had one.
+    renamed: Vec<(PathBuf, Option<PathBuf>)>,
+}
+
+impl Progress {
+    /// Puts every old file back, removes every new one, every temporary
+    /// file and every folder made (last made first).
+    fn undo(self) {
+        for (path, kept) in self.renamed.iter().rev() {
+            match kept {
+                Some(old) => drop(std::fs::rename(old, path)),
+                None => drop(std::fs::remove_file(path)),
+            }
+        }
+        self.temps.iter().for_each(|t| drop(std::fs::remove_file(t)));
+        for folder in self.folders.iter().rev() {
+            let _ = std::fs::remove_dir(folder);
+        }
+    }
+
+    /// Makes the missing folders of `dir`, outermost first, noting each.
+    fn make_folders(&mut self, dir: &Path) -> std::io::Result<()> {
+        if dir.as_os_str().is_empty() || dir.is_dir() {
+            return Ok(());
+        }
+        if let Some(parent) = dir.parent() {
+            self.make_folders(parent)?;
+        }
+        std::fs::create_dir(dir)?;
+        self.folders.push(dir.to_path_buf());
+        Ok(())
+    }
 }
 
 impl Staged {
@@ -94,48 +189,76 @@ impl Staged {
     }
 
     /// Writes every file: all to temporary files (fsynced) first, then
-    /// renames them into place in order, then removes the obsolete files.
+    /// renames them into place in order, each old file kept aside (a second
+    /// hard link) until all are in place, then removes the obsolete files.
     ///
     /// # Errors
-    /// A target that is not a regular file (a device, a FIFO, a folder), a
-    /// folder that cannot be made, a temporary file that cannot be written:
-    /// then nothing is replaced and no temporary file is left. A rename
-    /// that fails (rare: same folder) leaves the earlier ones done.
+    /// Two files naming one; a target that is not a regular file (a device,
+    /// a FIFO, a folder); a folder that cannot be made; a file that cannot be
+    /// written or renamed. Then every target and folder is as it was.
     pub fn commit(self) -> Result<(), WriteError> {
+        check_distinct(self.paths())?;
         for (path, _) in &self.files {
             check_output_target(path)
                 .map_err(|e: ReadError| WriteError::new(path, format!("refusing to replace it: {e}")))?;
         }
-        let mut temps: Vec<PathBuf> = Vec::with_capacity(self.files.len());
-        let written = self.files.iter().try_for_each(|(path, bytes)| {
-            let tmp = temp_path(path);
-            let result = write_temp(path, &tmp, bytes);
-            temps.push(tmp);
-            result.map_err(|e| WriteError::new(path, e))
-        });
-        if let Err(e) = written {
-            temps.iter().for_each(|t| drop(std::fs::remove_file(t)));
-            return Err(e);
-        }
-        for (k, ((path, _), tmp)) in self.files.iter().zip(&temps).enumerate() {
-            if let Err(e) = std::fs::rename(tmp, path) {
-                temps[k..].iter().for_each(|t| drop(std::fs::remove_file(t)));
-                return Err(WriteError::new(path, e));
+        let mut progress = Progress::default();
+        match self.write_all(&mut progress) {
+            Ok(()) => {
+                for kept in progress.renamed.iter().filter_map(|(_, kept)| kept.as_ref()) {
+                    let _ = std::fs::remove_file(kept);
+                }
+                for old in &self.obsolete {
+                    let _ = std::fs::remove_file(old);
+                }
+                Ok(())
+            }
+            Err(e) => {
+                progress.undo();
+                Err(e)
             }
         }
-        for old in &self.obsolete {
-            let _ = std::fs::remove_file(old);
+    }
+
+    /// The temporary files, then the renames, noting each step in `progress`.
+    fn write_all(&self, progress: &mut Progress) -> Result<(), WriteError> {
+        for (path, bytes) in &self.files {
+            let parent = path.parent().unwrap_or(Path::new(""));
+            progress.make_folders(parent).map_err(|e| WriteError::new(path, e))?;
+            let tmp = temp_path(path);
+            progress.temps.push(tmp.clone());
+            write_temp(&tmp, bytes).map_err(|e| WriteError::new(path, e))?;
+        }
+        // The temporary files stay listed: an undo removes those not renamed.
+        let temps = progress.temps.clone();
+        for ((path, _), tmp) in self.files.iter().zip(&temps) {
+            let kept = keep_aside(path).map_err(|e| WriteError::new(path, e))?;
+            if let Err(e) = std::fs::rename(tmp, path) {
+                kept.iter().for_each(|k| drop(std::fs::remove_file(k)));
+                return Err(WriteError::new(path, e));
+            }
+            progress.renamed.push((path.clone(), kept));
         }
         Ok(())
     }
 }
 
-/// Writes `bytes` to `tmp` (beside `path`, whose folder is made) and flushes it to disk.
-fn write_temp(path: &Path, tmp: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)?;
+/// A second name for `path`'s current file (a hard link, else a copy), so a
+/// failed commit can put it back; `None` when there is no file yet.
+fn keep_aside(path: &Path) -> std::io::Result<Option<PathBuf>> {
+    if std::fs::symlink_metadata(path).is_err() {
+        return Ok(None);
     }
-    let mut f = std::fs::File::create(tmp)?;
+    let kept = temp_path(path);
+    if std::fs::hard_link(path, &kept).is_err() {
+        std::fs::copy(path, &kept)?;
+    }
+    Ok(Some(kept))
+}
+
+/// Writes `bytes` to the new file `tmp` and flushes it to disk.
+fn write_temp(tmp: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(tmp)?;
     f.write_all(bytes)?;
     f.sync_all()
 }
@@ -176,10 +299,98 @@ mod tests {
         assert!(dir.join("sub/b.json").is_file() && !dir.join("gone.bin").exists());
         // A temporary file of a process that is gone is removed; ours stay.
         std::fs::write(dir.join(".x.glb.uvpin-999999999.tmp"), b"").unwrap();
-        std::fs::write(temp_path(&dir.join("y.glb")), b"").unwrap();
-        assert_eq!(remove_stale_temporaries(&dir), 1);
-        assert!(temp_path(&dir.join("y.glb")).exists());
+        std::fs::write(dir.join(".x.glb.uvpin-999999999-3.tmp"), b"").unwrap();
+        let ours = temp_path(&dir.join("y.glb"));
+        std::fs::write(&ours, b"").unwrap();
+        assert_eq!(remove_stale_temporaries(&dir), 2);
+        assert!(ours.exists());
         assert_eq!(temp_owner(".a.b.uvpin-12.tmp"), Some(12));
+        assert_eq!(temp_owner(".a.b.uvpin-12-7.tmp"), Some(12));
+        assert_ne!(temp_path(&dir.join("y.glb")), ours, "every temporary name is new");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The folder's files and folders, with their contents.
+    fn snapshot(dir: &Path) -> Vec<(PathBuf, Option<Vec<u8>>)> {
+        let mut out = Vec::new();
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                out.push((p.clone(), None));
+                out.extend(snapshot(&p));
+            } else {
+                out.push((p.clone(), Some(std::fs::read(&p).unwrap())));
+            }
+        }
+        out.sort();
+        out
+    }
+
+    #[test]
+    fn two_outputs_naming_one_file_write_nothing() {
+        let dir = std::env::temp_dir().join(format!("uvpin-staged-same-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("out.glb"), b"old").unwrap();
+        let before = snapshot(&dir);
+        for second in [dir.join("out.glb"), dir.join("new/../out.glb"), dir.join("./out.glb")] {
+            let mut s = Staged::new();
+            s.add(dir.join("out.glb"), b"model".to_vec());
+            s.add(second, b"report".to_vec());
+            assert!(
+                s.commit()
+                    .unwrap_err()
+                    .message
+                    .contains("two outputs name this one file")
+            );
+            assert_eq!(snapshot(&dir), before);
+        }
+        // A hard link to it is the same file too.
+        std::fs::hard_link(dir.join("out.glb"), dir.join("link.glb")).unwrap();
+        let mut s = Staged::new();
+        s.add(dir.join("out.glb"), b"model".to_vec());
+        s.add(dir.join("link.glb"), b"report".to_vec());
+        assert!(s.commit().is_err());
+        assert_eq!(std::fs::read(dir.join("out.glb")).unwrap(), b"old");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_failure_after_some_renames_puts_every_file_and_folder_back() {
+        let dir = std::env::temp_dir().join(format!("uvpin-staged-undo-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.glb"), b"old a").unwrap();
+        std::fs::write(dir.join("blocker"), b"a file where a folder should be").unwrap();
+        let before = snapshot(&dir);
+        // The third file's folder cannot be made (a file is in its way),
+        // after the first two were written in new folders.
+        let mut s = Staged::new();
+        s.add(dir.join("a.glb"), b"new a".to_vec());
+        s.add(dir.join("new/deeper/b.json"), b"{}".to_vec());
+        s.add(dir.join("blocker/c.png"), b"png".to_vec());
+        assert!(s.commit().is_err());
+        assert_eq!(
+            snapshot(&dir),
+            before,
+            "no file replaced, no folder left, no temporary file"
+        );
+        // A rename that fails (a folder appeared where the file goes) after
+        // another one was done: the first file is put back.
+        let mut s = Staged::new();
+        s.add(dir.join("a.glb"), b"new a".to_vec());
+        s.add(dir.join("d.glb"), b"d".to_vec());
+        let mut progress = Progress::default();
+        std::fs::create_dir_all(dir.join("d.glb/inside")).unwrap();
+        assert!(s.write_all(&mut progress).is_err());
+        assert_eq!(
+            std::fs::read(dir.join("a.glb")).unwrap(),
+            b"new a",
+            "renamed before the failure"
+        );
+        progress.undo();
+        std::fs::remove_dir_all(dir.join("d.glb")).unwrap();
+        assert_eq!(snapshot(&dir), before);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
