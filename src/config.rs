@@ -104,6 +104,11 @@ pub enum ConfigError {
     },
     #[error(transparent)]
     Syntax(#[from] crate::ron_file::RonSyntaxError),
+    #[error("{path}: {source}")]
+    Option {
+        path: PathBuf,
+        source: crate::options::OptionError,
+    },
 }
 
 impl Config {
@@ -120,7 +125,12 @@ impl Config {
             }
         })?;
         let text = String::from_utf8_lossy(&bytes);
-        Ok(crate::ron_file::parse_ron(path, &text)?)
+        let config: Config = crate::ron_file::parse_ron(path, &text)?;
+        config.solver.check().map_err(|source| ConfigError::Option {
+            path: path.into(),
+            source,
+        })?;
+        Ok(config)
     }
 }
 

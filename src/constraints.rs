@@ -430,9 +430,8 @@ impl LoadedConstraints {
         {
             return Err(self.asset_error("image_size", format!("image size must be positive, got ({w}, {h})")));
         }
-        let tol = self.solver.tolerance;
-        if !(tol.is_finite() && tol > 0.0) {
-            return Err(self.asset_error("solver.tolerance", format!("must be a positive number, got {tol}")));
+        if let Err(e) = self.solver.check() {
+            return Err(self.asset_error(&format!("solver.{}", e.field), format!("{}, got {}", e.why, e.value)));
         }
         for (i, c) in f.constraints.iter().enumerate() {
             match (c.vertex, c.near) {

@@ -96,8 +96,118 @@ impl SolverOptions {
     };
 }
 
+/// A solver option out of its range: the field and the value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("solver.{field}: {why}, got {value}")]
+pub struct OptionError {
+    pub field: &'static str,
+    pub value: f64,
+    pub why: &'static str,
+}
+
+impl SolverOptions {
+    /// Checks the real-valued options: the tolerance and the first soft
+    /// weight must be positive and finite, the weight's growth finite and
+    /// at least 1, a time budget finite and not negative.
+    ///
+    /// # Errors
+    /// The first option out of range.
+    pub fn check(&self) -> Result<(), OptionError> {
+        let positive = |field, value: f64| {
+            (value.is_finite() && value > 0.0).then_some(()).ok_or(OptionError {
+                field,
+                value,
+                why: "must be a positive number",
+            })
+        };
+        positive("tolerance", self.tolerance)?;
+        positive("initial_weight", self.initial_weight)?;
+        if !(self.weight_growth.is_finite() && self.weight_growth >= 1.0) {
+            let why = "must be a number of at least 1";
+            return Err(OptionError {
+                field: "weight_growth",
+                value: self.weight_growth,
+                why,
+            });
+        }
+        if let Some(ms) = self.time_budget_ms
+            && !(ms.is_finite() && ms >= 0.0)
+        {
+            return Err(OptionError {
+                field: "time_budget_ms",
+                value: ms,
+                why: "must be a number of milliseconds, 0 or more",
+            });
+        }
+        Ok(())
+    }
+}
+
 impl Default for SolverOptions {
     fn default() -> Self {
         Self::DEFAULT
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nan_negative_and_infinite_settings_are_named() {
+        assert_eq!(SolverOptions::DEFAULT.check(), Ok(()));
+        let bad = |o: SolverOptions| o.check().unwrap_err().field;
+        assert_eq!(
+            bad(SolverOptions {
+                initial_weight: f64::NAN,
+                ..SolverOptions::DEFAULT
+            }),
+            "initial_weight"
+        );
+        assert_eq!(
+            bad(SolverOptions {
+                initial_weight: -1.0,
+                ..SolverOptions::DEFAULT
+            }),
+            "initial_weight"
+        );
+        assert_eq!(
+            bad(SolverOptions {
+                weight_growth: 0.5,
+                ..SolverOptions::DEFAULT
+            }),
+            "weight_growth"
+        );
+        assert_eq!(
+            bad(SolverOptions {
+                weight_growth: f64::INFINITY,
+                ..SolverOptions::DEFAULT
+            }),
+            "weight_growth"
+        );
+        assert_eq!(
+            bad(SolverOptions {
+                tolerance: 0.0,
+                ..SolverOptions::DEFAULT
+            }),
+            "tolerance"
+        );
+        assert_eq!(
+            bad(SolverOptions {
+                time_budget_ms: Some(-5.0),
+                ..SolverOptions::DEFAULT
+            }),
+            "time_budget_ms"
+        );
+        let e = SolverOptions {
+            initial_weight: -2.0,
+            ..SolverOptions::DEFAULT
+        }
+        .check()
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "solver.initial_weight: must be a positive number, got -2"
+        );
     }
 }

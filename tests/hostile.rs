@@ -227,6 +227,77 @@ fn exit_1_writes_nothing() {
     assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
 }
 
+/// Exit 1 leaves every named output and folder as it was: outputs that name
+/// one file, a write the export refuses, a usage error, an option out of range.
+fn exit_1_replaces_no_named_output_and_leaves_no_folder() {
+    let tmp = setup("h-exit-named", |_, _| {});
+    std::fs::write(tmp.path("p.png"), b"previous picture").unwrap();
+    let refused = |args: &[&str], needle: &str| {
+        let before = snapshot(&tmp.0);
+        let o = uvpin_limited(args, &tmp.0);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+        assert_eq!(snapshot(&tmp.0), before, "{args:?}: nothing may be written");
+    };
+    // The model and the report naming one file (by name, or through `..`).
+    refused(
+        &["solve", "c.uvpin.ron", "-o", "out.glb", "--report", "out.glb"],
+        "two outputs",
+    );
+    refused(
+        &["solve", "c.uvpin.ron", "-o", "out.glb", "--report", "new/../out.glb"],
+        "two outputs",
+    );
+    // The layout picture and the render naming one file.
+    let both = [
+        "solve",
+        "c.uvpin.ron",
+        "-o",
+        "out.glb",
+        "--preview",
+        "p.png",
+        "--render",
+        "p.png",
+    ];
+    refused(&both, "two outputs");
+    // A write the export refuses (a .gltf for a .glb input): no report, no
+    // picture, no folder made for the output.
+    let gltf = [
+        "solve",
+        "c.uvpin.ron",
+        "-o",
+        "new/deeper/out.gltf",
+        "--report",
+        "report.json",
+        "--preview",
+        "p.png",
+    ];
+    refused(&gltf, "gltf");
+    // A usage error exits 1 (2 means "partial, written").
+    refused(&["solve", "c.uvpin.ron", "--no-such-flag"], "--no-such-flag");
+    refused(&["frobnicate"], "frobnicate");
+    let help = uvpin_limited(&["--help"], &tmp.0);
+    assert_eq!(help.status.code(), Some(0));
+    // A NaN or negative solver weight is named, with where it is.
+    for (field, value) in [
+        ("initial_weight", "-1.0"),
+        ("weight_growth", "NaN"),
+        ("tolerance", "0.0"),
+    ] {
+        let text = std::fs::read_to_string(tmp.path("c.uvpin.ron")).unwrap();
+        let bad = text.replacen(
+            "constraints:",
+            &format!("solver: ({field}: {value}),\n    constraints:"),
+            1,
+        );
+        std::fs::write(tmp.path("bad.uvpin.ron"), bad).unwrap();
+        refused(
+            &["solve", "bad.uvpin.ron", "-o", "out.glb", "--report", "report.json"],
+            &format!("solver.{field}"),
+        );
+    }
+}
+
 fn gltf_outputs_name_their_buffer_and_glb_outputs_are_complete() {
     // .gltf twice: one content-named buffer remains, the one the .gltf names.
     let tmp = TempDir::new("h-gltf-bin");
@@ -607,6 +678,11 @@ fn main() -> std::process::ExitCode {
             fifos_and_devices_are_refused_at_once,
         ),
         ("exit_1_writes_nothing", &[], exit_1_writes_nothing),
+        (
+            "exit_1_replaces_no_named_output_and_leaves_no_folder",
+            &[],
+            exit_1_replaces_no_named_output_and_leaves_no_folder,
+        ),
         (
             "gltf_outputs_name_their_buffer_and_glb_outputs_are_complete",
             &[],

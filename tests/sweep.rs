@@ -235,3 +235,33 @@ fn preview_pictures_decode_at_their_size_and_mark_the_constraints() {
         assert_eq!([p[0], p[1], p[2]], UNREACHED_COLOUR, "marker at result {r}");
     }
 }
+
+#[test]
+fn a_bare_sweep_file_name_finds_its_files_and_a_bad_setting_is_named() {
+    let dir = TempDir::new("sweep-bare");
+    setup(&dir);
+    let text = r#"(constraints: ["*.uvpin.ron"], output: "results", thumbnails: false)"#;
+    std::fs::write(dir.path("g.sweep.ron"), text).unwrap();
+    let run = |name: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_uvpin"))
+            .args(["sweep", name, "--quiet"])
+            .current_dir(&dir.0)
+            .output()
+            .unwrap()
+    };
+    let o = run("g.sweep.ron");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows = std::fs::read_to_string(dir.path("results/runs.jsonl")).unwrap();
+    assert_eq!(rows.lines().count(), 2, "easy and swap: {rows}");
+    // A NaN or negative weight is an error that names the setting and the field.
+    let bad = r#"(constraints: ["easy.uvpin.ron"], output: "r2", settings: [(name: "heavy", solver: (initial_weight: -1.0))])"#;
+    std::fs::write(dir.path("bad.sweep.ron"), bad).unwrap();
+    let o = run("bad.sweep.ron");
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("\"heavy\"") && err.contains("solver.initial_weight"),
+        "{err}"
+    );
+    assert!(!dir.path("r2").exists(), "nothing written");
+}

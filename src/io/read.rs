@@ -144,7 +144,9 @@ pub fn read_regular(path: &Path, limit: u64, scope: &ReadScope) -> Result<Vec<u8
         });
     }
     let mut bytes = Vec::with_capacity(meta.len() as usize);
-    file.take(limit + 1).read_to_end(&mut bytes)?;
+    // One byte past the limit tells a file that grew since its size was read;
+    // `u64::MAX` as the limit reads to the end.
+    file.take(limit.saturating_add(1)).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > limit {
         return Err(ReadError::TooLarge {
             size: bytes.len() as u64,
@@ -169,6 +171,15 @@ pub fn check_output_target(path: &Path) -> Result<(), ReadError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_limit_of_u64_max_reads_the_whole_file() {
+        let path = std::env::temp_dir().join(format!("uvpin-read-max-{}", std::process::id()));
+        std::fs::write(&path, b"twelve bytes").unwrap();
+        let bytes = read_regular(&path, u64::MAX, &ReadScope::Anywhere).unwrap();
+        assert_eq!(bytes, b"twelve bytes");
+        std::fs::remove_file(&path).unwrap();
+    }
 
     #[test]
     fn fifos_devices_and_folders_are_errors_at_once() {

@@ -124,6 +124,15 @@ impl SweepFile {
             path: path.to_path_buf(),
             message,
         })?;
+        for setting in &sweep.settings {
+            if let Some(Err(source)) = setting.solver.as_ref().map(SolverOptions::check) {
+                return Err(super::SweepError::Option {
+                    path: path.to_path_buf(),
+                    setting: setting.name.clone(),
+                    source,
+                });
+            }
+        }
         Ok(sweep)
     }
 
@@ -212,6 +221,9 @@ pub fn expand(pattern: &str, base: &Path) -> Vec<PathBuf> {
         }
         start.push(first);
         rest = tail;
+    }
+    if start.as_os_str().is_empty() {
+        start.push(".");
     }
     walk(&start, rest, &mut found);
     found.sort();

@@ -29,6 +29,12 @@ pub enum SweepError {
     },
     #[error("{path}: the sweep is too large: {message}")]
     TooLarge { path: PathBuf, message: String },
+    #[error("{path}: setting {setting:?}: {source}")]
+    Option {
+        path: PathBuf,
+        setting: String,
+        source: crate::options::OptionError,
+    },
     #[error(transparent)]
     Syntax(#[from] crate::ron_file::RonSyntaxError),
     #[error("{sweep}: constraints pattern {pattern:?} matches no file")]
@@ -341,6 +347,8 @@ fn solve_run(run: &Run, input: &Input, step1: &Step1, sweep: &SweepFile, thumbs:
             size: sweep.thumbnail_size,
             background: None,
         },
+        // A thumbnail shows a refused run too (the paper guard's folds).
+        on_error: crate::api::OnError::DrawPictures,
         ..Default::default()
     };
     match crate::api::solve_loaded(l, asset, &options) {
@@ -472,7 +480,11 @@ pub const MAX_JOBS: usize = 256;
 /// the output folder. Failures of single runs are rows with status `error`.
 pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepOutcome, SweepError> {
     let sweep = SweepFile::load(sweep_path)?;
-    let base = sweep_path.parent().unwrap_or(Path::new("."));
+    // A bare file name's folder is the current one.
+    let base = sweep_path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     let files = expand_files(&sweep, sweep_path, base)?;
     let names: Vec<String> = files
         .iter()
