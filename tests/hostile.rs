@@ -298,6 +298,75 @@ fn exit_1_replaces_no_named_output_and_leaves_no_folder() {
     }
 }
 
+/// Outputs that stand alone: a .gltf's buffer is cleaned up by its exact
+/// name only, URIs stay relative when the output's folder is new, and GLB
+/// bytes under a .gltf name are written as a GLB (never a .gltf without its
+/// geometry).
+fn gltf_outputs_keep_other_outputs_buffers_and_relative_uris() {
+    let tmp = TempDir::new("h-gltf-names");
+    let (mut json, bin) = grid_document();
+    json["buffers"][0]["uri"] = json!("geometry.bin");
+    std::fs::write(tmp.path("grid.gltf"), serde_json::to_vec(&json).unwrap()).unwrap();
+    std::fs::write(tmp.path("geometry.bin"), &bin).unwrap();
+    write_constraints(
+        &tmp.path("c.uvpin.ron"),
+        Path::new("grid.gltf"),
+        &[(14, 0.45, 0.55)],
+        "",
+    );
+    let solve = |out: &str| {
+        let o = uvpin_limited(&["solve", "c.uvpin.ron", "-o", out], &tmp.0);
+        assert_eq!(o.status.code(), Some(0), "{out}: {}", stderr(&o));
+    };
+    let buffer_of = |gltf: &str| -> String {
+        let written: Value = serde_json::from_slice(&std::fs::read(tmp.path(gltf)).unwrap()).unwrap();
+        let uris: Vec<String> = written["buffers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|b| b["uri"].as_str().unwrap().to_string())
+            .collect();
+        assert!(
+            uris.iter().all(|u| !u.starts_with('/') && !u.contains(':')),
+            "{gltf}: {uris:?}"
+        );
+        uris.last().unwrap().clone()
+    };
+    solve("out/a.uvpinned.gltf");
+    let earlier = buffer_of("out/a.uvpinned.gltf");
+    solve("out/a.gltf");
+    assert!(
+        tmp.path("out").join(&earlier).is_file(),
+        "a.gltf removed a.uvpinned.gltf's buffer"
+    );
+    for out in ["out/a.uvpinned.gltf", "out/a.gltf"] {
+        let o = uvpin_limited(&["check", out], &tmp.0);
+        assert_eq!(o.status.code(), Some(0), "{out}: {}", stderr(&o));
+    }
+    // Into folders that do not exist yet: relative URIs, readable as written.
+    solve("new/deeper/o.gltf");
+    buffer_of("new/deeper/o.gltf");
+    let o = uvpin_limited(&["check", "new/deeper/o.gltf"], &tmp.0);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // GLB bytes named .gltf: read as GLB, written only as .glb.
+    let (json, bin) = grid_document();
+    write_glb(&tmp.path("glb-inside.gltf"), &json, &bin);
+    write_constraints(
+        &tmp.path("g.uvpin.ron"),
+        Path::new("glb-inside.gltf"),
+        &[(14, 0.45, 0.55)],
+        "",
+    );
+    let o = uvpin_limited(&["solve", "g.uvpin.ron", "-o", "g-out.gltf"], &tmp.0);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("GLB bytes"), "{}", stderr(&o));
+    assert!(!tmp.path("g-out.gltf").exists());
+    let o = uvpin_limited(&["solve", "g.uvpin.ron", "-o", "g-out.glb"], &tmp.0);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (uvs, bad) = python_uvs(&tmp.path("g-out.glb"), 0);
+    assert_eq!((uvs.len(), bad), (36, 0));
+}
+
 fn gltf_outputs_name_their_buffer_and_glb_outputs_are_complete() {
     // .gltf twice: one content-named buffer remains, the one the .gltf names.
     let tmp = TempDir::new("h-gltf-bin");
@@ -678,6 +747,11 @@ fn main() -> std::process::ExitCode {
             fifos_and_devices_are_refused_at_once,
         ),
         ("exit_1_writes_nothing", &[], exit_1_writes_nothing),
+        (
+            "gltf_outputs_keep_other_outputs_buffers_and_relative_uris",
+            &[],
+            gltf_outputs_keep_other_outputs_buffers_and_relative_uris,
+        ),
         (
             "exit_1_replaces_no_named_output_and_leaves_no_folder",
             &[],

@@ -70,7 +70,7 @@ impl WriteError {
 
 /// `path` made absolute and with `.` and `..` taken out by name, for telling
 /// whether two outputs name one file.
-fn lexical(path: &Path) -> PathBuf {
+pub(crate) fn lexical(path: &Path) -> PathBuf {
     let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     let mut out = PathBuf::new();
     for c in absolute.components() {

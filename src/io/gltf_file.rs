@@ -318,12 +318,28 @@ fn relative_path(from: &Path, to: &Path) -> PathBuf {
     out
 }
 
+/// The absolute folder of `p`, links resolved as far as it exists; folders
+/// not made yet follow by name (so URIs relative to it stay relative).
 fn absolute_dir(p: &Path) -> PathBuf {
     let dir = p
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf())
+    let dir = atomic::lexical(dir);
+    let mut missing = Vec::new();
+    let mut existing = dir.as_path();
+    loop {
+        if let Ok(real) = std::fs::canonicalize(existing) {
+            return missing.iter().rev().fold(real, |acc, name| acc.join(name));
+        }
+        match (existing.file_name(), existing.parent()) {
+            (Some(name), Some(parent)) => {
+                missing.push(name.to_os_string());
+                existing = parent;
+            }
+            _ => return dir,
+        }
+    }
 }
 
 fn f32_bytes(uvs: &[[f32; 2]]) -> Vec<u8> {
@@ -395,17 +411,26 @@ pub fn stage_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
     let Container::Gltf { json: original, bin } = &asset.container else {
         return Err(werr("not a glTF asset".into()));
     };
-    if AssetFormat::of(out) != Some(asset.format) {
+    // GLB bytes under a .gltf name are a GLB: a .gltf could not name its
+    // binary chunk, and the geometry would be lost.
+    let read_as = if bin.is_some() { AssetFormat::Glb } else { asset.format };
+    if AssetFormat::of(out) != Some(read_as) {
+        let glb_named_gltf = read_as != asset.format;
         return Err(werr(format!(
-            "the output must have the input's type (.{}) so nothing but the UVs changes",
-            match asset.format {
+            "the output must have the input's type (.{}) so nothing but the UVs changes{}",
+            match read_as {
                 AssetFormat::Glb => "glb",
                 AssetFormat::Gltf => "gltf",
                 AssetFormat::Obj => "obj",
+            },
+            if glb_named_gltf {
+                "; the input holds GLB bytes under a .gltf name"
+            } else {
+                ""
             }
         )));
     }
-    match asset.format {
+    match read_as {
         AssetFormat::Glb => stage_glb(asset, original.clone(), bin.as_deref(), uvs, out),
         AssetFormat::Gltf => stage_gltf(asset, original.clone(), uvs, out),
         AssetFormat::Obj => unreachable!("checked above"),
@@ -589,17 +614,24 @@ fn stage_gltf(asset: &SourceAsset, mut json: Value, uvs: &[Vec<[f32; 2]>], out: 
     Ok(staged)
 }
 
-/// uvpin's buffers of earlier outputs named `stem` beside `out`.
+/// uvpin's buffers of earlier outputs named `stem` beside `out`: exactly
+/// `<stem>.uvpin-<16 hex digits>.bin` (not another output's whose stem
+/// begins the same way, such as `a.uvpinned` for `a`).
 fn earlier_buffers(out: &Path, stem: &str) -> Vec<PathBuf> {
     let dir = absolute_dir(out);
     let Ok(entries) = std::fs::read_dir(&dir) else {
         return Vec::new();
     };
-    let prefix = format!("{stem}.uvpin");
+    let prefix = format!("{stem}.uvpin-");
+    let ours = |n: &str| {
+        n.strip_prefix(&prefix)
+            .and_then(|rest| rest.strip_suffix(".bin"))
+            .is_some_and(|tag| tag.len() == 16 && tag.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)))
+    };
     entries
         .flatten()
         .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(&prefix) && n.ends_with(".bin"))
+        .filter(|n| ours(n))
         .map(|n| dir.join(n))
         .collect()
 }
