@@ -109,12 +109,53 @@ fn real_asset_outputs_pass_the_khronos_validator() {
     assert_valid(&outputs);
 }
 
+/// A mesh with a LINES primitive beside its triangles: the triangles are
+/// solved, the lines kept as they were; a `uv_set` past the next free one
+/// is an error that says why (glTF numbers the sets without gaps).
+fn lines_beside_triangles_are_kept_and_uv_sets_stay_contiguous() {
+    let tmp = TempDir::new("validator-lines");
+    let mesh = uvpin::testing::grid_mesh(6, 6);
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let (mut json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, None, "grid");
+    let mut lines = json["meshes"][0]["primitives"][0].clone();
+    lines["mode"] = serde_json::json!(1);
+    json["meshes"][0]["primitives"] = serde_json::json!([lines, json["meshes"][0]["primitives"][0].clone()]);
+    let asset = tmp.path("mixed.glb");
+    uvpin::io::gltf_file::write_new_document(&json, &blob, &asset).unwrap();
+    let ron = tmp.path("mixed.uvpin.ron");
+    write_constraints(&ron, Path::new("mixed.glb"), &[(14, 0.45, 0.55)], "    primitive: 1,\n");
+    let out = tmp.path("mixed-out.glb");
+    solve(&ron, &out);
+    let written = uvpin::io::load_asset(&out, None, 0, &Default::default()).unwrap();
+    assert_eq!(written.primitives.len(), 1, "the lines are not read as triangles");
+    assert_eq!(written.primitives[0].index, 1);
+    assert_valid(&[out]);
+    // TEXCOORD_7 on a primitive with no sets: refused, nothing written.
+    write_constraints(
+        &ron,
+        Path::new("mixed.glb"),
+        &[(14, 0.45, 0.55)],
+        "    primitive: 1,\n    uv_set: 7,\n",
+    );
+    let gap = tmp.path("gap.glb");
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", gap.to_str().unwrap(), "--quiet"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("give uv_set: 0"), "{}", stderr(&o));
+    assert!(!gap.exists());
+}
+
 fn main() -> std::process::ExitCode {
     run_cases(&[
         (
             "sample_and_gltf_outputs_pass_the_khronos_validator",
             &[Needs::Validator],
             sample_and_gltf_outputs_pass_the_khronos_validator,
+        ),
+        (
+            "lines_beside_triangles_are_kept_and_uv_sets_stay_contiguous",
+            &[Needs::Validator],
+            lines_beside_triangles_are_kept_and_uv_sets_stay_contiguous,
         ),
         (
             "real_asset_outputs_pass_the_khronos_validator",

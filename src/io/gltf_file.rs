@@ -84,9 +84,24 @@ fn read_document(
         path: path.to_path_buf(),
         message,
     })?;
-    let primitives = mesh
+    // Lines and points beside the triangles are kept as they are, unsolved.
+    let triangles: Vec<gltf::Primitive> = mesh
         .primitives()
-        .map(|prim| read_primitive(path, &prim, mesh.index(), buffers, uv_set))
+        .filter(|p| p.mode() == gltf::mesh::Mode::Triangles)
+        .collect();
+    if triangles.is_empty()
+        && let Some(first) = mesh.primitives().next()
+    {
+        return Err(AssetError::NonTrianglePrimitive {
+            path: path.to_path_buf(),
+            mesh: mesh.index(),
+            primitive: first.index(),
+            mode: format!("{:?}", first.mode()).to_uppercase(),
+        });
+    }
+    let primitives = triangles
+        .iter()
+        .map(|prim| read_primitive(path, prim, mesh.index(), buffers, uv_set))
         .collect::<Result<Vec<_>, _>>()?;
     if primitives.is_empty() {
         return Err(AssetError::MeshSelection {
@@ -154,6 +169,17 @@ fn read_primitive(
         primitive: pi,
         message,
     };
+    // glTF numbers a primitive's texture coordinate sets without gaps.
+    let sets = (0..)
+        .take_while(|&k| prim.get(&gltf::Semantic::TexCoords(k)).is_some())
+        .count() as u32;
+    if uv_set > sets {
+        return Err(perr(format!(
+            "uv_set {uv_set} would leave TEXCOORD_{sets}..{} missing, and glTF numbers the sets without gaps: \
+             the primitive has {sets} (give uv_set: {sets} for a new one)",
+            uv_set - 1
+        )));
+    }
     let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
     let positions: Vec<[f32; 3]> = reader
         .read_positions()
