@@ -761,8 +761,8 @@ pub struct StoredUvs {
 pub fn stage_asset(asset: &SourceAsset, uvs: &StoredUvs, out: &Path) -> Result<Staged, AssetError> {
     let mut staged = Staged::new();
     match (&asset.container, AssetFormat::of(out), &uvs.obj_vt) {
-        (Container::Obj { text }, Some(AssetFormat::Obj), Some(vt)) => {
-            staged.add(out, super::obj::with_tex_coords(text, vt).into_bytes());
+        (Container::Obj { bytes }, Some(AssetFormat::Obj), Some(vt)) => {
+            staged.add(out, super::obj::with_tex_coords(bytes, vt));
         }
         (Container::Obj { .. }, Some(AssetFormat::Glb | AssetFormat::Gltf), _) => {
             let prim = &asset.primitives[0];

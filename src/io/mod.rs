@@ -100,7 +100,9 @@ pub enum Container {
         bin: Option<Vec<u8>>,
     },
     Obj {
-        text: String,
+        /// The file as read: lines uvpin does not change are written back
+        /// byte for byte (encoding, line endings, a byte-order mark).
+        bytes: Vec<u8>,
     },
 }
 
@@ -172,8 +174,7 @@ pub fn load_asset(
                     message: format!("an OBJ file holds one mesh (0); mesh {i} was asked for"),
                 });
             }
-            let text = String::from_utf8_lossy(&bytes).into_owned();
-            let prim = obj::parse(path, &text, &rules.limits)?;
+            let prim = obj::parse(path, &String::from_utf8_lossy(&bytes), &rules.limits)?;
             Ok(SourceAsset {
                 path: path.to_path_buf(),
                 format,
@@ -181,7 +182,7 @@ pub fn load_asset(
                 mesh_name: None,
                 primitives: vec![prim],
                 uv_set,
-                container: Container::Obj { text },
+                container: Container::Obj { bytes },
                 n_meshes: 1,
                 rules: rules.clone(),
                 decoded_texture: TextureCache::default(),
@@ -206,8 +207,7 @@ pub fn load_obj_with_tex_coords(
             path: path.to_path_buf(),
             source,
         })?;
-    let text = String::from_utf8_lossy(&bytes).into_owned();
-    let (prim, vt) = obj::parse_with_tex_coords(path, &text, &rules.limits)?;
+    let (prim, vt) = obj::parse_with_tex_coords(path, &String::from_utf8_lossy(&bytes), &rules.limits)?;
     let asset = SourceAsset {
         path: path.to_path_buf(),
         format: AssetFormat::Obj,
@@ -215,7 +215,7 @@ pub fn load_obj_with_tex_coords(
         mesh_name: None,
         primitives: vec![prim],
         uv_set: 0,
-        container: Container::Obj { text },
+        container: Container::Obj { bytes },
         n_meshes: 1,
         rules: rules.clone(),
         decoded_texture: TextureCache::default(),

@@ -56,6 +56,8 @@ fn read(path: &Path, text: &str, limits: &InputLimits) -> Result<ObjData, AssetE
         line,
         message,
     };
+    // A byte-order mark is not part of the first line's keyword.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (ln, line) in text.lines().enumerate() {
         let ln = ln + 1;
         let mut parts = line.split_whitespace();
@@ -167,41 +169,73 @@ pub fn vt_as_stored(x: f64, y: f64) -> [f32; 2] {
     [x as f32, y as f32]
 }
 
-/// The OBJ text with `vt` (one per `v`, OBJ convention: v up, as given)
-/// lines and faces pointing at them.
-pub fn with_tex_coords(text: &str, vt: &[[f32; 2]]) -> String {
-    let lines: Vec<&str> = text.lines().collect();
-    let last_v = lines.iter().rposition(|l| l.split_whitespace().next() == Some("v"));
-    let mut out = String::with_capacity(text.len() + vt.len() * 24);
+/// The OBJ file with `vt` lines (one per `v`, OBJ convention: v up, as
+/// given), each right after its `v` so that every face, wherever it stands,
+/// names texture coordinates already defined; the faces point at them, the
+/// old `vt` lines go. Every other line is kept byte for byte, its line ending
+/// and encoding (Latin-1 names in `mtllib`, a byte-order mark) included.
+pub fn with_tex_coords(bytes: &[u8], vt: &[[f32; 2]]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(bytes.len() + vt.len() * 24);
     let mut n_v = 0i64;
-    for (i, line) in lines.iter().enumerate() {
-        let mut parts = line.split_whitespace();
+    for (k, line) in bytes.split_inclusive(|&b| b == b'\n').enumerate() {
+        let (content, ending) = split_ending(line);
+        let keyword_at = if k == 0 && content.starts_with(BOM) {
+            BOM.len()
+        } else {
+            0
+        };
+        let text = String::from_utf8_lossy(&content[keyword_at..]);
+        let mut parts = text.split_whitespace();
         match parts.next() {
             Some("vt") => continue,
             Some("v") => {
+                out.extend_from_slice(line);
+                // A last line without an ending gets one before its `vt`.
+                let ending: &[u8] = if ending.is_empty() { b"\n" } else { ending };
+                if ending != split_ending(line).1 {
+                    out.extend_from_slice(ending);
+                }
+                if let Some(t) = vt.get(n_v as usize) {
+                    out.extend_from_slice(format!("vt {} {}", t[0], t[1]).as_bytes());
+                    out.extend_from_slice(ending);
+                }
                 n_v += 1;
-                out.push_str(line);
             }
             Some("f") => {
-                out.push('f');
-                for c in parts {
-                    let mut fields = c.split('/');
-                    let v: i64 = fields.next().unwrap_or("0").parse().unwrap_or(0);
-                    let abs = if v > 0 { v } else { n_v + v + 1 };
-                    let normal = fields.nth(1).filter(|s| !s.is_empty());
-                    match normal {
-                        Some(n) => out.push_str(&format!(" {abs}/{abs}/{n}")),
-                        None => out.push_str(&format!(" {abs}/{abs}")),
-                    }
-                }
+                out.extend_from_slice(&content[..keyword_at]);
+                out.extend_from_slice(face_line(parts, n_v).as_bytes());
+                out.extend_from_slice(ending);
             }
-            _ => out.push_str(line),
+            _ => out.extend_from_slice(line),
         }
-        out.push('\n');
-        if Some(i) == last_v {
-            for t in vt {
-                out.push_str(&format!("vt {} {}\n", t[0], t[1]));
-            }
+    }
+    out
+}
+
+/// UTF-8's byte-order mark.
+const BOM: &[u8] = b"\xef\xbb\xbf";
+
+/// A line's content and its ending (`\r\n`, `\n`, or none at the end).
+fn split_ending(line: &[u8]) -> (&[u8], &[u8]) {
+    let cut = if line.ends_with(b"\r\n") {
+        2
+    } else {
+        usize::from(line.ends_with(b"\n"))
+    };
+    line.split_at(line.len() - cut)
+}
+
+/// An `f` line whose corners name their `v` and the `vt` of the same number
+/// (`n_v` vertices defined before it), normals kept.
+fn face_line(parts: std::str::SplitWhitespace, n_v: i64) -> String {
+    let mut out = String::from("f");
+    for c in parts {
+        let mut fields = c.split('/');
+        let v: i64 = fields.next().unwrap_or("0").parse().unwrap_or(0);
+        let abs = if v > 0 { v } else { n_v + v + 1 };
+        match fields.nth(1).filter(|s| !s.is_empty()) {
+            Some(n) => out.push_str(&format!(" {abs}/{abs}/{n}")),
+            None => out.push_str(&format!(" {abs}/{abs}")),
         }
     }
     out
@@ -218,7 +252,8 @@ mod tests {
         let (prim, vt) = parse_with_tex_coords(Path::new("t.obj"), text, &limits).unwrap();
         assert_eq!(vt.unwrap(), vec![[0.25, 0.5], [0.75, 0.5], [0.25, 1.0]]);
         assert_eq!(prim.uvs.unwrap()[2], [0.25, 0.0]);
-        let written = with_tex_coords(text, &[[0.1, 0.2], [0.3, 0.4], [0.5, 0.6]]);
+        let written = with_tex_coords(text.as_bytes(), &[[0.1, 0.2], [0.3, 0.4], [0.5, 0.6]]);
+        let written = String::from_utf8(written).unwrap();
         assert!(
             written.contains("vt 0.1 0.2\n") && written.contains("f 1/1 2/2 3/3"),
             "{written}"
@@ -236,5 +271,40 @@ mod tests {
         ));
         assert!(parse(Path::new("t.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", &limits).is_err());
         assert!(parse(Path::new("t.obj"), "v nan 0 0\n", &limits).is_err());
+    }
+
+    #[test]
+    fn unchanged_lines_keep_their_bytes_and_faces_between_vertices_stay_readable() {
+        // A BOM, CRLF endings, a Latin-1 material name, faces between `v` lines.
+        let mut text: Vec<u8> =
+            b"\xef\xbb\xbfv 0 0 0\r\nmtllib caf\xe9.mtl\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n".to_vec();
+        text.extend_from_slice(b"vt 9 9\r\nv 1 1 0\r\nf 2 4 3\r\n# caf\xe9 end");
+        let limits = InputLimits::DEFAULT;
+        let lossy = String::from_utf8_lossy(&text);
+        assert_eq!(
+            parse(Path::new("t.obj"), &lossy, &limits).unwrap().positions.len(),
+            4,
+            "the BOM hides no `v`"
+        );
+        let vt = [[0.1, 0.2], [0.3, 0.4], [0.5, 0.6], [0.7, 0.8]];
+        let written = with_tex_coords(&text, &vt);
+        for kept in [
+            &b"\xef\xbb\xbfv 0 0 0\r\n"[..],
+            b"mtllib caf\xe9.mtl\r\n",
+            b"# caf\xe9 end",
+            b"v 1 1 0\r\n",
+        ] {
+            assert!(
+                written.windows(kept.len()).any(|w| w == kept),
+                "{:?} kept",
+                String::from_utf8_lossy(kept)
+            );
+        }
+        assert!(!written.windows(6).any(|w| w == b"vt 9 9"), "the old vt goes");
+        assert!(!written.windows(2).any(|w| w == b"\n\n"), "no bare line ending added");
+        let (prim, read) =
+            parse_with_tex_coords(Path::new("t.obj"), &String::from_utf8_lossy(&written), &limits).unwrap();
+        assert_eq!(read.unwrap(), vt.to_vec(), "every face names a vt defined before it");
+        assert_eq!(prim.indices.len(), 6);
     }
 }
