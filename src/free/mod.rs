@@ -117,13 +117,19 @@ pub struct Obstacles {
 impl Obstacles {
     /// The obstacles made of `triangles` over the stored texture
     /// coordinates `uvs` (glTF convention, f32), keeping only triangles with
-    /// area whose bounding box meets `near` (a texture rectangle).
+    /// area whose bounding box meets `near` (a texture rectangle). A triangle
+    /// with a NaN or infinite coordinate has no place to keep clear of and is
+    /// left out; the rest of its island still counts (a NaN corner once made
+    /// the island's probe fail and hid the whole island).
     pub fn new(uvs: &[[f32; 2]], triangles: &[[u32; 3]], near: Region) -> Obstacles {
         let uv = |v: u32| DVec2::new(uvs[v as usize][0] as f64, uvs[v as usize][1] as f64);
         let mut compact = vec![u32::MAX; uvs.len()];
         let mut out = Obstacles::default();
         for t in triangles {
             let [a, b, c] = t.map(uv);
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                continue;
+            }
             let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
             let meets = lo.cmple(near.max).all() && hi.cmpge(near.min).all();
             if !meets || crate::guard::orientation(a, b, c) == 0.0 {
@@ -198,4 +204,20 @@ pub struct FreeSetup {
     /// The chart's stored UVs as layout coordinates (chart-local real
     /// vertices), when it already had them: the start, if it is injective.
     pub island: Option<Vec<DVec2>>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_nan_corner_drops_its_triangle_not_its_island() {
+        // A quad (two triangles) and a third triangle with a NaN corner, one island.
+        let uvs = [[0.2, 0.2], [0.4, 0.2], [0.4, 0.4], [0.2, 0.4], [f32::NAN, 0.3]];
+        let triangles = [[0, 1, 2], [0, 2, 3], [1, 4, 2]];
+        let o = Obstacles::new(&uvs, &triangles, Region::TEXTURE);
+        assert_eq!(o.triangles.len(), 2, "the finite triangles stay obstacles");
+        assert!(o.gltf.iter().all(|p| p.is_finite()));
+        assert_eq!(o.probes.len(), 1, "the island is still found");
+    }
 }
