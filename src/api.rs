@@ -170,11 +170,14 @@ fn solve_loaded_timed(
     let source = ConstraintSource::File(Arc::new(loaded));
     let solved = solve_chart_timed(&source, asset, &solver_options, load_ms)?;
     // The pictures show the layout over the file's `image:` when it names one.
-    let background = options.pictures.background.clone().or_else(|| source.image_path());
-    if options.pictures.any() && background != options.pictures.background {
-        let mut options = options.clone();
-        options.pictures.background = background;
-        return Ok(solved.export(asset, &options));
+    #[cfg(feature = "pictures")]
+    {
+        let background = options.pictures.background.clone().or_else(|| source.image_path());
+        if options.pictures.any() && background != options.pictures.background {
+            let mut options = options.clone();
+            options.pictures.background = background;
+            return Ok(solved.export(asset, &options));
+        }
     }
     Ok(solved.export(asset, options))
 }

@@ -80,20 +80,12 @@ pub fn draw_layout_legend(image: &mut RgbaImage, margin: f32, hole_fill: bool) {
     let mut x = margin as i64;
     x += i64::from(text::draw(image, x, y0, "stretch ", Ink::dark(scale)));
     // Two ramp segments, 1 -> 2 -> 4+, the values between them.
-    for (from, to, label) in [(1.0, 2.0, "1 "), (2.0, 4.0, " 2 ")] {
+    for (from, to, label) in [(1.0f64, 2.0, "1 "), (2.0, 4.0, " 2 ")] {
         x += i64::from(text::draw(image, x, y0, label, Ink::dark(scale)));
         let w = 6 * glyph;
         for i in 0..w {
-            let s = from * (to / from as f64).powf(i as f64 / w as f64);
-            text::fill_rect(
-                image,
-                x + i,
-                y0,
-                1,
-                (text::GLYPH * scale) as u32,
-                stretch_colour(s),
-                255,
-            );
+            let s = from * (to / from).powf(i as f64 / w as f64);
+            text::fill_rect(image, x + i, y0, 1, text::GLYPH * scale, stretch_colour(s), 255);
         }
         x += w;
     }

@@ -40,8 +40,8 @@ pub fn blend(image: &mut RgbaImage, x: i64, y: i64, rgb: [u8; 3], alpha: u8) {
     }
     let p = image.get_pixel_mut(x as u32, y as u32);
     let a = u32::from(alpha);
-    for i in 0..3 {
-        p.0[i] = ((u32::from(rgb[i]) * a + u32::from(p.0[i]) * (255 - a)) / 255) as u8;
+    for (channel, &c) in p.0.iter_mut().zip(&rgb) {
+        *channel = ((u32::from(c) * a + u32::from(*channel) * (255 - a)) / 255) as u8;
     }
     p.0[3] = p.0[3].max(alpha);
 }
