@@ -313,6 +313,78 @@ fn a_new_constraint_file_is_made_for_an_asset_and_watch_serves_every_file() {
     assert!(w.terminate().success());
 }
 
+/// The largest resident size the process has had, from /proc (kB).
+fn peak_kb(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let line = status.lines().find(|l| l.starts_with("VmHWM:")).expect("VmHWM");
+    line.split_whitespace().nth(1).unwrap().parse().unwrap()
+}
+
+/// Sends `head` to `addr`, then up to 1 GiB more of its last line (until
+/// the server stops reading); the status it answered, if any.
+fn flood(addr: &str, head: &str) -> Option<u16> {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(WAIT)).unwrap();
+    s.write_all(head.as_bytes()).unwrap();
+    let chunk = vec![b'a'; 1 << 20];
+    for _ in 0..1024 {
+        if s.write_all(&chunk).is_err() {
+            break;
+        }
+    }
+    let mut answer = Vec::new();
+    let _ = s.read_to_end(&mut answer);
+    String::from_utf8_lossy(&answer)
+        .split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+}
+
+/// Request heads past the server's limits are answered 414, 431 or 413 and
+/// cost no memory: two 1 GiB header lines leave the editor alive and small.
+fn oversized_requests_are_refused_and_the_editor_stays_small() {
+    let dir = TempDir::new("editor-huge");
+    sample(&dir.0);
+    let mut d = Daemon::edit(&dir.0, &["assets/face.uvpin.ron"]);
+    let addr = address(&d);
+    wait_state(&addr, &d, |s| s["state"] == "reached");
+    let before = peak_kb(d.child.id());
+    let floods: Vec<_> = (0..2)
+        .map(|_| {
+            let (addr, head) = (addr.clone(), format!("GET / HTTP/1.1\r\nHost: {addr}\r\nX-Big: "));
+            std::thread::spawn(move || flood(&addr, &head))
+        })
+        .collect();
+    for f in floods {
+        // The answer may be lost to a reset once the server stops reading.
+        let status = f.join().unwrap();
+        assert!(matches!(status, Some(431) | None), "{status:?}");
+    }
+    // A request line past its limit, answered before the flood fills it.
+    let long_path = format!("GET /{} HTTP/1.1\r\nHost: {addr}\r\n\r\n", "a".repeat(10_000));
+    let mut s = TcpStream::connect(&addr).unwrap();
+    s.set_read_timeout(Some(WAIT)).unwrap();
+    s.write_all(long_path.as_bytes()).unwrap();
+    let mut answer = String::new();
+    let _ = s.read_to_string(&mut answer);
+    assert!(answer.starts_with("HTTP/1.1 414"), "{answer}");
+    let origin = format!("http://{addr}");
+    let big_body = [
+        ("Content-Type", "application/json"),
+        ("Origin", origin.as_str()),
+        ("Content-Length", "100000000"),
+    ];
+    assert_eq!(http(&addr, "POST", "/api/file/0/save", &big_body, "{}").0, 413);
+    // Alive, answering, and still small.
+    assert_eq!(http(&addr, "GET", "/api/files", &[], "").0, 200);
+    let after = peak_kb(d.child.id());
+    assert!(
+        after < 100 * 1024,
+        "peak resident {after} kB (was {before} kB before the flood)"
+    );
+    assert!(d.terminate().success(), "{}", d.dump());
+}
+
 fn in_chromium() {
     let dir = TempDir::new("editor-browser");
     sample(&dir.0);
@@ -352,6 +424,11 @@ fn main() -> std::process::ExitCode {
             "a_new_constraint_file_is_made_for_an_asset_and_watch_serves_every_file",
             &[],
             a_new_constraint_file_is_made_for_an_asset_and_watch_serves_every_file,
+        ),
+        (
+            "oversized_requests_are_refused_and_the_editor_stays_small",
+            &[],
+            oversized_requests_are_refused_and_the_editor_stays_small,
         ),
         ("in_chromium", &[Needs::Browser], in_chromium),
     ])

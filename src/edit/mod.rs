@@ -6,9 +6,12 @@
 //!   keeping everything else the user wrote (pure, always built).
 //! - With the `editor` feature: [`hub`] (what the daemon shows the page),
 //!   [`publish`] (the ECS system that fills it), [`preview`] (solves for
-//!   dragged targets, newest first), [`server`] and the [`page`] itself.
+//!   dragged targets, newest first), [`server`] over [`http`] (a bounded
+//!   HTTP/1.1 server) and the [`page`] itself.
 pub mod text;
 
+#[cfg(feature = "editor")]
+pub mod http;
 #[cfg(feature = "editor")]
 pub mod hub;
 #[cfg(feature = "editor")]

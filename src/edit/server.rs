@@ -1,5 +1,5 @@
-//! The editor's web server (`tiny_http`, threads; no async runtime: the
-//! daemon is threads and channels too). It serves the page, the served
+//! The editor's web server (threads over [`super::http`]; no async runtime:
+//! the daemon is threads and channels too). It serves the page, the served
 //! constraint files' meshes, textures and solves, drag previews, saves, and
 //! a stream of changes (server-sent events).
 //!
@@ -10,17 +10,17 @@
 //! request ever reaches the file system, and the only file written is the
 //! served constraint file itself.
 
+use super::http::{BodyError, Limits, Method, Request, Server};
 use super::hub::{FileView, Hub};
 use super::preview::{PreviewReply, Previewer};
 use super::text::{EditError, rewrite_constraints};
 use super::{page, payload};
 use crate::io::InputRules;
 use crate::watch::registry::content_hash;
-use std::io::{Read, Write};
+use std::io::Write;
 use std::net::{IpAddr, SocketAddr};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use tiny_http::{Header, Method, Request, Response, Server};
 
 /// The editor's default address (`uvpin edit`, `uvpin watch --serve`).
 pub const DEFAULT_ADDR: &str = "127.0.0.1:7878";
@@ -85,7 +85,7 @@ struct EncodedTexture {
 
 /// The running server.
 pub struct EditorServer {
-    server: Arc<Server>,
+    server: Arc<Mutex<Server>>,
     context: Arc<Context>,
     threads: Vec<std::thread::JoinHandle<()>>,
     pub url: String,
@@ -119,13 +119,14 @@ impl EditorServer {
         let wanted: SocketAddr = addr.parse().map_err(|_| {
             anyhow::anyhow!("--addr {addr}: expected HOST:PORT with an IP address, such as {DEFAULT_ADDR}")
         })?;
-        let server = Server::http(wanted).map_err(|e| {
+        let limits = Limits {
+            body: MAX_BODY,
+            ..Limits::DEFAULT
+        };
+        let server = Server::bind(wanted, limits).map_err(|e| {
             anyhow::anyhow!("cannot serve the editor on {addr}: {e} (another program may use the port: try --addr 127.0.0.1:0 for any free one)")
         })?;
-        let bound = server
-            .server_addr()
-            .to_ip()
-            .ok_or_else(|| anyhow::anyhow!("the editor's server has no IP address"))?;
+        let bound = server.addr();
         let context = Arc::new(Context {
             hub,
             previewer: Previewer::start(),
@@ -137,13 +138,14 @@ impl EditorServer {
             saving: Mutex::new(()),
             streams: std::sync::atomic::AtomicUsize::new(0),
         });
-        let server = Arc::new(server);
+        let requests = server.requests();
+        let server = Arc::new(Mutex::new(server));
         let threads = (0..WORKERS)
             .map(|k| {
-                let (server, context) = (server.clone(), context.clone());
+                let (requests, context) = (requests.clone(), context.clone());
                 std::thread::Builder::new()
                     .name(format!("uvpin-http-{k}"))
-                    .spawn(move || serve(&server, &context))
+                    .spawn(move || serve(&requests, &context))
                     .expect("a thread")
             })
             .collect();
@@ -164,26 +166,27 @@ impl EditorServer {
     /// Stops serving: event streams end, the threads are joined.
     pub fn stop(self) {
         self.context.hub.close();
-        for _ in &self.threads {
-            self.server.unblock();
-        }
+        self.server
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .close();
         for t in self.threads {
             let _ = t.join();
         }
     }
 }
 
-fn serve(server: &Server, context: &Arc<Context>) {
-    while let Ok(mut request) = server.recv() {
+fn serve(requests: &super::http::Requests, context: &Arc<Context>) {
+    while let Some(mut request) = requests.recv() {
         if context.hub.is_closed() {
-            let _ = request.respond(Response::empty(503));
+            request.respond(503, &[], b"");
             break;
         }
         if let Err(reply) = check_request(context, &request) {
             respond(request, reply);
             continue;
         }
-        if request.method() == &Method::Get && request.url() == "/api/events" {
+        if request.method == Method::Get && request.url == "/api/events" {
             open_stream(request, context);
             continue;
         }
@@ -212,14 +215,6 @@ fn open_stream(request: Request, context: &Arc<Context>) {
     }
 }
 
-fn header<'a>(request: &'a Request, name: &'static str) -> Option<&'a str> {
-    request
-        .headers()
-        .iter()
-        .find(|h| h.field.equiv(name))
-        .map(|h| h.value.as_str())
-}
-
 /// Whether `host` names this server.
 fn host_allowed(context: &Context, host: &str) -> bool {
     if context.hosts.iter().any(|h| h.eq_ignore_ascii_case(host)) {
@@ -232,19 +227,25 @@ fn host_allowed(context: &Context, host: &str) -> bool {
 /// The `Host` must name this server; a write must come from the page (its
 /// origin, as JSON).
 fn check_request(context: &Context, request: &Request) -> Result<(), Reply> {
-    let host = header(request, "Host").unwrap_or("");
+    let host = request.header("Host").unwrap_or("");
     if !host_allowed(context, host) {
         return Err(Reply::error(403, "this server answers only to its own address"));
     }
-    if request.method() == &Method::Get || request.method() == &Method::Head {
+    if request.method == Method::Get || request.method == Method::Head {
         return Ok(());
     }
-    if request.method() != &Method::Post {
+    if request.method != Method::Post {
         return Err(Reply::error(405, "only GET and POST"));
     }
-    let origin_ok = header(request, "Origin").is_none_or(|o| o.eq_ignore_ascii_case(&format!("http://{host}")));
-    let site_ok = header(request, "Sec-Fetch-Site").is_none_or(|s| s == "same-origin" || s == "none");
-    let json = header(request, "Content-Type").is_some_and(|t| t.starts_with("application/json"));
+    let origin_ok = request
+        .header("Origin")
+        .is_none_or(|o| o.eq_ignore_ascii_case(&format!("http://{host}")));
+    let site_ok = request
+        .header("Sec-Fetch-Site")
+        .is_none_or(|s| s == "same-origin" || s == "none");
+    let json = request
+        .header("Content-Type")
+        .is_some_and(|t| t.starts_with("application/json"));
     if !(origin_ok && site_ok && json) {
         return Err(Reply::error(
             403,
@@ -255,8 +256,7 @@ fn check_request(context: &Context, request: &Request) -> Result<(), Reply> {
 }
 
 fn respond(request: Request, reply: Reply) {
-    let mut response = Response::from_data(reply.body).with_status_code(reply.status);
-    for (name, value) in [
+    let headers = [
         ("Content-Type", reply.content_type),
         ("Cache-Control", "no-store"),
         ("X-Content-Type-Options", "nosniff"),
@@ -266,12 +266,14 @@ fn respond(request: Request, reply: Reply) {
             "Content-Security-Policy",
             "default-src 'self'; img-src 'self' blob: data:; script-src 'self'; style-src 'self'; connect-src 'self'; frame-ancestors 'none'",
         ),
-    ] {
-        if let Ok(h) = Header::from_bytes(name.as_bytes(), value.as_bytes()) {
-            response.add_header(h);
-        }
-    }
-    let _ = request.respond(response);
+    ];
+    let body = if request.method == Method::Head {
+        &[][..]
+    } else {
+        &reply.body[..]
+    };
+    let status = reply.status;
+    request.respond(status, &headers, body);
 }
 
 /// The file id in `/api/file/{id}/…` and the rest of the path.
@@ -286,8 +288,8 @@ fn file_route(url: &str) -> Option<(usize, &str)> {
 
 fn route(context: &Context, request: &mut Request) -> Reply {
     // The query only defeats caches (`?asset=…`); it selects nothing.
-    let url = request.url().split('?').next().unwrap_or("").to_string();
-    let method = request.method().clone();
+    let url = request.url.split('?').next().unwrap_or("").to_string();
+    let method = request.method.clone();
     if let Some(asset) = page::asset(&url).filter(|_| method == Method::Get) {
         return Reply {
             status: 200,
@@ -325,14 +327,10 @@ fn route(context: &Context, request: &mut Request) -> Reply {
 }
 
 fn read_json(request: &mut Request) -> Result<serde_json::Value, Reply> {
-    if request.body_length().is_some_and(|n| n > MAX_BODY) {
-        return Err(Reply::error(413, "request too large"));
-    }
-    let mut body = Vec::new();
-    let read = request.as_reader().take(MAX_BODY as u64 + 1).read_to_end(&mut body);
-    if read.is_err() || body.len() > MAX_BODY {
-        return Err(Reply::error(413, "request too large"));
-    }
+    let body = request.read_body(MAX_BODY).map_err(|e| match e {
+        BodyError::TooLarge => Reply::error(413, "request too large"),
+        BodyError::Unreadable => Reply::error(400, "the body must come with its Content-Length, whole"),
+    })?;
     serde_json::from_slice(&body).map_err(|e| Reply::error(400, format!("not JSON: {e}")))
 }
 
@@ -502,7 +500,7 @@ fn check_against_asset(text: &str, inputs: &super::hub::EditInputs) -> Result<()
 
 /// A server-sent event stream: the file list whenever the hub's version moves.
 fn stream_events(request: Request, context: &Context) {
-    let mut out = request.into_writer();
+    let mut out = request.into_stream();
     let head = "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
                 X-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\n";
     if out.write_all(head.as_bytes()).and_then(|()| out.flush()).is_err() {
