@@ -676,6 +676,25 @@ fn daemon_survives_hostile_input_and_recovers() {
     for (k, make) in hostile.iter().enumerate() {
         make(&tmp.path("assets/grid.glb"));
         wait("error", k + 1);
+        if k == 3 {
+            // A FIFO where the asset was: unreadable, not "removed".
+            let last = lines
+                .lock()
+                .unwrap()
+                .iter()
+                .rev()
+                .find(|l| l["event"] == "error")
+                .cloned();
+            let message = last
+                .as_ref()
+                .and_then(|l| l["message"].as_str())
+                .unwrap_or("")
+                .to_string();
+            assert!(
+                message.contains("cannot be read") && !message.contains("removed"),
+                "{message}"
+            );
+        }
         assert!(
             child.try_wait().unwrap().is_none(),
             "the daemon died on hostile input {k}"

@@ -269,18 +269,22 @@ fn asset_changed(world: &mut World, file: &Path, to_load: &mut BTreeMap<PathBuf,
         let (was_missing, old_hash) = (entry.missing, entry.hash);
         let written = registry.written.get(asset).copied();
         match now {
-            Err(_) => {
+            Err(read) => {
                 if was_missing {
                     continue;
                 }
                 set_missing(world, asset, true);
+                // Removed, or there and unreadable (permissions, a FIFO, too
+                // large): the log says which.
+                let why = if read.is_not_found() {
+                    "the asset was removed; the last output is kept".to_string()
+                } else {
+                    format!("the asset cannot be read ({read}); the last output is kept")
+                };
                 for e in dependants(world, asset) {
                     let err = Error::Asset(crate::io::AssetError::Read {
                         path: asset.clone(),
-                        source: crate::io::ReadError::Io(std::io::Error::new(
-                            std::io::ErrorKind::NotFound,
-                            "the asset was removed; the last output is kept",
-                        )),
+                        source: crate::io::ReadError::Io(std::io::Error::other(why.clone())),
                     });
                     asset_gone(world, e, err);
                 }
