@@ -367,6 +367,94 @@ fn gltf_outputs_keep_other_outputs_buffers_and_relative_uris() {
     assert_eq!((uvs.len(), bad), (36, 0));
 }
 
+/// Every file and folder under `dir`, files with their bytes.
+fn tree(dir: &Path) -> Vec<(std::path::PathBuf, Option<Vec<u8>>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if e.file_type().unwrap().is_dir() {
+                out.push((p.clone(), None));
+                stack.push(p);
+            } else {
+                out.push((p.clone(), std::fs::read(&p).ok()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Output paths in every combination (the same name twice, a folder where a
+/// file goes, folders not made yet, a file where a folder goes): exit 0 means
+/// every named output reads back as its kind; exit 1 means every file and
+/// folder is as it was. Seeded, a fixed number of rounds.
+fn output_path_combinations_write_all_or_nothing() {
+    const NAMES: [&str; 12] = [
+        "out.glb",
+        "out.gltf",
+        "r.json",
+        "p.png",
+        "q.png",
+        "sub/out.glb",
+        "sub",
+        "new/x/o.glb",
+        "blocker/in.png",
+        "blocker",
+        "new/r.json",
+        "out.glb/inner.png",
+    ];
+    let tmp = setup("h-out-combos", |_, _| {});
+    std::fs::create_dir_all(tmp.path("sub")).unwrap();
+    std::fs::write(tmp.path("blocker"), b"a file where a folder would go").unwrap();
+    std::fs::write(tmp.path("p.png"), b"previous picture").unwrap();
+    let mut rng = uvpin::testing::Rng::new(26);
+    let (mut written, mut refused) = (0, 0);
+    for round in 0..40 {
+        let mut args = vec!["solve".to_string(), "c.uvpin.ron".into()];
+        let mut named = Vec::new();
+        for flag in ["-o", "--report", "--preview", "--render"] {
+            if rng.below(3) > 0 {
+                let name = NAMES[rng.below(NAMES.len())];
+                args.extend([flag.to_string(), name.to_string()]);
+                named.push((flag, name));
+            }
+        }
+        let before = tree(&tmp.0);
+        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = uvpin_limited(&refs, &tmp.0);
+        match o.status.code() {
+            Some(0 | 2) => {
+                written += 1;
+                for (flag, name) in &named {
+                    let bytes =
+                        std::fs::read(tmp.path(name)).unwrap_or_else(|e| panic!("round {round} {args:?}: {name}: {e}"));
+                    match *flag {
+                        "--report" => drop(serde_json::from_slice::<Value>(&bytes).expect("a JSON report")),
+                        "--preview" | "--render" => drop(image::load_from_memory(&bytes).expect("a picture")),
+                        _ => assert_eq!(python_uvs(&tmp.path(name), 0).1, 0, "round {round}: {name} folds"),
+                    }
+                }
+            }
+            Some(1) => {
+                refused += 1;
+                assert_eq!(
+                    tree(&tmp.0),
+                    before,
+                    "round {round} {args:?}: exit 1 changed files: {}",
+                    stderr(&o)
+                );
+            }
+            other => panic!("round {round} {args:?}: exit {other:?}: {}", stderr(&o)),
+        }
+    }
+    assert!(
+        written > 5 && refused > 5,
+        "both kinds exercised: {written} written, {refused} refused"
+    );
+}
+
 fn gltf_outputs_name_their_buffer_and_glb_outputs_are_complete() {
     // .gltf twice: one content-named buffer remains, the one the .gltf names.
     let tmp = TempDir::new("h-gltf-bin");
@@ -766,6 +854,11 @@ fn main() -> std::process::ExitCode {
             fifos_and_devices_are_refused_at_once,
         ),
         ("exit_1_writes_nothing", &[], exit_1_writes_nothing),
+        (
+            "output_path_combinations_write_all_or_nothing",
+            &[],
+            output_path_combinations_write_all_or_nothing,
+        ),
         (
             "gltf_outputs_keep_other_outputs_buffers_and_relative_uris",
             &[],
