@@ -626,6 +626,31 @@ fn watched_project(name: &str) -> TempDir {
     tmp
 }
 
+/// Runs uvpin with `args` in `cwd`: its exit code, standard error and peak
+/// resident memory (kB, from the kernel's accounting of this child alone).
+fn run_with_peak(cwd: &Path, args: &[&str]) -> (Option<i32>, String, i64) {
+    let child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args(args)
+        .current_dir(cwd)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn uvpin");
+    let pid = child.id() as libc::pid_t;
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.unwrap(), &mut err).unwrap();
+    let mut status = 0;
+    // SAFETY: plain system calls on our own child, with valid out-pointers.
+    let usage = unsafe {
+        let mut usage: libc::rusage = std::mem::zeroed();
+        assert_eq!(libc::wait4(pid, &mut status, 0, &mut usage), pid);
+        usage
+    };
+    let code = libc::WIFEXITED(status).then(|| libc::WEXITSTATUS(status));
+    (code, err, usage.ru_maxrss)
+}
+
 fn once(tmp: &TempDir, args: &[&str]) -> std::process::Output {
     let mut all = vec!["watch", "--once", "--no-previews"];
     all.extend_from_slice(args);
@@ -656,6 +681,30 @@ fn paths_outside_are_neither_read_nor_written() {
             stderr(&o)
         );
         assert_eq!(snapshot(&tmp.path("elsewhere")), elsewhere);
+    }
+    // An asset outside them (300 MB) is refused before a byte is read: the
+    // daemon's peak memory stays far below its size.
+    let tmp = watched_project("h-paths-big");
+    std::fs::create_dir_all(tmp.path("secret")).unwrap();
+    std::fs::File::create(tmp.path("secret/big.glb"))
+        .unwrap()
+        .set_len(300 << 20)
+        .unwrap();
+    std::os::unix::fs::symlink(tmp.path("secret/big.glb"), tmp.path("assets/link.glb")).unwrap();
+    for asset in ["../secret/big.glb", "link.glb"] {
+        write_constraints(
+            &tmp.path("assets/grid.uvpin.ron"),
+            Path::new(asset),
+            &[(14, 0.45, 0.55)],
+            "",
+        );
+        let (code, err, peak_kb) = run_with_peak(&tmp.0, &["watch", "--once", "--no-previews"]);
+        assert_eq!(code, Some(1), "{asset}: {err}");
+        assert!(err.contains("outside the folders"), "{asset}: {err}");
+        assert!(
+            peak_kb < 150 * 1024,
+            "{asset}: peak resident {peak_kb} kB: the outside file was read"
+        );
     }
     // A texture outside the watched folders is not read into the pictures.
     let tmp = watched_project("h-paths-image");

@@ -265,7 +265,7 @@ fn asset_changed(world: &mut World, file: &Path, to_load: &mut BTreeMap<PathBuf,
     for asset in &cached {
         let registry = world.resource::<WatchRegistry>();
         let entry = &registry.assets.assets[asset];
-        let now = AssetCache::current_hash(&entry.files);
+        let now = AssetCache::current_hash(&entry.files, &world.resource::<WatchSettings>().input.scope);
         let (was_missing, old_hash) = (entry.missing, entry.hash);
         let written = registry.written.get(asset).copied();
         match now {
@@ -780,7 +780,7 @@ pub fn report_results(
                 .get(&out)
                 .map_or_else(|| vec![out.clone()], |a| a.files.clone());
             if (registry.assets.assets.contains_key(&out) || settings.output == OutputMode::InPlace)
-                && let Ok(h) = AssetCache::current_hash(&files)
+                && let Ok(h) = AssetCache::current_hash(&files, &settings.input.scope)
             {
                 registry.written.insert(out, h);
             }

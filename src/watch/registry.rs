@@ -207,13 +207,14 @@ impl AssetCache {
                 return Ok(asset);
             }
         }
-        let main_hash =
-            read_for_hash(path)
-                .map(|b| content_hash(&b))
-                .map_err(|source| crate::io::AssetError::Read {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
+        // Within the rules' scope and limit: an asset outside the watched
+        // folders is refused before a byte of it is read.
+        let main_hash = read_for_hash(path, &rules.scope)
+            .map(|b| content_hash(&b))
+            .map_err(|source| crate::io::AssetError::Read {
+                path: path.to_path_buf(),
+                source,
+            })?;
         let asset = Arc::new(crate::io::load_asset(
             path,
             selection.mesh.as_ref(),
@@ -242,24 +243,21 @@ impl AssetCache {
     }
 
     /// The combined hash of an asset's files as they are now, in the same
-    /// form as [`CachedAsset::hash`].
-    pub fn current_hash(files: &[PathBuf]) -> Result<u64, ReadError> {
+    /// form as [`CachedAsset::hash`], read only within `scope`.
+    pub fn current_hash(files: &[PathBuf], scope: &ReadScope) -> Result<u64, ReadError> {
         let (main, buffers) = files
             .split_first()
             .ok_or_else(|| ReadError::Io(std::io::Error::other("no files")))?;
-        let main_hash = content_hash(&read_for_hash(main)?);
+        let main_hash = content_hash(&read_for_hash(main, scope)?);
         Ok(combined_hash(main_hash, buffers))
     }
 }
 
-/// A file's bytes for its content hash: only a regular file, within the
-/// default size limit (a FIFO or a device is an error, never a blocking read).
-fn read_for_hash(path: &Path) -> Result<Vec<u8>, ReadError> {
-    crate::io::read::read_regular(
-        path,
-        crate::io::InputLimits::DEFAULT.max_file_bytes,
-        &ReadScope::Anywhere,
-    )
+/// A file's bytes for its content hash: only a regular file inside `scope`
+/// (checked before reading), within the default size limit (a FIFO or a
+/// device is an error, never a blocking read).
+fn read_for_hash(path: &Path, scope: &ReadScope) -> Result<Vec<u8>, ReadError> {
+    crate::io::read::read_regular(path, crate::io::InputLimits::DEFAULT.max_file_bytes, scope)
 }
 
 /// The hash of an asset: its main file's hash, then each buffer file's
@@ -268,7 +266,12 @@ fn combined_hash(main_hash: u64, buffers: &[PathBuf]) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
     h.write_u64(main_hash);
     for f in buffers {
-        h.write_u64(read_for_hash(f).map(|b| content_hash(&b)).unwrap_or(0));
+        // Buffers were found through the asset (already within its scope).
+        h.write_u64(
+            read_for_hash(f, &ReadScope::Anywhere)
+                .map(|b| content_hash(&b))
+                .unwrap_or(0),
+        );
     }
     h.finish()
 }
