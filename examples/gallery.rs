@@ -45,7 +45,10 @@ fn main() {
             size: SIZE,
             background: background.clone(),
         };
-        uvpin::preview::draw_chart(&asset, data, boundary, layout, report, &pictures).expect("pictures");
+        let anywhere = uvpin::io::atomic::WriteScope::Anywhere;
+        let folders = uvpin::io::atomic::Folders::Make;
+        uvpin::preview::draw_chart(&asset, data, boundary, layout, report, &pictures, (&anywhere, folders))
+            .expect("pictures");
     };
     draw(step1, &before, "before");
     draw(layout, report, "after");

@@ -628,6 +628,10 @@ fn watched_project(name: &str) -> TempDir {
 
 /// Runs uvpin with `args` in `cwd`: its exit code, standard error and peak
 /// resident memory (kB, from the kernel's accounting of this child alone).
+#[allow(
+    clippy::zombie_processes,
+    reason = "waited for with wait4, which also gives its peak memory"
+)]
 fn run_with_peak(cwd: &Path, args: &[&str]) -> (Option<i32>, String, i64) {
     let child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
         .args(args)
@@ -649,6 +653,77 @@ fn run_with_peak(cwd: &Path, args: &[&str]) -> (Option<i32>, String, i64) {
     };
     let code = libc::WIFEXITED(status).then(|| libc::WEXITSTATUS(status));
     (code, err, usage.ru_maxrss)
+}
+
+/// Folders and constraint files swapped for links to outside while the
+/// daemon solves in place, a bounded number of rounds: nothing outside is
+/// read (its secret never reaches the log or the status file) or written
+/// (its files stay byte-identical).
+fn swaps_under_a_running_daemon_never_reach_outside() {
+    let tmp = TempDir::new("h-swaps");
+    std::fs::create_dir_all(tmp.path("assets/sub")).unwrap();
+    std::fs::create_dir_all(tmp.path("outside")).unwrap();
+    let (json, bin) = grid_document();
+    write_glb(&tmp.path("assets/sub/grid.glb"), &json, &bin);
+    write_glb(&tmp.path("outside/grid.glb"), &json, &bin);
+    let secret = "hunter2-outside-secret";
+    std::fs::write(
+        tmp.path("outside/grid.uvpin.ron"),
+        format!("// {secret}\n(asset: \"grid.glb\", constraints: [])"),
+    )
+    .unwrap();
+    std::fs::write(tmp.path("outside/token"), secret).unwrap();
+    let ron = tmp.path("assets/sub/grid.uvpin.ron");
+    write_constraints(&ron, Path::new("grid.glb"), &[(14, 0.45, 0.55)], "");
+    let outside = tree(&tmp.path("outside"));
+    /// The daemon, killed if the test ends early.
+    struct Running(std::process::Child);
+    impl Drop for Running {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let mut running = Running(
+        Command::new(env!("CARGO_BIN_EXE_uvpin"))
+            .args(["watch", "assets", "--in-place", "--log", "json", "--debounce-ms", "20"])
+            .current_dir(&tmp.0)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut rng = uvpin::testing::Rng::new(7);
+    for round in 0..30 {
+        let u = 0.40 + 0.005 * round as f64;
+        write_constraints(&ron, Path::new("grid.glb"), &[(14, u, 0.55)], "");
+        std::thread::sleep(std::time::Duration::from_millis(rng.below(40) as u64));
+        if round % 2 == 0 {
+            // The folder being solved, swapped for a link to outside.
+            std::fs::rename(tmp.path("assets/sub"), tmp.path("assets/held")).unwrap();
+            std::os::unix::fs::symlink(tmp.path("outside"), tmp.path("assets/sub")).unwrap();
+            std::thread::sleep(std::time::Duration::from_millis(rng.below(40) as u64));
+            std::fs::remove_file(tmp.path("assets/sub")).unwrap();
+            std::fs::rename(tmp.path("assets/held"), tmp.path("assets/sub")).unwrap();
+        } else {
+            // The constraint file, swapped for a link to a secret outside.
+            std::fs::rename(&ron, tmp.path("assets/sub/held.txt")).unwrap();
+            std::os::unix::fs::symlink(tmp.path("outside/token"), &ron).unwrap();
+            std::thread::sleep(std::time::Duration::from_millis(rng.below(40) as u64));
+            std::fs::remove_file(&ron).unwrap();
+            std::fs::rename(tmp.path("assets/sub/held.txt"), &ron).unwrap();
+        }
+    }
+    let child = &mut running.0;
+    // SAFETY: signalling our own child.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let mut log = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut log).unwrap();
+    assert_eq!(child.wait().unwrap().code(), Some(0), "{log}");
+    assert_eq!(tree(&tmp.path("outside")), outside, "nothing outside is written");
+    assert!(!log.contains("hunter2"), "an outside file was read: {log}");
+    let status = std::fs::read_to_string(tmp.path("uvpin-status.json")).unwrap_or_default();
+    assert!(!status.contains("hunter2"), "{status}");
 }
 
 fn once(tmp: &TempDir, args: &[&str]) -> std::process::Output {
@@ -758,6 +833,12 @@ fn red_png() -> Vec<u8> {
     out.into_inner()
 }
 
+/// The message of the last `event` line of a JSON log.
+fn last_message(lines: &[Value], event: &str) -> String {
+    let last = lines.iter().rev().find(|l| l["event"] == event);
+    last.and_then(|l| l["message"].as_str()).unwrap_or("").to_string()
+}
+
 fn daemon_survives_hostile_input_and_recovers() {
     use std::io::{BufRead, BufReader};
     let tmp = watched_project("h-daemon");
@@ -815,18 +896,7 @@ fn daemon_survives_hostile_input_and_recovers() {
         wait("error", k + 1);
         if k == 3 {
             // A FIFO where the asset was: unreadable, not "removed".
-            let last = lines
-                .lock()
-                .unwrap()
-                .iter()
-                .rev()
-                .find(|l| l["event"] == "error")
-                .cloned();
-            let message = last
-                .as_ref()
-                .and_then(|l| l["message"].as_str())
-                .unwrap_or("")
-                .to_string();
+            let message = last_message(&lines.lock().unwrap(), "error");
             assert!(
                 message.contains("cannot be read") && !message.contains("removed"),
                 "{message}"
@@ -903,6 +973,11 @@ fn main() -> std::process::ExitCode {
             fifos_and_devices_are_refused_at_once,
         ),
         ("exit_1_writes_nothing", &[], exit_1_writes_nothing),
+        (
+            "swaps_under_a_running_daemon_never_reach_outside",
+            &[],
+            swaps_under_a_running_daemon_never_reach_outside,
+        ),
         (
             "output_path_combinations_write_all_or_nothing",
             &[],

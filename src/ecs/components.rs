@@ -23,6 +23,11 @@ pub struct SolveJob {
     pub asset: Arc<SourceAsset>,
     /// Output file; `None` solves without writing.
     pub output: Option<PathBuf>,
+    /// Where the output and its pictures may be written (the daemon's
+    /// output folder, or the watched folders in place).
+    pub write_scope: crate::io::atomic::WriteScope,
+    /// Whether missing folders are made for the output (not in place).
+    pub folders: crate::io::atomic::Folders,
 }
 
 impl SolveJob {
@@ -33,7 +38,17 @@ impl SolveJob {
             source: ConstraintSource::File(Arc::new(loaded)),
             asset,
             output,
+            write_scope: crate::io::atomic::WriteScope::Anywhere,
+            folders: crate::io::atomic::Folders::Make,
         }
+    }
+
+    /// This job, writing only within `scope`, making missing folders or not.
+    #[must_use]
+    pub fn writing_within(mut self, scope: crate::io::atomic::WriteScope, folders: crate::io::atomic::Folders) -> Self {
+        self.write_scope = scope;
+        self.folders = folders;
+        self
     }
 }
 

@@ -259,6 +259,17 @@ fn set_missing(world: &mut World, asset: &Path, missing: bool) {
     }
 }
 
+/// Where the daemon may write: its output folder, or in place the watched
+/// folders (as they are when each write opens its folder).
+fn write_scope(settings: &WatchSettings) -> crate::io::atomic::WriteScope {
+    match &settings.output {
+        OutputMode::Folder(dir) => crate::io::atomic::WriteScope::within([settings.cwd.join(dir)]),
+        OutputMode::InPlace => {
+            crate::io::atomic::WriteScope::within(settings.roots.iter().map(|r| r.folder().to_path_buf()))
+        }
+    }
+}
+
 /// An asset file (or a buffer of one) was written, created or removed.
 fn asset_changed(world: &mut World, file: &Path, to_load: &mut BTreeMap<PathBuf, bool>) {
     let cached = world.resource::<WatchRegistry>().assets.assets_using(file);
@@ -434,7 +445,11 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
         return fail(world, entity, e);
     }
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let job = SolveJob::from_file(loaded, asset, Some(output));
+    let folders = match settings.output {
+        OutputMode::Folder(_) => crate::io::atomic::Folders::Make,
+        OutputMode::InPlace => crate::io::atomic::Folders::MustExist,
+    };
+    let job = SolveJob::from_file(loaded, asset, Some(output)).writing_within(write_scope(settings), folders);
     if let Err(e) = restart_solve(world, settings, entity, job, load_ms) {
         fail(world, entity, e);
     }

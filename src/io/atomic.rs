@@ -6,7 +6,9 @@
 //! under a second name until every rename is done, so a failure at any
 //! point puts back every file and removes every folder it made.
 
+use super::folder::Folder;
 use super::read::{ReadError, check_output_target};
+use std::ffi::OsString;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -20,12 +22,7 @@ static TEMPORARIES: AtomicU64 = AtomicU64::new(0);
 /// A new temporary name for writing `path` (same folder, hidden), unique in
 /// this process and, by its process id, among processes.
 pub fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let n = TEMPORARIES.fetch_add(1, Ordering::Relaxed);
-    path.with_file_name(format!(".{name}{TEMP_MARK}{}-{n}.tmp", std::process::id()))
+    path.with_file_name(temp_name(path.file_name().unwrap_or_default()))
 }
 
 /// The process id of a temporary file of uvpin's (`.NAME.uvpin-PID-N.tmp`,
@@ -115,37 +112,86 @@ pub fn check_distinct<'a>(paths: impl IntoIterator<Item = &'a Path>) -> Result<(
     Ok(())
 }
 
+/// Where staged files may be written.
+#[derive(Debug, Clone, Default)]
+pub enum WriteScope {
+    /// Anywhere the user can write (the command line).
+    #[default]
+    Anywhere,
+    /// Only into these folders and below, as they really are when opened
+    /// (the daemon: its output folder, or the watched folders in place). A
+    /// folder swapped for a link to elsewhere is refused; one swapped after
+    /// it was opened keeps receiving the files (they go through its handle).
+    Within(std::sync::Arc<Vec<PathBuf>>),
+}
+
+impl WriteScope {
+    /// The scope of `folders`.
+    pub fn within(folders: impl IntoIterator<Item = PathBuf>) -> Self {
+        WriteScope::Within(std::sync::Arc::new(folders.into_iter().map(|f| lexical(&f)).collect()))
+    }
+
+    /// Whether the folder really at `real` lies in the scope.
+    fn allows(&self, real: &Path) -> bool {
+        match self {
+            WriteScope::Anywhere => true,
+            WriteScope::Within(roots) => roots
+                .iter()
+                .any(|r| real.starts_with(r.canonicalize().unwrap_or_else(|_| r.clone()))),
+        }
+    }
+}
+
+/// Whether a commit may make the folders its files go in.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Folders {
+    /// Missing folders are made (and removed again if the commit fails).
+    #[default]
+    Make,
+    /// Every folder must exist already: writing in place never brings back
+    /// a folder that was moved away while a solve ran.
+    MustExist,
+}
+
 /// Files to replace together, renamed into place in the order they were added.
 #[derive(Debug, Default)]
 pub struct Staged {
     files: Vec<(PathBuf, Vec<u8>)>,
     /// Removed once every file is in place (an earlier output's buffer).
     obsolete: Vec<PathBuf>,
+    scope: WriteScope,
+    folders: Folders,
 }
+
+/// A file in a held folder: the folder and the name.
+type Entry = (std::sync::Arc<Folder>, OsString);
 
 /// What a commit has done so far, to be undone on failure: folders made,
 /// temporary files written, old files kept aside, new files renamed in.
 #[derive(Debug, Default)]
 struct Progress {
     folders: Vec<PathBuf>,
-    temps: Vec<PathBuf>,
-    /// Per renamed target: where its old file is kept, if it had one.
-    renamed: Vec<(PathBuf, Option<PathBuf>)>,
+    temps: Vec<Entry>,
+    /// Per renamed target: its folder and name, and the old file's second
+    /// name, if it had one.
+    renamed: Vec<(Entry, Option<OsString>)>,
 }
 
 impl Progress {
     /// Puts every old file back, removes every new one, every temporary
     /// file and every folder made (last made first).
     fn undo(self) {
-        for (path, kept) in self.renamed.iter().rev() {
-            match kept {
-                Some(old) => drop(std::fs::rename(old, path)),
-                None => drop(std::fs::remove_file(path)),
-            }
+        for ((folder, name), kept) in self.renamed.iter().rev() {
+            let _ = match kept {
+                Some(old) => folder.rename(old, name),
+                None => folder.remove(name),
+            };
         }
-        self.temps.iter().for_each(|t| drop(std::fs::remove_file(t)));
-        for folder in self.folders.iter().rev() {
-            let _ = std::fs::remove_dir(folder);
+        for (folder, tmp) in &self.temps {
+            let _ = folder.remove(tmp);
+        }
+        for made in self.folders.iter().rev() {
+            let _ = std::fs::remove_dir(made);
         }
     }
 
@@ -168,6 +214,20 @@ impl Staged {
         Staged::default()
     }
 
+    /// These files, written only within `scope`.
+    #[must_use]
+    pub fn within(mut self, scope: WriteScope) -> Self {
+        self.scope = scope;
+        self
+    }
+
+    /// These files, making missing folders or not.
+    #[must_use]
+    pub fn folders(mut self, folders: Folders) -> Self {
+        self.folders = folders;
+        self
+    }
+
     /// Adds `bytes` to be written as `path`.
     pub fn add(&mut self, path: impl Into<PathBuf>, bytes: Vec<u8>) {
         self.files.push((path.into(), bytes));
@@ -188,25 +248,39 @@ impl Staged {
         self.files.iter().map(|(p, _)| p.as_path())
     }
 
-    /// Writes every file: all to temporary files (fsynced) first, then
-    /// renames them into place in order, each old file kept aside (a second
-    /// hard link) until all are in place, then removes the obsolete files.
+    /// Writes every file: all to temporary files (fsynced) in their folders,
+    /// held open and checked against the scope, then renames them into
+    /// place in order through those handles, each old file kept aside (a
+    /// second name) until all are in place, then removes the obsolete files.
     ///
     /// # Errors
     /// Two files naming one; a target that is not a regular file (a device,
-    /// a FIFO, a folder); a folder that cannot be made; a file that cannot be
-    /// written or renamed. Then every target and folder is as it was.
+    /// a FIFO, a folder); a folder outside the scope, or that cannot be
+    /// made; a file that cannot be written or renamed. Then every target
+    /// and folder is as it was.
     pub fn commit(self) -> Result<(), WriteError> {
+        self.commit_with(|| {})
+    }
+
+    /// [`Staged::commit`], calling `between` after the temporary files are
+    /// written and before the renames (where a test swaps folders).
+    fn commit_with(self, between: impl FnOnce()) -> Result<(), WriteError> {
         check_distinct(self.paths())?;
         for (path, _) in &self.files {
             check_output_target(path)
                 .map_err(|e: ReadError| WriteError::new(path, format!("refusing to replace it: {e}")))?;
         }
         let mut progress = Progress::default();
-        match self.write_all(&mut progress) {
+        let written = self.write_temps(&mut progress).and_then(|held| {
+            between();
+            self.rename_all(&held, &mut progress)
+        });
+        match written {
             Ok(()) => {
-                for kept in progress.renamed.iter().filter_map(|(_, kept)| kept.as_ref()) {
-                    let _ = std::fs::remove_file(kept);
+                for ((folder, _), kept) in &progress.renamed {
+                    if let Some(k) = kept {
+                        let _ = folder.remove(k);
+                    }
                 }
                 for old in &self.obsolete {
                     let _ = std::fs::remove_file(old);
@@ -220,47 +294,64 @@ impl Staged {
         }
     }
 
-    /// The temporary files, then the renames, noting each step in `progress`.
-    fn write_all(&self, progress: &mut Progress) -> Result<(), WriteError> {
+    /// Each file to a new temporary file in its folder (made if missing,
+    /// opened, checked against the scope); the folders and names to rename.
+    fn write_temps(&self, progress: &mut Progress) -> Result<Vec<Entry>, WriteError> {
+        let mut held = Vec::with_capacity(self.files.len());
         for (path, bytes) in &self.files {
+            let fail = |e: &dyn std::fmt::Display| WriteError::new(path, e);
+            let name = path.file_name().ok_or_else(|| fail(&"not a file name"))?.to_os_string();
             let parent = path.parent().unwrap_or(Path::new(""));
-            progress.make_folders(parent).map_err(|e| WriteError::new(path, e))?;
-            let tmp = temp_path(path);
-            progress.temps.push(tmp.clone());
-            write_temp(&tmp, bytes).map_err(|e| WriteError::new(path, e))?;
+            if self.folders == Folders::Make {
+                progress.make_folders(parent).map_err(|e| fail(&e))?;
+            }
+            let folder = std::sync::Arc::new(Folder::open(parent).map_err(|e| fail(&e))?);
+            if !self.scope.allows(&folder.real) {
+                let why = format!(
+                    "its folder is {}, outside the folders uvpin may write",
+                    folder.real.display()
+                );
+                return Err(fail(&why));
+            }
+            let tmp = temp_name(&name);
+            let mut file = folder.create_new(&tmp).map_err(|e| fail(&e))?;
+            progress.temps.push((folder.clone(), tmp));
+            file.write_all(bytes)
+                .and_then(|()| file.sync_all())
+                .map_err(|e| fail(&e))?;
+            held.push((folder, name));
         }
-        // The temporary files stay listed: an undo removes those not renamed.
-        let temps = progress.temps.clone();
-        for ((path, _), tmp) in self.files.iter().zip(&temps) {
-            let kept = keep_aside(path).map_err(|e| WriteError::new(path, e))?;
-            if let Err(e) = std::fs::rename(tmp, path) {
-                kept.iter().for_each(|k| drop(std::fs::remove_file(k)));
+        Ok(held)
+    }
+
+    /// Renames each temporary file over its target, the old file kept aside.
+    fn rename_all(&self, held: &[Entry], progress: &mut Progress) -> Result<(), WriteError> {
+        let temps: Vec<OsString> = progress.temps.iter().map(|(_, t)| t.clone()).collect();
+        for (((folder, name), tmp), (path, _)) in held.iter().zip(&temps).zip(&self.files) {
+            let kept = if folder.has(name) {
+                let k = temp_name(name);
+                folder.keep_as(name, &k).map_err(|e| WriteError::new(path, e))?;
+                Some(k)
+            } else {
+                None
+            };
+            if let Err(e) = folder.rename(tmp, name) {
+                if let Some(k) = &kept {
+                    let _ = folder.remove(k);
+                }
                 return Err(WriteError::new(path, e));
             }
-            progress.renamed.push((path.clone(), kept));
+            progress.renamed.push(((folder.clone(), name.clone()), kept));
         }
         Ok(())
     }
 }
 
-/// A second name for `path`'s current file (a hard link, else a copy), so a
-/// failed commit can put it back; `None` when there is no file yet.
-fn keep_aside(path: &Path) -> std::io::Result<Option<PathBuf>> {
-    if std::fs::symlink_metadata(path).is_err() {
-        return Ok(None);
-    }
-    let kept = temp_path(path);
-    if std::fs::hard_link(path, &kept).is_err() {
-        std::fs::copy(path, &kept)?;
-    }
-    Ok(Some(kept))
-}
-
-/// Writes `bytes` to the new file `tmp` and flushes it to disk.
-fn write_temp(tmp: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(tmp)?;
-    f.write_all(bytes)?;
-    f.sync_all()
+/// A new temporary name beside the file `name` (see [`temp_path`]).
+fn temp_name(name: &std::ffi::OsStr) -> OsString {
+    let n = TEMPORARIES.fetch_add(1, Ordering::Relaxed);
+    let name = name.to_string_lossy();
+    OsString::from(format!(".{name}{TEMP_MARK}{}-{n}.tmp", std::process::id()))
 }
 
 /// Writes `bytes` to `path` atomically (temp file + fsync + rename),
@@ -327,6 +418,38 @@ mod tests {
     }
 
     #[test]
+    fn a_folder_swapped_for_a_link_mid_commit_keeps_the_files_inside() {
+        let root = std::env::temp_dir().join(format!("uvpin-staged-swap-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(root.join("watched/sub")).unwrap();
+        std::fs::create_dir_all(root.join("outside")).unwrap();
+        let scope = WriteScope::within([root.join("watched")]);
+        // Swapped after the folder was opened and checked: the files go
+        // through the held folder, wherever its path now leads.
+        let mut s = Staged::new().within(scope.clone());
+        s.add(root.join("watched/sub/a.glb"), b"model".to_vec());
+        s.add(root.join("watched/sub/a.json"), b"report".to_vec());
+        s.commit_with(|| {
+            std::fs::rename(root.join("watched/sub"), root.join("watched/moved")).unwrap();
+            std::os::unix::fs::symlink(root.join("outside"), root.join("watched/sub")).unwrap();
+        })
+        .unwrap();
+        assert_eq!(
+            std::fs::read_dir(root.join("outside")).unwrap().count(),
+            0,
+            "nothing written outside"
+        );
+        assert_eq!(std::fs::read(root.join("watched/moved/a.glb")).unwrap(), b"model");
+        // Swapped before: refused, nothing written anywhere.
+        let mut s = Staged::new().within(scope);
+        s.add(root.join("watched/sub/b.glb"), b"model".to_vec());
+        let e = s.commit().unwrap_err();
+        assert!(e.message.contains("outside the folders uvpin may write"), "{e}");
+        assert_eq!(std::fs::read_dir(root.join("outside")).unwrap().count(), 0);
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    #[test]
     fn two_outputs_naming_one_file_write_nothing() {
         let dir = std::env::temp_dir().join(format!("uvpin-staged-same-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
@@ -380,15 +503,8 @@ mod tests {
         let mut s = Staged::new();
         s.add(dir.join("a.glb"), b"new a".to_vec());
         s.add(dir.join("d.glb"), b"d".to_vec());
-        let mut progress = Progress::default();
-        std::fs::create_dir_all(dir.join("d.glb/inside")).unwrap();
-        assert!(s.write_all(&mut progress).is_err());
-        assert_eq!(
-            std::fs::read(dir.join("a.glb")).unwrap(),
-            b"new a",
-            "renamed before the failure"
-        );
-        progress.undo();
+        let result = s.commit_with(|| std::fs::create_dir_all(dir.join("d.glb/inside")).unwrap());
+        assert!(result.is_err());
         std::fs::remove_dir_all(dir.join("d.glb")).unwrap();
         assert_eq!(snapshot(&dir), before);
         let _ = std::fs::remove_dir_all(&dir);

@@ -2,6 +2,7 @@
 //! and OBJ, and writing a UV set back with nothing else changed.
 
 pub mod atomic;
+pub mod folder;
 pub mod glb;
 pub mod gltf_file;
 pub mod obj;

@@ -63,12 +63,14 @@ impl ReadScope {
 
     /// Whether `path` (resolved) lies inside the scope.
     pub fn allows(&self, path: &Path) -> bool {
+        self.allows_real(&path.canonicalize().unwrap_or_else(|_| path.to_path_buf()))
+    }
+
+    /// Whether the already resolved path `real` lies inside the scope.
+    pub fn allows_real(&self, real: &Path) -> bool {
         match self {
             ReadScope::Anywhere => true,
-            ReadScope::Within(folders) => {
-                let resolved = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
-                folders.iter().any(|f| resolved.starts_with(f))
-            }
+            ReadScope::Within(folders) => folders.iter().any(|f| real.starts_with(f)),
         }
     }
 }
@@ -136,6 +138,15 @@ pub fn read_regular(path: &Path, limit: u64, scope: &ReadScope) -> Result<Vec<u8
     let meta = file.metadata()?;
     if !meta.is_file() {
         return Err(ReadError::NotRegular { kind: kind_of(&meta) });
+    }
+    // The file opened may not be the one checked (swapped for a link in
+    // between): where the open handle really is decides, before a byte is read.
+    if let ReadScope::Within(_) = scope {
+        use std::os::fd::AsRawFd;
+        let opened = std::fs::read_link(format!("/proc/self/fd/{}", file.as_raw_fd()));
+        if opened.is_ok_and(|real| !scope.allows_real(&real)) {
+            return Err(ReadError::OutsideScope);
+        }
     }
     if meta.len() > limit {
         return Err(ReadError::TooLarge {

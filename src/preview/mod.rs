@@ -155,7 +155,8 @@ fn background(
     (texture::base_colour_texture(asset), None)
 }
 
-/// Draws and writes the pictures `pictures` asks for (see [`render_chart`]).
+/// Draws and writes the pictures `pictures` asks for (see [`render_chart`]),
+/// only within `scope`, making missing folders as `folders` says.
 ///
 /// # Errors
 /// A picture that cannot be encoded or written (message).
@@ -166,8 +167,9 @@ pub fn draw_chart(
     layout: &[DVec2],
     report: &crate::report::Report,
     pictures: &Pictures,
+    (scope, folders): (&crate::io::atomic::WriteScope, crate::io::atomic::Folders),
 ) -> Result<(), String> {
-    let mut staged = crate::io::atomic::Staged::new();
+    let mut staged = crate::io::atomic::Staged::new().within(scope.clone()).folders(folders);
     for (path, png) in render_chart(asset, prepared, outer_loop, layout, report, pictures)? {
         staged.add(path, png);
     }
