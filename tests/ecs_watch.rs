@@ -51,6 +51,7 @@ impl Fixture {
                 output: OutputMode::Folder(root.parent().unwrap().join("out")),
                 rules: FileRules {
                     constraint_suffix: ".uvpin.ron".into(),
+                    own: Vec::new(),
                 },
                 defaults: uvpin::options::SolverOptions::DEFAULT,
                 cwd: root.parent().unwrap().to_path_buf(),

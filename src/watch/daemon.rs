@@ -142,8 +142,10 @@ pub fn run(options: WatchOptions) -> anyhow::Result<Outcome> {
         .and_then(|d| d.canonicalize())
         .context("cannot read the working directory")?;
     let config = &options.config;
+    let status_path = normalize(&config.status_path(), &cwd);
     let rules = FileRules {
         constraint_suffix: config.constraint_suffix.clone(),
+        own: vec![status_path.clone()],
     };
     let roots = roots(config, &rules, &cwd);
     if roots.is_empty() {
@@ -151,7 +153,6 @@ pub fn run(options: WatchOptions) -> anyhow::Result<Outcome> {
     }
     check_sizes(config)?;
     let logger = Logger { format: config.log };
-    let status_path = normalize(&config.status_path(), &cwd);
     remove_stale_temporaries(config, &roots, &cwd, &logger);
     let mut world = World::new();
     init_watch_world(

@@ -28,6 +28,10 @@ pub enum FileEvent {
 pub struct FileRules {
     /// Constraint files end with this (e.g. ".uvpin.ron").
     pub constraint_suffix: String,
+    /// Files the daemon writes itself and never reads as input, whatever
+    /// their names (its status file, even one named like a constraint file
+    /// inside a watched folder); absolute and normalised.
+    pub own: Vec<PathBuf>,
 }
 
 /// Extensions of files an asset may consist of.
@@ -40,7 +44,15 @@ impl FileRules {
         let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
             return false;
         };
-        !name.starts_with('.') && name.ends_with(&self.constraint_suffix) && name.len() > self.constraint_suffix.len()
+        !self.is_own(path)
+            && !name.starts_with('.')
+            && name.ends_with(&self.constraint_suffix)
+            && name.len() > self.constraint_suffix.len()
+    }
+
+    /// Whether `path` is one of the daemon's own files.
+    fn is_own(&self, path: &Path) -> bool {
+        self.own.iter().any(|own| own == path)
     }
 
     /// Whether `path` may be (part of) an asset.
@@ -50,6 +62,7 @@ impl FileRules {
             .and_then(|n| n.to_str())
             .is_none_or(|n| n.starts_with('.'));
         !hidden
+            && !self.is_own(path)
             && path
                 .extension()
                 .and_then(|e| e.to_str())
@@ -104,7 +117,20 @@ mod tests {
     fn rules() -> FileRules {
         FileRules {
             constraint_suffix: ".uvpin.ron".into(),
+            own: vec![PathBuf::from("/w/a/status.uvpin.ron")],
         }
+    }
+
+    #[test]
+    fn the_daemons_own_status_file_is_never_input_whatever_its_name() {
+        let r = rules();
+        assert!(!r.is_constraint_file(Path::new("/w/a/status.uvpin.ron")));
+        assert!(r.is_constraint_file(Path::new("/w/a/head.uvpin.ron")));
+        let kind = EventKind::Modify(ModifyKind::Data(DataChange::Any));
+        assert!(
+            r.classify(&kind, &[PathBuf::from("/w/a/status.uvpin.ron")], false)
+                .is_empty()
+        );
     }
 
     #[test]
