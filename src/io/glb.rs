@@ -26,11 +26,14 @@ pub enum GlbError {
     NoJson,
 }
 
-/// The two chunks of a GLB file.
+/// The chunks of a GLB file: JSON, BIN, and any others (extensions'
+/// chunks: kept as read and written back after BIN).
 #[derive(Debug, Clone)]
 pub struct Glb<'a> {
     pub json: &'a [u8],
     pub bin: Option<&'a [u8]>,
+    /// Every other chunk, in file order: its type and data.
+    pub others: Vec<(u32, &'a [u8])>,
 }
 
 fn u32_at(b: &[u8], at: usize) -> Option<u32> {
@@ -82,16 +85,30 @@ pub fn parse(bytes: &[u8]) -> Result<Glb<'_>, GlbError> {
         Some((CHUNK_JSON, data)) => *data,
         _ => return Err(GlbError::NoJson),
     };
-    let bin = chunks.iter().skip(1).find(|(k, _)| *k == CHUNK_BIN).map(|(_, d)| *d);
-    Ok(Glb { json, bin })
+    let bin_at = chunks.iter().skip(1).position(|(k, _)| *k == CHUNK_BIN).map(|k| k + 1);
+    let bin = bin_at.map(|k| chunks[k].1);
+    let others = chunks
+        .iter()
+        .enumerate()
+        .skip(1)
+        .filter(|(k, _)| Some(*k) != bin_at)
+        .map(|(_, c)| *c)
+        .collect();
+    Ok(Glb { json, bin, others })
 }
 
 /// Builds a GLB file: JSON chunk padded with spaces, BIN chunk with zeros.
 pub fn build(json: &[u8], bin: Option<&[u8]>) -> Vec<u8> {
+    build_with(json, bin, &[])
+}
+
+/// [`build`], then `others` (type, data), each padded with zeros.
+pub fn build_with(json: &[u8], bin: Option<&[u8]>, others: &[(u32, Vec<u8>)]) -> Vec<u8> {
     let pad = |n: usize| (4 - n % 4) % 4;
     let json_len = json.len() + pad(json.len());
     let bin_len = bin.map(|b| b.len() + pad(b.len()));
-    let total = 12 + 8 + json_len + bin_len.map_or(0, |l| 8 + l);
+    let others_len: usize = others.iter().map(|(_, d)| 8 + d.len() + pad(d.len())).sum();
+    let total = 12 + 8 + json_len + bin_len.map_or(0, |l| 8 + l) + others_len;
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&2u32.to_le_bytes());
@@ -105,6 +122,12 @@ pub fn build(json: &[u8], bin: Option<&[u8]>) -> Vec<u8> {
         out.extend_from_slice(&CHUNK_BIN.to_le_bytes());
         out.extend_from_slice(b);
         out.resize(out.len() + pad(b.len()), 0);
+    }
+    for (kind, data) in others {
+        out.extend_from_slice(&((data.len() + pad(data.len())) as u32).to_le_bytes());
+        out.extend_from_slice(&kind.to_le_bytes());
+        out.extend_from_slice(data);
+        out.resize(out.len() + pad(data.len()), 0);
     }
     out
 }
@@ -128,5 +151,16 @@ mod tests {
         bad[12] = 0xFF; // JSON chunk length far too large
         assert!(matches!(parse(&bad), Err(GlbError::BadChunkLength { index: 0, .. })));
         assert!(matches!(parse(b"glTF"), Err(GlbError::Truncated { .. })));
+    }
+
+    #[test]
+    fn other_chunks_are_kept_in_order() {
+        let others = vec![(0x1234_5678, vec![9u8; 5]), (0x0000_0042, vec![7u8; 8])];
+        let file = build_with(b"{}", Some(&[1, 2, 3, 4]), &others);
+        let g = parse(&file).unwrap();
+        assert_eq!(g.bin.unwrap(), &[1, 2, 3, 4]);
+        assert_eq!(g.others.len(), 2);
+        assert_eq!((g.others[0].0, &g.others[0].1[..5]), (0x1234_5678, &[9u8; 5][..]));
+        assert_eq!(g.others[1], (0x42, &[7u8; 8][..]));
     }
 }

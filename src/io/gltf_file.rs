@@ -24,13 +24,17 @@ pub(super) fn load(
 ) -> Result<SourceAsset, AssetError> {
     let p = || path.to_path_buf();
     let invalid = |message: String| AssetError::Gltf { path: p(), message };
-    let (json_bytes, bin) = if format == AssetFormat::Glb || bytes.starts_with(b"glTF") {
+    let (json_bytes, bin, others) = if format == AssetFormat::Glb || bytes.starts_with(b"glTF") {
         let g = glb::parse(bytes).map_err(|source| AssetError::Glb { path: p(), source })?;
-        (g.json.to_vec(), g.bin.map(|b| b.to_vec()))
+        let others = g.others.iter().map(|&(k, d)| (k, d.to_vec())).collect();
+        (g.json.to_vec(), g.bin.map(|b| b.to_vec()), others)
     } else {
-        (bytes.to_vec(), None)
+        (bytes.to_vec(), None, Vec::new())
     };
     let json: Value = serde_json::from_slice(&json_bytes).map_err(|e| invalid(format!("JSON: {e}")))?;
+    if let Some(why) = super::validate::duplicate_key(&json_bytes) {
+        return Err(invalid(format!("JSON: {why}")));
+    }
     super::validate::validate(&json, &rules.limits, bin.is_some()).map_err(invalid)?;
     let buffers = load_buffers(path, &json, bin.as_deref(), rules)?;
     // The checks above cover what the reader indexes; a panic in the gltf
@@ -53,7 +57,7 @@ pub(super) fn load(
         mesh_name,
         primitives,
         uv_set,
-        container: Container::Gltf { json, bin },
+        container: Container::Gltf { json, bin, others },
         n_meshes,
         rules: rules.clone(),
         decoded_texture: super::TextureCache::default(),
@@ -434,7 +438,10 @@ pub fn stage_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) ->
         path: out.to_path_buf(),
         message,
     };
-    let Container::Gltf { json: original, bin } = &asset.container else {
+    let Container::Gltf {
+        json: original, bin, ..
+    } = &asset.container
+    else {
         return Err(werr("not a glTF asset".into()));
     };
     // GLB bytes under a .gltf name are a GLB: a .gltf could not name its
@@ -566,8 +573,12 @@ fn stage_glb(
     append_uvs(&mut json, asset, uvs, 0, &mut blob);
     json["buffers"][0]["byteLength"] = json!(blob.len());
     let text = serde_json::to_vec(&json).map_err(|e| werr(e.to_string()))?;
+    let others = match &asset.container {
+        Container::Gltf { others, .. } => others.as_slice(),
+        Container::Obj { .. } => &[],
+    };
     let mut staged = Staged::new();
-    staged.add(out, glb::build(&text, Some(&blob)));
+    staged.add(out, glb::build_with(&text, Some(&blob), others));
     Ok(staged)
 }
 

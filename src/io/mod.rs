@@ -99,6 +99,8 @@ pub enum Container {
         json: serde_json::Value,
         /// The GLB BIN chunk.
         bin: Option<Vec<u8>>,
+        /// The GLB's other chunks (type, data), written back as read.
+        others: Vec<(u32, Vec<u8>)>,
     },
     Obj {
         /// The file as read: lines uvpin does not change are written back
@@ -254,6 +256,7 @@ impl SourceAsset {
             container: Container::Gltf {
                 json: serde_json::Value::Null,
                 bin: None,
+                others: Vec::new(),
             },
             n_meshes: 1,
             rules: InputRules::default(),

@@ -14,7 +14,7 @@ pub fn base_colour_texture(asset: &SourceAsset) -> Option<std::sync::Arc<image::
 }
 
 fn decode(asset: &SourceAsset) -> Option<image::RgbaImage> {
-    let Container::Gltf { json, bin } = &asset.container else {
+    let Container::Gltf { json, bin, .. } = &asset.container else {
         return None;
     };
     let mesh = json.get("meshes")?.get(asset.mesh_index)?;
