@@ -455,6 +455,47 @@ fn output_path_combinations_write_all_or_nothing() {
     );
 }
 
+/// A GLB's JSON and chunks come back as read: integers past 64 bits exact,
+/// chunks of extensions kept; a key given twice (which could not be kept)
+/// is an error that names it.
+fn gltf_json_and_chunks_are_kept_as_read() {
+    let tmp = TempDir::new("h-kept");
+    let (mut json, bin) = grid_document();
+    json["meshes"][0]["extras"] = serde_json::from_str(r#"{"id": 18446744073709551617, "scale": 1.5e-7}"#).unwrap();
+    let text = serde_json::to_vec(&json).unwrap();
+    let custom = (0x5858_5858u32, b"custom chunk".to_vec());
+    std::fs::write(
+        tmp.path("grid.glb"),
+        uvpin::io::glb::build_with(&text, Some(&bin), std::slice::from_ref(&custom)),
+    )
+    .unwrap();
+    write_constraints(&tmp.path("c.uvpin.ron"), Path::new("grid.glb"), &[(14, 0.45, 0.55)], "");
+    let o = uvpin_limited(&["solve", "c.uvpin.ron", "-o", "out.glb"], &tmp.0);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let written = std::fs::read(tmp.path("out.glb")).unwrap();
+    let glb = uvpin::io::glb::parse(&written).unwrap();
+    let out_text = String::from_utf8_lossy(glb.json);
+    assert!(
+        out_text.contains("18446744073709551617") && out_text.contains("1.5e-7"),
+        "{out_text}"
+    );
+    assert_eq!(
+        glb.others,
+        vec![(custom.0, &custom.1[..])],
+        "the extension's chunk is kept"
+    );
+    // The same key twice in one object.
+    let text = String::from_utf8(text)
+        .unwrap()
+        .replacen("\"extras\":{", "\"extras\":{\"dup\":1,\"dup\":2,", 1);
+    std::fs::write(tmp.path("grid.glb"), uvpin::io::glb::build(text.as_bytes(), Some(&bin))).unwrap();
+    let before = snapshot(&tmp.0);
+    let o = uvpin_limited(&["solve", "c.uvpin.ron", "-o", "out.glb"], &tmp.0);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("\"dup\" appears twice"), "{}", stderr(&o));
+    assert_eq!(snapshot(&tmp.0), before);
+}
+
 fn gltf_outputs_name_their_buffer_and_glb_outputs_are_complete() {
     // .gltf twice: one content-named buffer remains, the one the .gltf names.
     let tmp = TempDir::new("h-gltf-bin");
@@ -973,6 +1014,11 @@ fn main() -> std::process::ExitCode {
             fifos_and_devices_are_refused_at_once,
         ),
         ("exit_1_writes_nothing", &[], exit_1_writes_nothing),
+        (
+            "gltf_json_and_chunks_are_kept_as_read",
+            &[],
+            gltf_json_and_chunks_are_kept_as_read,
+        ),
         (
             "swaps_under_a_running_daemon_never_reach_outside",
             &[],

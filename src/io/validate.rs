@@ -447,3 +447,87 @@ mod tests {
         assert!(p.contains("non-negative integer"), "{p}");
     }
 }
+
+/// Why `json` (a glTF JSON text) cannot be kept as read, if so: an object
+/// that names one key twice (a JSON value model keeps only one of them, so
+/// the file could not be written back as it was). The message has the line
+/// and column.
+pub fn duplicate_key(json: &[u8]) -> Option<String> {
+    serde_json::from_slice::<NoDuplicates>(json)
+        .err()
+        .map(|e| e.to_string())
+}
+
+/// A JSON value checked for objects with a key given twice.
+struct NoDuplicates;
+
+impl<'de> serde::Deserialize<'de> for NoDuplicates {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(NoDuplicatesVisitor)
+    }
+}
+
+struct NoDuplicatesVisitor;
+
+impl<'de> serde::de::Visitor<'de> for NoDuplicatesVisitor {
+    type Value = NoDuplicates;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a JSON value")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<NoDuplicates, A::Error> {
+        let mut seen = std::collections::HashSet::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if !seen.insert(key.clone()) {
+                return Err(serde::de::Error::custom(format!(
+                    "the key {key:?} appears twice in one object (only one could be kept)"
+                )));
+            }
+            map.next_value::<NoDuplicates>()?;
+        }
+        Ok(NoDuplicates)
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<NoDuplicates, A::Error> {
+        while seq.next_element::<NoDuplicates>()?.is_some() {}
+        Ok(NoDuplicates)
+    }
+
+    fn visit_bool<E>(self, _: bool) -> Result<NoDuplicates, E> {
+        Ok(NoDuplicates)
+    }
+
+    fn visit_i64<E>(self, _: i64) -> Result<NoDuplicates, E> {
+        Ok(NoDuplicates)
+    }
+
+    fn visit_u64<E>(self, _: u64) -> Result<NoDuplicates, E> {
+        Ok(NoDuplicates)
+    }
+
+    fn visit_f64<E>(self, _: f64) -> Result<NoDuplicates, E> {
+        Ok(NoDuplicates)
+    }
+
+    fn visit_str<E>(self, _: &str) -> Result<NoDuplicates, E> {
+        Ok(NoDuplicates)
+    }
+
+    fn visit_unit<E>(self) -> Result<NoDuplicates, E> {
+        Ok(NoDuplicates)
+    }
+}
+
+#[cfg(test)]
+mod duplicate_tests {
+    #[test]
+    fn a_key_given_twice_is_named_with_its_place() {
+        assert_eq!(
+            super::duplicate_key(br#"{"a": [1, {"b": 2, "c": 3}], "d": 12345678901234567890123}"#),
+            None
+        );
+        let e = super::duplicate_key(b"{\"a\": 1,\n \"m\": {\"x\": 1, \"x\": 2}}").unwrap();
+        assert!(e.contains("\"x\" appears twice") && e.contains("line 2"), "{e}");
+    }
+}
