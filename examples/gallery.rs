@@ -45,10 +45,8 @@ fn main() {
             size: SIZE,
             background: background.clone(),
         };
-        let anywhere = uvpin::io::atomic::WriteScope::Anywhere;
-        let folders = uvpin::io::atomic::Folders::Make;
-        uvpin::preview::draw_chart(&asset, data, boundary, layout, report, &pictures, (&anywhere, folders))
-            .expect("pictures");
+        let writing = uvpin::io::atomic::Writing::default();
+        uvpin::preview::draw_chart(&asset, data, boundary, layout, report, &pictures, &writing).expect("pictures");
     };
     draw(step1, &before, "before");
     draw(layout, report, "after");

@@ -210,3 +210,12 @@ pub fn inside_out_loops(mesh: &TriMesh, layout: &[glam::DVec2]) -> usize {
         .filter(|(k, lp)| (area(lp) > 0.0) != (*k == topology.outer))
         .count()
 }
+
+/// A fresh, empty folder for one unit test, `uvpin-NAME-PID` under the
+/// system's temporary folder (an earlier run's is removed first).
+pub fn fresh_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("uvpin-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("a temporary folder");
+    dir
+}

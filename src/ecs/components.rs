@@ -24,10 +24,8 @@ pub struct SolveJob {
     /// Output file; `None` solves without writing.
     pub output: Option<PathBuf>,
     /// Where the output and its pictures may be written (the daemon's
-    /// output folder, or the watched folders in place).
-    pub write_scope: crate::io::atomic::WriteScope,
-    /// Whether missing folders are made for the output (not in place).
-    pub folders: crate::io::atomic::Folders,
+    /// output folder, or the watched folders in place, without making folders).
+    pub writing: crate::io::atomic::Writing,
 }
 
 impl SolveJob {
@@ -38,16 +36,14 @@ impl SolveJob {
             source: ConstraintSource::File(Arc::new(loaded)),
             asset,
             output,
-            write_scope: crate::io::atomic::WriteScope::Anywhere,
-            folders: crate::io::atomic::Folders::Make,
+            writing: crate::io::atomic::Writing::default(),
         }
     }
 
-    /// This job, writing only within `scope`, making missing folders or not.
+    /// This job, written as `writing` allows.
     #[must_use]
-    pub fn writing_within(mut self, scope: crate::io::atomic::WriteScope, folders: crate::io::atomic::Folders) -> Self {
-        self.write_scope = scope;
-        self.folders = folders;
+    pub fn writing(mut self, writing: crate::io::atomic::Writing) -> Self {
+        self.writing = writing;
         self
     }
 }

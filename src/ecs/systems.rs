@@ -190,7 +190,7 @@ pub fn export_layout(
         let mut report = finished.0.clone();
         let (layout, output, guard) = (solver.0.layout(), job.output.as_deref(), job.options.guard);
         let staged = crate::export::stage_chart(&job.asset, &data.0, layout, &mut report, output, guard);
-        let staged = staged.within(job.write_scope.clone()).folders(job.folders);
+        let staged = staged.writing(job.writing.clone());
         crate::export::commit(staged, &mut report);
         report.times.export_ms = times.0.export_ms + ms(t0);
         report.total_ms = report.times.total_ms();
@@ -224,7 +224,7 @@ pub fn draw_previews(
             solver.0.layout(),
             &exported.0,
             &request.0,
-            (&job.write_scope, job.folders),
+            &job.writing,
         ) {
             exported.0.warnings.push(format!("preview: {e}"));
         }

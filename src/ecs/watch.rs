@@ -259,14 +259,20 @@ fn set_missing(world: &mut World, asset: &Path, missing: bool) {
     }
 }
 
-/// Where the daemon may write: its output folder, or in place the watched
-/// folders (as they are when each write opens its folder).
-fn write_scope(settings: &WatchSettings) -> crate::io::atomic::WriteScope {
+/// Where the daemon may write: its output folder (folders made as needed),
+/// or in place the watched folders (as they are when each write opens its
+/// folder; never made: a folder moved away mid-solve does not come back).
+fn writing(settings: &WatchSettings) -> crate::io::atomic::Writing {
+    use crate::io::atomic::{Folders, WriteScope, Writing};
     match &settings.output {
-        OutputMode::Folder(dir) => crate::io::atomic::WriteScope::within([settings.cwd.join(dir)]),
-        OutputMode::InPlace => {
-            crate::io::atomic::WriteScope::within(settings.roots.iter().map(|r| r.folder().to_path_buf()))
-        }
+        OutputMode::Folder(dir) => Writing {
+            scope: WriteScope::within([settings.cwd.join(dir)]),
+            folders: Folders::Make,
+        },
+        OutputMode::InPlace => Writing {
+            scope: WriteScope::within(settings.roots.iter().map(|r| r.folder().to_path_buf())),
+            folders: Folders::MustExist,
+        },
     }
 }
 
@@ -445,11 +451,7 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
         return fail(world, entity, e);
     }
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let folders = match settings.output {
-        OutputMode::Folder(_) => crate::io::atomic::Folders::Make,
-        OutputMode::InPlace => crate::io::atomic::Folders::MustExist,
-    };
-    let job = SolveJob::from_file(loaded, asset, Some(output)).writing_within(write_scope(settings), folders);
+    let job = SolveJob::from_file(loaded, asset, Some(output)).writing(writing(settings));
     if let Err(e) = restart_solve(world, settings, entity, job, load_ms) {
         fail(world, entity, e);
     }

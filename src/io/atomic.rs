@@ -7,6 +7,7 @@
 //! point puts back every file and removes every folder it made.
 
 use super::folder::Folder;
+use super::paths::absolute;
 use super::read::{ReadError, check_output_target};
 use std::ffi::OsString;
 use std::io::Write;
@@ -65,23 +66,6 @@ impl WriteError {
     }
 }
 
-/// `path` made absolute and with `.` and `..` taken out by name, for telling
-/// whether two outputs name one file.
-pub(crate) fn lexical(path: &Path) -> PathBuf {
-    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    let mut out = PathBuf::new();
-    for c in absolute.components() {
-        match c {
-            std::path::Component::CurDir => {}
-            std::path::Component::ParentDir => {
-                out.pop();
-            }
-            c => out.push(c),
-        }
-    }
-    out
-}
-
 /// Whether two existing paths are one file (the same device and inode).
 fn same_file(a: &Path, b: &Path) -> bool {
     use std::os::unix::fs::MetadataExt;
@@ -99,7 +83,10 @@ fn same_file(a: &Path, b: &Path) -> bool {
 pub fn check_distinct<'a>(paths: impl IntoIterator<Item = &'a Path>) -> Result<(), WriteError> {
     let paths: Vec<&Path> = paths.into_iter().collect();
     for (k, b) in paths.iter().enumerate() {
-        if let Some(a) = paths[..k].iter().find(|a| lexical(a) == lexical(b) || same_file(a, b)) {
+        if let Some(a) = paths[..k]
+            .iter()
+            .find(|a| absolute(a) == absolute(b) || same_file(a, b))
+        {
             return Err(WriteError::new(
                 b,
                 format!(
@@ -128,7 +115,7 @@ pub enum WriteScope {
 impl WriteScope {
     /// The scope of `folders`.
     pub fn within(folders: impl IntoIterator<Item = PathBuf>) -> Self {
-        WriteScope::Within(std::sync::Arc::new(folders.into_iter().map(|f| lexical(&f)).collect()))
+        WriteScope::Within(std::sync::Arc::new(folders.into_iter().map(|f| absolute(&f)).collect()))
     }
 
     /// Whether the folder really at `real` lies in the scope.
@@ -153,14 +140,20 @@ pub enum Folders {
     MustExist,
 }
 
+/// Where a commit may write, and whether it may make folders.
+#[derive(Debug, Clone, Default)]
+pub struct Writing {
+    pub scope: WriteScope,
+    pub folders: Folders,
+}
+
 /// Files to replace together, renamed into place in the order they were added.
 #[derive(Debug, Default)]
 pub struct Staged {
     files: Vec<(PathBuf, Vec<u8>)>,
     /// Removed once every file is in place (an earlier output's buffer).
     obsolete: Vec<PathBuf>,
-    scope: WriteScope,
-    folders: Folders,
+    writing: Writing,
 }
 
 /// A file in a held folder: the folder and the name.
@@ -214,18 +207,20 @@ impl Staged {
         Staged::default()
     }
 
-    /// These files, written only within `scope`.
+    /// These files, written as `writing` allows.
     #[must_use]
-    pub fn within(mut self, scope: WriteScope) -> Self {
-        self.scope = scope;
+    pub fn writing(mut self, writing: Writing) -> Self {
+        self.writing = writing;
         self
     }
 
-    /// These files, making missing folders or not.
+    /// These files, written only within `scope` (folders made as needed).
     #[must_use]
-    pub fn folders(mut self, folders: Folders) -> Self {
-        self.folders = folders;
-        self
+    pub fn within(self, scope: WriteScope) -> Self {
+        self.writing(Writing {
+            scope,
+            folders: Folders::Make,
+        })
     }
 
     /// Adds `bytes` to be written as `path`.
@@ -302,11 +297,11 @@ impl Staged {
             let fail = |e: &dyn std::fmt::Display| WriteError::new(path, e);
             let name = path.file_name().ok_or_else(|| fail(&"not a file name"))?.to_os_string();
             let parent = path.parent().unwrap_or(Path::new(""));
-            if self.folders == Folders::Make {
+            if self.writing.folders == Folders::Make {
                 progress.make_folders(parent).map_err(|e| fail(&e))?;
             }
             let folder = std::sync::Arc::new(Folder::open(parent).map_err(|e| fail(&e))?);
-            if !self.scope.allows(&folder.real) {
+            if !self.writing.scope.allows(&folder.real) {
                 let why = format!(
                     "its folder is {}, outside the folders uvpin may write",
                     folder.real.display()
@@ -371,9 +366,7 @@ mod tests {
 
     #[test]
     fn staged_files_are_all_written_or_none() {
-        let dir = std::env::temp_dir().join(format!("uvpin-staged-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::fresh_dir("staged");
         std::fs::write(dir.join("a.glb"), b"old").unwrap();
         let mut s = Staged::new();
         s.add(dir.join("a.glb"), b"new".to_vec());
@@ -419,8 +412,7 @@ mod tests {
 
     #[test]
     fn a_folder_swapped_for_a_link_mid_commit_keeps_the_files_inside() {
-        let root = std::env::temp_dir().join(format!("uvpin-staged-swap-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&root);
+        let root = crate::testing::fresh_dir("staged-swap");
         std::fs::create_dir_all(root.join("watched/sub")).unwrap();
         std::fs::create_dir_all(root.join("outside")).unwrap();
         let scope = WriteScope::within([root.join("watched")]);
@@ -451,9 +443,7 @@ mod tests {
 
     #[test]
     fn two_outputs_naming_one_file_write_nothing() {
-        let dir = std::env::temp_dir().join(format!("uvpin-staged-same-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::fresh_dir("staged-same");
         std::fs::write(dir.join("out.glb"), b"old").unwrap();
         let before = snapshot(&dir);
         for second in [dir.join("out.glb"), dir.join("new/../out.glb"), dir.join("./out.glb")] {
@@ -480,9 +470,7 @@ mod tests {
 
     #[test]
     fn a_failure_after_some_renames_puts_every_file_and_folder_back() {
-        let dir = std::env::temp_dir().join(format!("uvpin-staged-undo-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::fresh_dir("staged-undo");
         std::fs::write(dir.join("a.glb"), b"old a").unwrap();
         std::fs::write(dir.join("blocker"), b"a file where a folder should be").unwrap();
         let before = snapshot(&dir);

@@ -355,21 +355,7 @@ fn absolute_dir(p: &Path) -> PathBuf {
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    let dir = atomic::lexical(dir);
-    let mut missing = Vec::new();
-    let mut existing = dir.as_path();
-    loop {
-        if let Ok(real) = std::fs::canonicalize(existing) {
-            return missing.iter().rev().fold(real, |acc, name| acc.join(name));
-        }
-        match (existing.file_name(), existing.parent()) {
-            (Some(name), Some(parent)) => {
-                missing.push(name.to_os_string());
-                existing = parent;
-            }
-            _ => return dir,
-        }
-    }
+    super::paths::absolute(dir)
 }
 
 fn f32_bytes(uvs: &[[f32; 2]]) -> Vec<u8> {

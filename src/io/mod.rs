@@ -6,6 +6,7 @@ pub mod folder;
 pub mod glb;
 pub mod gltf_file;
 pub mod obj;
+pub mod paths;
 pub mod read;
 pub mod validate;
 

@@ -156,7 +156,7 @@ fn background(
 }
 
 /// Draws and writes the pictures `pictures` asks for (see [`render_chart`]),
-/// only within `scope`, making missing folders as `folders` says.
+/// as `writing` allows.
 ///
 /// # Errors
 /// A picture that cannot be encoded or written (message).
@@ -167,9 +167,9 @@ pub fn draw_chart(
     layout: &[DVec2],
     report: &crate::report::Report,
     pictures: &Pictures,
-    (scope, folders): (&crate::io::atomic::WriteScope, crate::io::atomic::Folders),
+    writing: &crate::io::atomic::Writing,
 ) -> Result<(), String> {
-    let mut staged = crate::io::atomic::Staged::new().within(scope.clone()).folders(folders);
+    let mut staged = crate::io::atomic::Staged::new().writing(writing.clone());
     for (path, png) in render_chart(asset, prepared, outer_loop, layout, report, pictures)? {
         staged.add(path, png);
     }

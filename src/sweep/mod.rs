@@ -590,7 +590,7 @@ fn expand_files(sweep: &SweepFile, sweep_path: &Path, base: &Path) -> Result<Vec
 /// The output folder, relative to the working folder where it is inside it.
 fn output_folder(base: &Path, output: &Path) -> PathBuf {
     let cwd = std::env::current_dir().unwrap_or_default();
-    let output = crate::watch::registry::normalize(&base.join(output), &cwd);
+    let output = crate::io::paths::normalize(&base.join(output), &cwd);
     output.strip_prefix(&cwd).map(Path::to_path_buf).unwrap_or(output)
 }
 

@@ -7,7 +7,7 @@ use crate::constraints::MeshSelector;
 use crate::io::{InputRules, ReadError, ReadScope, SourceAsset};
 use std::collections::HashMap;
 use std::hash::Hasher;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// A content hash (64-bit, for change detection only).
@@ -18,43 +18,7 @@ pub fn content_hash(bytes: &[u8]) -> u64 {
     h.finish()
 }
 
-/// `path` made absolute and free of `.`/`..`: canonical if it exists,
-/// lexically cleaned otherwise.
-pub fn normalize(path: &Path, cwd: &Path) -> PathBuf {
-    if let Ok(p) = path.canonicalize() {
-        return p;
-    }
-    let absolute = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        cwd.join(path)
-    };
-    let mut out = PathBuf::new();
-    for c in absolute.components() {
-        match c {
-            Component::CurDir => {}
-            Component::ParentDir => {
-                out.pop();
-            }
-            c => out.push(c),
-        }
-    }
-    // The longest existing prefix canonical, so paths compare equal to notify's.
-    let mut existing = out.clone();
-    let mut rest = Vec::new();
-    while !existing.exists() {
-        match existing.file_name() {
-            Some(name) => rest.push(name.to_os_string()),
-            None => return out,
-        }
-        if !existing.pop() {
-            return out;
-        }
-    }
-    let mut p = existing.canonicalize().unwrap_or(existing);
-    p.extend(rest.iter().rev());
-    p
-}
+pub use crate::io::paths::normalize;
 
 /// A path as shown in logs and the status file: relative to `cwd` when
 /// inside it, control characters (a newline in a file name) escaped so a
