@@ -136,8 +136,7 @@ mod tests {
 
     #[test]
     fn a_held_folder_keeps_its_files_when_its_path_is_swapped_for_a_link() {
-        let root = std::env::temp_dir().join(format!("uvpin-folder-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&root);
+        let root = crate::testing::fresh_dir("folder");
         std::fs::create_dir_all(root.join("inside")).unwrap();
         std::fs::create_dir_all(root.join("outside")).unwrap();
         let folder = Folder::open(&root.join("inside")).unwrap();

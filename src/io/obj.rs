@@ -191,10 +191,12 @@ pub fn with_tex_coords(bytes: &[u8], vt: &[[f32; 2]]) -> Vec<u8> {
             Some("v") => {
                 out.extend_from_slice(line);
                 // A last line without an ending gets one before its `vt`.
-                let ending: &[u8] = if ending.is_empty() { b"\n" } else { ending };
-                if ending != split_ending(line).1 {
-                    out.extend_from_slice(ending);
-                }
+                let ending: &[u8] = if ending.is_empty() {
+                    out.push(b'\n');
+                    b"\n"
+                } else {
+                    ending
+                };
                 if let Some(t) = vt.get(n_v as usize) {
                     out.extend_from_slice(format!("vt {} {}", t[0], t[1]).as_bytes());
                     out.extend_from_slice(ending);

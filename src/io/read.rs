@@ -185,11 +185,11 @@ mod tests {
 
     #[test]
     fn a_limit_of_u64_max_reads_the_whole_file() {
-        let path = std::env::temp_dir().join(format!("uvpin-read-max-{}", std::process::id()));
-        std::fs::write(&path, b"twelve bytes").unwrap();
-        let bytes = read_regular(&path, u64::MAX, &ReadScope::Anywhere).unwrap();
+        let dir = crate::testing::fresh_dir("read-max");
+        std::fs::write(dir.join("f"), b"twelve bytes").unwrap();
+        let bytes = read_regular(&dir.join("f"), u64::MAX, &ReadScope::Anywhere).unwrap();
         assert_eq!(bytes, b"twelve bytes");
-        std::fs::remove_file(&path).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

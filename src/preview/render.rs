@@ -9,6 +9,11 @@ use image::{Rgba, RgbaImage};
 /// Checker squares per texture side.
 pub const CHECKER_SQUARES: f64 = 10.0;
 
+/// The white margin around the mesh in a render of `size`, pixels.
+fn margin(size: u32) -> f64 {
+    f64::from(size) * 0.05
+}
+
 /// A landmark marked on the render: its chart vertex and number.
 #[derive(Debug, Clone, Copy)]
 pub struct RenderMark {
@@ -81,7 +86,7 @@ pub fn render_captioned(scene: &RenderScene, size: u32, caption: &super::caption
             text::Ink::dark(scale),
         );
     }
-    let margin = f64::from(size) * 0.05;
+    let margin = margin(size);
     super::caption::draw_title(&mut image, caption, margin as f32);
     let what = if scene.texture.is_some() {
         "texture through the UVs"
@@ -123,7 +128,7 @@ fn rasterise(scene: &RenderScene, size: u32, bands: (f64, f64)) -> (RgbaImage, V
             hi = hi.max(p);
         }
     }
-    let margin = size as f64 * 0.05;
+    let margin = margin(size);
     let extent = (hi - lo).max_element().max(1e-12);
     let room = (size as f64 - 2.0 * margin - bands.0 - bands.1).max(1.0);
     let scale = room / extent;

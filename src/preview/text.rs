@@ -10,7 +10,7 @@ pub const GLYPH: u32 = 8;
 /// Text scale for a picture of `size` pixels a side: 1 up to 767 px, 2 up
 /// to 1279, then 3 and at most 4, so a line stays about 1/60 of the picture.
 pub fn scale_for(size: u32) -> u32 {
-    (size / 512).clamp(1, 4).max(1)
+    (size / 512).clamp(1, 4)
 }
 
 /// Height of one line of text at `scale`, its spacing included.
