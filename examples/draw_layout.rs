@@ -16,6 +16,7 @@ use std::path::Path;
 use std::sync::Arc;
 use uvpin::constraints::{BoundaryChoice, ConstraintSource};
 use uvpin::options::SolverOptions;
+use uvpin::session::{ChartSession, Solution};
 
 const SIZE: f64 = 460.0;
 const MARGIN: f64 = 30.0;
@@ -104,14 +105,16 @@ fn panel(
 }
 
 /// Solves `ron` with its boundary setting replaced by `boundary` (if given).
-fn solve(ron: &Path, boundary: Option<BoundaryChoice>) -> uvpin::api::SolvedChart {
+fn solve(ron: &Path, boundary: Option<BoundaryChoice>) -> (ChartSession, Solution) {
     let (mut loaded, asset) = uvpin::load(ron, &SolverOptions::DEFAULT, &Default::default()).expect("load");
     if boundary.is_some() {
         loaded.file.boundary = boundary;
     }
     let options = loaded.solver;
     let source = ConstraintSource::File(Arc::new(loaded));
-    uvpin::api::solve_chart(&source, &asset, &options).expect("solve")
+    let mut session = ChartSession::open(source, Arc::new(asset), 0.0).expect("open");
+    let solved = session.solve(&options).expect("solve");
+    (session, solved)
 }
 
 /// The final layout's panel title.
@@ -132,9 +135,9 @@ fn compare(ron: &Path) -> String {
         .into_iter()
         .enumerate()
     {
-        let solved = solve(ron, Some(boundary));
+        let (session, solved) = solve(ron, Some(boundary));
         let layout = solved.solver.layout();
-        let data = &solved.prepared;
+        let data = session.prepared();
         let outer = data.topology.outer_loop().to_vec();
         let marks: Vec<(DVec2, DVec2, bool)> = solved
             .report
@@ -174,12 +177,12 @@ fn main() {
         println!("wrote {}", out.display());
         return;
     }
-    let solved = solve(ron, None);
+    let (session, solved) = solve(ron, None);
     let report = &solved.report;
-    let data = &solved.prepared;
-    let step1 = &solved.step1.layout;
+    let data = session.prepared();
+    let step1 = session.step_one_layout().expect("step 1");
     let layout = solved.solver.layout();
-    let boundary = &solved.step1.boundary.loop_vertices;
+    let boundary = &session.boundary().expect("step 1").loop_vertices;
     let targets: Vec<(DVec2, DVec2, bool)> = report
         .constraints
         .iter()

@@ -26,12 +26,14 @@ fn main() {
     let source = ConstraintSource::File(Arc::new(loaded));
     // The pictures show the layout over the file's guide image.
     let background = source.image_path();
-    let solved = uvpin::api::solve_chart(&source, &asset, &options).expect("solve");
+    let asset = Arc::new(asset);
+    let mut session = uvpin::session::ChartSession::open(source, asset.clone(), 0.0).expect("open");
+    let solved = session.solve(&options).expect("solve");
     let report = &solved.report;
-    let data = &solved.prepared;
-    let step1 = &solved.step1.layout;
+    let data = session.prepared();
+    let step1 = session.step_one_layout().expect("step 1");
     let layout = solved.solver.layout();
-    let boundary = &solved.step1.boundary.loop_vertices;
+    let boundary = &session.boundary().expect("step 1").loop_vertices;
     // Before: the constraints where step 1 put them, none on target yet.
     let mut before = report.clone();
     for c in &mut before.constraints {

@@ -20,7 +20,7 @@ use std::sync::Arc;
 ///
 /// The geometry (weld, chart, topology, trap candidates, hole fill) is shared
 /// behind `Arc`s, so a constraint edit on the same asset reuses it
-/// ([`prepare_reusing`]).
+/// ([`PreparedChart::retargeted`]).
 pub struct PreparedChart {
     pub welded: Arc<WeldedMesh>,
     pub chart: Arc<Chart>,
@@ -45,25 +45,29 @@ pub struct PreparedChart {
 /// constraints in several charts, corners outside the chart, topology
 /// errors of the chart (closed, non-manifold, not a disk).
 pub fn prepare(source: &ConstraintSource, asset: &SourceAsset) -> Result<PreparedChart, Error> {
-    prepare_reusing(source, asset, None)
+    prepare_on(source, asset, Arc::new(weld(&asset.primitives)), None)
 }
 
-/// As [`prepare`], reusing the geometry of `previous`, a chart prepared from
-/// the same asset content, mesh and UV set: its weld always, and its chart,
-/// topology, trap candidates and hole fill when the constraints fall in the
-/// same chart. Only the constraints and corners are resolved again.
-///
-/// # Errors
-/// As [`prepare`].
-pub fn prepare_reusing(
+impl PreparedChart {
+    /// The same asset's chart for new constraints `source`: this weld, and
+    /// this chart's topology, trap candidates and hole fill when the
+    /// constraints fall in the same chart (shared, see
+    /// [`Self::same_geometry`]); only the constraints and corners are
+    /// resolved again.
+    ///
+    /// # Errors
+    /// As [`prepare`].
+    pub fn retargeted(&self, source: &ConstraintSource, asset: &SourceAsset) -> Result<PreparedChart, Error> {
+        prepare_on(source, asset, self.welded.clone(), Some(self))
+    }
+}
+
+fn prepare_on(
     source: &ConstraintSource,
     asset: &SourceAsset,
+    welded: Arc<WeldedMesh>,
     previous: Option<&PreparedChart>,
 ) -> Result<PreparedChart, Error> {
-    let welded = match previous {
-        Some(p) => p.welded.clone(),
-        None => Arc::new(weld(&asset.primitives)),
-    };
     let (constraints, welded_corners) = source.resolve(&asset.primitives, &welded)?;
     let chart_id = choose_chart(&constraints, &welded, source, asset)?;
     let geometry = match previous.filter(|p| p.chart.id == chart_id) {
@@ -193,12 +197,6 @@ impl PreparedChart {
     /// bar-net factor and step-1 layout apply here too).
     pub fn same_geometry(&self, other: &PreparedChart) -> bool {
         Arc::ptr_eq(&self.filled, &other.filled)
-    }
-
-    /// Whether `other`'s step 1 (boundary map, factor, layout) is this
-    /// chart's too: the same geometry and the same corners.
-    pub fn same_step1(&self, other: &PreparedChart) -> bool {
-        self.same_geometry(other) && self.corners == other.corners
     }
 }
 

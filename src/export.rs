@@ -5,12 +5,89 @@
 
 use crate::chart::{self, PreparedChart};
 use crate::io::SourceAsset;
-use crate::io::atomic::Staged;
+use crate::io::atomic::{Staged, Writing};
 use crate::io::gltf_file::StoredUvs;
 use crate::options::Guard;
 use crate::report::{Report, Status};
 use glam::DVec2;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What a finished solve writes, all in one commit: the asset with its new
+/// UV set, the JSON report and the pictures, each only when named.
+#[derive(Debug, Clone, Default)]
+pub struct Outputs {
+    /// The asset with the new UVs (`None`: not written).
+    pub model: Option<PathBuf>,
+    /// The JSON report (`None`: not written).
+    pub report: Option<PathBuf>,
+    /// The pictures to draw (none by default); without a `background`
+    /// they are drawn over the constraint file's `image:`.
+    #[cfg(feature = "pictures")]
+    pub pictures: crate::preview::Pictures,
+    /// Where the files may be written, and whether folders may be made.
+    pub writing: Writing,
+    /// What is written when the layout is refused.
+    pub on_error: OnError,
+}
+
+/// What [`export`] writes when the layout is refused or the model cannot
+/// be written.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum OnError {
+    /// Nothing: every named output (report, pictures) stays as it was, as the
+    /// command line promises for exit code 1.
+    #[default]
+    WriteNothing,
+    /// The pictures, which show what failed (a sweep's thumbnails of the
+    /// paper guard's folds, the daemon's pictures of a refused layout).
+    DrawPictures,
+}
+
+/// The finished layout of a chart, and what to say about it.
+#[derive(Debug, Clone, Copy)]
+pub struct Finished<'a> {
+    pub asset: &'a SourceAsset,
+    pub prepared: &'a PreparedChart,
+    /// The outer loop (chart-local ids), drawn on the layout picture.
+    pub outer_loop: &'a [u32],
+    /// The final layout of the filled chart (layout coordinates).
+    pub layout: &'a [DVec2],
+    /// The guard that accepted it (named when a folded layout is refused).
+    pub guard: Guard,
+}
+
+/// Checks the layout as stored, then writes every output `outputs` names
+/// in one commit (all or none); the final report. A refused layout writes
+/// nothing (or only the pictures, as `outputs.on_error` says).
+pub fn export(finished: &Finished, report: &Report, outputs: &Outputs) -> Report {
+    let t0 = Instant::now();
+    let mut report = report.clone();
+    let (asset, prepared, layout) = (finished.asset, finished.prepared, finished.layout);
+    let model = outputs.model.as_deref();
+    let mut staged = stage_chart(asset, prepared, layout, &mut report, model, finished.guard);
+    staged = staged.writing(outputs.writing.clone());
+    report.times.export_ms += t0.elapsed().as_secs_f64() * 1e3;
+    report.total_ms = report.times.total_ms();
+    let refused = report.status == Status::Error;
+    if refused && outputs.on_error == OnError::WriteNothing {
+        return report;
+    }
+    #[cfg(feature = "pictures")]
+    {
+        let pictures = &outputs.pictures;
+        match crate::preview::render_chart(asset, prepared, finished.outer_loop, layout, &report, pictures) {
+            Ok(pictures) => pictures.into_iter().for_each(|(path, png)| staged.add(path, png)),
+            Err(e) => report.warnings.push(format!("preview: {e}")),
+        }
+    }
+    if let Some(path) = outputs.report.as_ref().filter(|_| !refused) {
+        let json = serde_json::to_string_pretty(&report).expect("the report serialises");
+        staged.add(path.clone(), format!("{json}\n").into_bytes());
+    }
+    commit(staged, &mut report);
+    report
+}
 
 /// Marks `report` as an error: nothing is written.
 pub fn refuse(report: &mut Report, message: String) {

@@ -57,6 +57,7 @@ pub mod preview;
 pub mod rbf;
 pub mod report;
 pub mod ron_file;
+pub mod session;
 mod simd;
 pub mod solver;
 pub mod sparse;

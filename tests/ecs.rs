@@ -33,12 +33,13 @@ fn a_tick_advances_each_stage_in_order() {
         "(asset: \"m\", constraints: [(vertex: 40, uv: (0.35, 0.62))])",
     );
     let mut schedule = solve_schedule();
-    assert!(world.get::<BoundaryLayout>(e).is_none());
+    let session = |world: &World| world.get::<Session>(e).unwrap().0.clone();
+    assert!(session(&world).boundary().is_none());
     schedule.run(&mut world);
     // One tick: boundary → factor → step 1 → stepping set up → one proposal → guard.
-    assert!(world.get::<BoundaryLayout>(e).is_some());
-    assert!(world.get::<BarNetFactor>(e).is_some());
-    assert!(world.get::<Step1Layout>(e).is_some());
+    assert!(session(&world).boundary().is_some());
+    assert!(session(&world).bar_net().is_some());
+    assert!(session(&world).step_one_layout().is_some());
     assert!(world.get::<Solver>(e).is_some());
     let ticks = run_to_convergence(&mut world, &mut schedule, 1000);
     assert!(ticks < 1000);
@@ -46,7 +47,7 @@ fn a_tick_advances_each_stage_in_order() {
     assert_eq!(report.status, uvpin::Status::Reached);
     assert!(uvpin::guard::all_positive(
         world.get::<Solver>(e).unwrap().0.layout(),
-        &world.get::<ChartData>(e).unwrap().0.filled.mesh.triangles
+        &world.get::<Session>(e).unwrap().0.prepared().filled.mesh.triangles
     ));
 }
 
@@ -58,19 +59,21 @@ fn a_new_boundary_re_solves_without_refactoring() {
     let e = spawn_mesh(&mut world, "(asset: \"m\", constraints: [])", false);
     let mut schedule = solve_schedule();
     run_to_convergence(&mut world, &mut schedule, 100);
-    let factor = Arc::clone(&world.get::<BarNetFactor>(e).unwrap().0);
-    let first = world.get::<Step1Layout>(e).unwrap().0.clone();
+    let session = |world: &World| world.get::<Session>(e).unwrap().0.clone();
+    let factor = Arc::clone(session(&world).bar_net().unwrap());
+    let first = session(&world).step_one_layout().unwrap().to_vec();
     // Rotate the corners one step along the loop: same fixed set, new positions.
-    let mut boundary = world.get::<BoundaryLayout>(e).unwrap().0.clone();
+    let mut boundary = session(&world).boundary().unwrap().clone();
     let n = boundary.loop_vertices.len();
     boundary.positions.rotate_right(n / 4);
-    world.entity_mut(e).insert(BoundaryLayout(boundary));
+    world.get_mut::<Session>(e).unwrap().0.replace_boundary(boundary);
     run_to_convergence(&mut world, &mut schedule, 100);
     assert!(
-        Arc::ptr_eq(&factor, &world.get::<BarNetFactor>(e).unwrap().0),
+        Arc::ptr_eq(&factor, session(&world).bar_net().unwrap()),
         "the factorisation must be reused"
     );
-    let second = &world.get::<Step1Layout>(e).unwrap().0;
+    let after = session(&world);
+    let second = after.step_one_layout().unwrap();
     assert!(
         first.iter().zip(second).any(|(a, b)| a.distance(*b) > 1e-3),
         "the layout must change"

@@ -99,15 +99,15 @@ impl Fixture {
     }
 
     fn factor(&self) -> Arc<uvpin::param::bar_net::BarNet> {
-        self.world.get::<BarNetFactor>(self.entity()).expect("factor").0.clone()
+        self.session().bar_net().expect("factor").clone()
     }
 
     fn newton_pattern(&self) -> Arc<PendingNewtonPattern> {
-        self.world
-            .get::<NewtonPatternSlot>(self.entity())
-            .expect("Newton pattern slot")
-            .0
-            .clone()
+        self.session().pattern().expect("Newton pattern").clone()
+    }
+
+    fn session(&self) -> uvpin::session::ChartSession {
+        self.world.get::<Session>(self.entity()).expect("session").0.clone()
     }
 
     fn report(&self) -> uvpin::report::Report {
@@ -127,7 +127,7 @@ fn a_constraint_edit_re_solves_from_the_cached_step1_layout_without_refactoring(
     assert!(first.times.factor_ms > 0.0);
     let factor = f.factor();
     let newton = f.newton_pattern();
-    let step1 = f.world.get::<Step1Layout>(f.entity()).unwrap().0.clone();
+    let step1 = f.session().step_one_layout().unwrap().to_vec();
 
     f.write(0.53, "");
     let ron = f.ron();
@@ -145,7 +145,7 @@ fn a_constraint_edit_re_solves_from_the_cached_step1_layout_without_refactoring(
     assert_eq!(second.times.factor_ms, 0.0);
     assert_eq!(second.times.boundary_ms, 0.0);
     assert_eq!(second.times.solve_ms, 0.0, "step 1 was solved again");
-    assert_eq!(f.world.get::<Step1Layout>(f.entity()).unwrap().0, step1);
+    assert_eq!(f.session().step_one_layout().unwrap(), step1);
     let c = f.counters();
     assert_eq!((c.solves_started, c.geometry_reused, c.step1_reused), (2, 1, 1));
 

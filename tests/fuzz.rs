@@ -330,7 +330,11 @@ fn run_case(dir: &Path, case: &Case) {
     };
     let options = loaded.solver;
     let source = uvpin::constraints::ConstraintSource::File(Arc::new(loaded));
-    let Ok(solved) = uvpin::api::solve_chart(&source, &asset, &options) else {
+    let asset = Arc::new(asset);
+    let Ok(mut session) = uvpin::session::ChartSession::open(source, asset.clone(), 0.0) else {
+        return;
+    };
+    let Ok(solved) = session.solve(&options) else {
         return;
     };
     let ext = match case.kind {
@@ -339,16 +343,16 @@ fn run_case(dir: &Path, case: &Case) {
         _ => "glb",
     };
     let out = dir.join(format!("out.{ext}"));
-    let in_chart = chart_membership(&solved, &asset);
-    let report = solved.export(&asset, &uvpin::Options::from(options).with_output(&out));
+    let in_chart = chart_membership(session.prepared(), &asset);
+    let outputs = uvpin::Options::from(options).with_output(&out).outputs();
+    let report = session.export(&solved.solver, &solved.report, &outputs);
     if report.status != uvpin::Status::Error {
         assert_written_fold_free(&out, &asset, &in_chart);
     }
 }
 
 /// Per primitive and vertex, whether it is in the solved chart.
-fn chart_membership(solved: &uvpin::api::SolvedChart, asset: &uvpin::io::SourceAsset) -> Vec<Vec<bool>> {
-    let p = &solved.prepared;
+fn chart_membership(p: &uvpin::chart::PreparedChart, asset: &uvpin::io::SourceAsset) -> Vec<Vec<bool>> {
     asset
         .primitives
         .iter()

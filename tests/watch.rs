@@ -53,6 +53,69 @@ fn assert_output(out: &Path, s: f64) {
     }
 }
 
+/// The outputs below `dir` (not the status file) with their bytes; with
+/// `hidden`, uvpin's temporaries too.
+fn output_files(dir: &Path, hidden: bool) -> Vec<(PathBuf, Vec<u8>)> {
+    snapshot(dir)
+        .into_iter()
+        .filter(|(p, _)| {
+            let name = p.file_name().unwrap().to_string_lossy();
+            name != "uvpin-status.json" && (hidden || !name.starts_with('.'))
+        })
+        .collect()
+}
+
+#[test]
+fn a_daemon_killed_between_staging_and_renaming_leaves_the_old_set_and_the_next_run_writes_the_new() {
+    let dir = TempDir::new("watch-killed-mid-commit");
+    let ron = make_assets(&dir.0);
+    let out_dir = dir.path("out");
+    // The second commit writing grid.glb stops once its temporaries are
+    // written, before any rename (a test hook), where it is killed.
+    let hook = [("UVPIN_TEST_HALT_BEFORE_RENAMES", "grid.glb:2")];
+    let mut d = Daemon::watch_with_env(&dir.0, &[], &hook);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    let old = output_files(&out_dir, false);
+    let names: Vec<String> = old
+        .iter()
+        .map(|(p, _)| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["grid.glb", "grid.render.png", "grid.uv.png"], "{}", d.dump());
+    std::fs::write(&ron, constraint_text(0.02)).unwrap();
+    d.wait_count("halted_before_renames", "grid.glb", 1);
+    d.child.kill().unwrap();
+    d.child.wait().unwrap();
+    // The model and both pictures as they were; their new versions only as temporaries.
+    assert_eq!(
+        output_files(&out_dir, false),
+        old,
+        "a killed commit changed the outputs"
+    );
+    let all = output_files(&out_dir, true);
+    assert_eq!(
+        all.len() - old.len(),
+        3,
+        "{:?}",
+        all.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    // The next run clears them and writes the new set, all of it.
+    let d = Daemon::watch(&dir.0, &[]);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    let cleanup = d.log().into_iter().find(|l| l["event"] == "cleanup");
+    assert_eq!(cleanup.map(|l| l["removed"].clone()), Some(3.into()), "{}", d.dump());
+    assert_output(&out_dir.join("grid.glb"), 0.02);
+    let new = output_files(&out_dir, true);
+    assert_eq!(
+        new.len(),
+        3,
+        "temporaries left: {:?}",
+        new.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    for ((path, before), (_, after)) in old.iter().zip(&new) {
+        assert_ne!(before, after, "{} was not rewritten", path.display());
+    }
+}
+
 #[test]
 fn every_editor_save_pattern_gives_exactly_one_solve_of_the_final_content() {
     let dir = TempDir::new("watch-saves");

@@ -1,14 +1,12 @@
 //! Components of a chart entity (nouns).
 
-use crate::chart::PreparedChart;
-use crate::complete::pattern::PendingNewtonPattern;
 use crate::constraints::{ConstraintSource, LoadedConstraints};
 use crate::error::Error;
+use crate::export::Outputs;
 use crate::io::SourceAsset;
 use crate::options::SolverOptions;
-use crate::param::bar_net::BarNet;
-use crate::param::boundary::BoundaryMap;
-use crate::report::{Report, StageTimes};
+use crate::report::Report;
+use crate::session::ChartSession;
 use crate::solver::ChartSolver;
 use bevy_ecs::prelude::*;
 use glam::DVec2;
@@ -21,68 +19,52 @@ pub struct SolveJob {
     pub source: ConstraintSource,
     pub options: SolverOptions,
     pub asset: Arc<SourceAsset>,
-    /// Output file; `None` solves without writing.
-    pub output: Option<PathBuf>,
-    /// Where the output and its pictures may be written (the daemon's
-    /// output folder, or the watched folders in place, without making folders).
-    pub writing: crate::io::atomic::Writing,
+    /// What the solve writes (nothing by default), in one commit.
+    pub outputs: Outputs,
 }
 
 impl SolveJob {
-    /// The job of a loaded constraint file (its solver options in force).
+    /// The job of a loaded constraint file (its solver options in force),
+    /// writing the asset to `output` if given.
     pub fn from_file(loaded: LoadedConstraints, asset: Arc<SourceAsset>, output: Option<PathBuf>) -> Self {
         SolveJob {
             options: loaded.solver,
             source: ConstraintSource::File(Arc::new(loaded)),
             asset,
-            output,
-            writing: crate::io::atomic::Writing::default(),
+            outputs: Outputs {
+                model: output,
+                ..Outputs::default()
+            },
         }
     }
 
-    /// This job, written as `writing` allows.
+    /// This job, writing `outputs`.
     #[must_use]
-    pub fn writing(mut self, writing: crate::io::atomic::Writing) -> Self {
-        self.writing = writing;
+    pub fn writing(mut self, outputs: Outputs) -> Self {
+        self.outputs = outputs;
         self
+    }
+
+    /// The asset file this job writes, if any.
+    pub fn output(&self) -> Option<&std::path::Path> {
+        self.outputs.model.as_deref()
     }
 }
 
-/// The solved chart's mesh, topology, hole fill and constraints.
+/// The chart's session: its prepared chart, step 1 (boundary map, bar-net
+/// factor, layout) and Newton pattern, kept across constraint edits.
 #[derive(Component, Debug, Clone)]
-pub struct ChartData(pub Arc<PreparedChart>);
-
-/// The outer loop on the square (§III.B).
-#[derive(Component, Debug, Clone)]
-pub struct BoundaryLayout(pub BoundaryMap);
-
-/// The factored bar-net matrix D of Eq. 1, kept for re-solves.
-#[derive(Component, Debug, Clone)]
-pub struct BarNetFactor(pub Arc<BarNet>);
-
-/// The step-1 layout (filled chart, layout coordinates).
-#[derive(Component, Debug, Clone)]
-pub struct Step1Layout(pub Vec<DVec2>);
+pub struct Session(pub ChartSession);
 
 /// The chart's solve from its step-1 layout: the spline path, completion
-/// and polish, and the current (always fold-free) layout.
+/// and polish, and the current (always fold-free) layout; with the
+/// session revision it started from.
 #[derive(Component, Debug, Clone)]
-pub struct Solver(pub ChartSolver);
-
-/// The completion's Newton pattern (sparsity, symbolic factorisation,
-/// Hessian slots) for this chart's free set. It depends only on the mesh and
-/// the free set, so it is kept across constraint edits of the same geometry.
-#[derive(Component, Debug, Clone)]
-pub struct NewtonPatternSlot(pub Arc<PendingNewtonPattern>);
+pub struct Solver(pub ChartSolver, pub u64);
 
 /// A proposed layout waiting for the guard.
 #[derive(Component, Debug, Clone)]
 pub struct Candidate(pub Vec<DVec2>);
-
-/// Time spent per stage on this chart outside the solver (loading,
-/// topology, step 1, export).
-#[derive(Component, Debug, Clone, Default)]
-pub struct Timings(pub StageTimes);
 
 /// The solve is over; its report (not yet written).
 #[derive(Component, Debug, Clone)]
@@ -95,8 +77,3 @@ pub struct Exported(pub Report);
 /// An input error found while solving; nothing is written.
 #[derive(Component, Debug, Clone)]
 pub struct Failed(pub Arc<Error>);
-
-/// Pictures to draw once the solve is exported (see [`crate::preview`]).
-#[cfg(feature = "pictures")]
-#[derive(Component, Debug, Clone, Default)]
-pub struct PreviewRequest(pub crate::preview::Pictures);

@@ -1,10 +1,11 @@
-//! The ECS layer: each solved chart is an entity; its mesh, boundary,
-//! factorisation, step-1 layout and solver are components; each system is a
-//! thin adapter around one core function. One `Schedule::run` is one tick:
+//! The ECS layer: each solved chart is an entity holding its chart session
+//! ([`crate::session::ChartSession`]: mesh, boundary, factorisation, step-1
+//! layout) and its solver; each system is a thin adapter around one session
+//! or solver method. One `Schedule::run` is one tick:
 //!
 //! `map_boundary → factor_bar_net → solve_force_density → start_stepping →
 //! step_constraints → guard_foldovers → complete_constraints → finish_solve →
-//! export_layout → draw_previews`
+//! export_layout`
 //!
 //! A tick advances every chart by at most one proposal or Newton step
 //! ([`crate::solver::ChartSolver::tick`]), so the daemon can run the same
@@ -59,29 +60,17 @@ pub fn solve_schedule() -> Schedule {
             .chain()
             .in_set(SolveSystems::Export),
     ));
-    #[cfg(feature = "pictures")]
-    schedule.add_systems(
-        systems::draw_previews
-            .after(systems::export_layout)
-            .in_set(SolveSystems::Export),
-    );
     schedule
 }
 
-/// Prepares the chart of `job` (weld, chart, topology, hole fill) and spawns
-/// its entity into `world`; `load_ms` is the time spent loading it.
+/// Opens the chart session of `job` (weld, chart, topology, hole fill) and
+/// spawns its entity into `world`; `load_ms` is the time spent loading it.
 ///
 /// # Errors
-/// Errors of [`crate::chart::prepare`].
+/// Errors of [`crate::session::ChartSession::open`].
 pub fn spawn_job(world: &mut World, job: SolveJob, load_ms: f64) -> Result<Entity, crate::Error> {
-    let t0 = std::time::Instant::now();
-    let prepared = crate::chart::prepare(&job.source, &job.asset)?;
-    let mut timings = Timings::default();
-    timings.0.load_ms = load_ms;
-    timings.0.topology_ms = t0.elapsed().as_secs_f64() * 1e3;
-    Ok(world
-        .spawn((job, ChartData(std::sync::Arc::new(prepared)), timings))
-        .id())
+    let session = crate::session::ChartSession::open(job.source.clone(), job.asset.clone(), load_ms)?;
+    Ok(world.spawn((job, Session(session))).id())
 }
 
 /// Upper bound on schedule ticks for one batch of solves (each tick is one

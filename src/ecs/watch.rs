@@ -16,12 +16,12 @@
 
 use super::components::*;
 use super::{SolveSystems, solve_schedule};
-use crate::chart;
 use crate::config::OutputMode;
 use crate::constraints::LoadedConstraints;
 use crate::error::Error;
 use crate::options::SolverOptions;
 use crate::report::Status;
+use crate::session::{ChartSession, Kept};
 use crate::watch::events::{FileEvent, FileRules};
 use crate::watch::log::Logger;
 use crate::watch::registry::{self, AssetCache, AssetSelection, WatchRoot, content_hash, display, normalize};
@@ -259,6 +259,23 @@ fn set_missing(world: &mut World, asset: &Path, missing: bool) {
     }
 }
 
+/// What the daemon writes for one constraint file: the asset as `model`,
+/// and its pictures beside it when asked; all in one commit, the pictures
+/// also of a refused layout.
+fn outputs(settings: &WatchSettings, model: PathBuf) -> crate::export::Outputs {
+    crate::export::Outputs {
+        #[cfg(feature = "pictures")]
+        pictures: settings
+            .previews
+            .map(|size| crate::preview::Pictures::beside(&model, size))
+            .unwrap_or_default(),
+        model: Some(model),
+        report: None,
+        writing: writing(settings),
+        on_error: crate::export::OnError::DrawPictures,
+    }
+}
+
 /// Where the daemon may write: its output folder (folders made as needed),
 /// or in place the watched folders (as they are when each write opens its
 /// folder; never made: a folder moved away mid-solve does not come back).
@@ -451,7 +468,7 @@ fn load_constraint_file(world: &mut World, settings: &WatchSettings, path: &Path
         return fail(world, entity, e);
     }
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let job = SolveJob::from_file(loaded, asset, Some(output)).writing(writing(settings));
+    let job = SolveJob::from_file(loaded, asset, None).writing(outputs(settings, output));
     if let Err(e) = restart_solve(world, settings, entity, job, load_ms) {
         fail(world, entity, e);
     }
@@ -638,7 +655,7 @@ fn check_single_writer(
     let mut q = world.query::<(Entity, &WatchedFile, &SolveJob)>();
     let other = q
         .iter(world)
-        .find(|(e, w, j)| *e != entity && !w.removed && j.output.as_deref() == Some(output))
+        .find(|(e, w, j)| *e != entity && !w.removed && j.output() == Some(output))
         .map(|(_, w, _)| display(&w.path, &settings.cwd));
     match other {
         None => Ok(()),
@@ -654,29 +671,18 @@ fn check_single_writer(
     }
 }
 
-/// How much of the previous solve a new job keeps.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Reuse {
-    /// Nothing: another asset, or another chart of it.
-    FromScratch,
-    /// The chart, its topology and the bar-net factorisation (new corners).
-    Geometry,
-    /// All that and the step-1 layout: only the spline path and completion run.
-    Step1,
-}
-
-impl Reuse {
-    fn words(self) -> &'static str {
-        match self {
-            Reuse::FromScratch => "from scratch",
-            Reuse::Geometry => "reusing the chart and its factorisation",
-            Reuse::Step1 => "reusing the step-1 layout",
-        }
+/// How much of the previous solve a new job keeps, in the log's words.
+fn kept_words(kept: Option<Kept>) -> &'static str {
+    match kept {
+        None | Some(Kept::Weld) => "from scratch",
+        Some(Kept::Geometry) => "reusing the chart and its factorisation",
+        Some(Kept::StepOne) => "reusing the step-1 layout",
     }
 }
 
-/// Replaces the entity's solve with `job`, keeping what the previous solve
-/// of the same geometry left; logs the start.
+/// Gives the entity `job`: its chart session retargeted when the asset is
+/// the same (keeping what still applies), else opened anew; a running
+/// solve is dropped. Logs the start.
 fn restart_solve(
     world: &mut World,
     settings: &WatchSettings,
@@ -684,54 +690,29 @@ fn restart_solve(
     job: SolveJob,
     load_ms: f64,
 ) -> Result<(), Error> {
-    let t1 = Instant::now();
-    let previous = world
+    let same_asset = world
         .get::<SolveJob>(entity)
-        .filter(|j| Arc::ptr_eq(&j.asset, &job.asset))
-        .and_then(|_| world.get::<ChartData>(entity))
-        .map(|d| d.0.clone());
-    let prepared = chart::prepare_reusing(&job.source, &job.asset, previous.as_deref())?;
-    let reuse = match &previous {
-        Some(p) if prepared.same_step1(p) => Reuse::Step1,
-        Some(p) if prepared.same_geometry(p) => Reuse::Geometry,
-        _ => Reuse::FromScratch,
-    };
+        .is_some_and(|j| Arc::ptr_eq(&j.asset, &job.asset));
     let superseded = world.get::<SolveJob>(entity).is_some()
         && world.get::<Exported>(entity).is_none()
         && world.get::<Failed>(entity).is_none();
-    let times = crate::report::StageTimes {
-        load_ms,
-        topology_ms: t1.elapsed().as_secs_f64() * 1e3,
-        ..Default::default()
+    let kept = match world.get_mut::<Session>(entity).filter(|_| same_asset) {
+        Some(mut session) => Some(session.0.retarget(job.source.clone(), load_ms)?),
+        None => {
+            let session = ChartSession::open(job.source.clone(), job.asset.clone(), load_ms)?;
+            world.entity_mut(entity).insert(Session(session));
+            None
+        }
     };
-    let n_constraints = prepared.constraints.len();
+    let n_constraints = world
+        .get::<Session>(entity)
+        .map_or(0, |s| s.0.prepared().constraints.len());
     let asset_name = display(&job.asset.path, &settings.cwd);
-    let mut e = world.entity_mut(entity);
-    e.remove::<(Solver, Candidate, Finished, Exported, Failed)>();
-    match reuse {
-        Reuse::FromScratch => {
-            e.remove::<(BoundaryLayout, BarNetFactor, Step1Layout, NewtonPatternSlot)>();
-        }
-        Reuse::Geometry => {
-            e.remove::<(BoundaryLayout, Step1Layout)>();
-        }
-        Reuse::Step1 => {}
-    }
-    #[cfg(feature = "pictures")]
-    match (settings.previews, &job.output) {
-        (Some(size), Some(output)) => {
-            let pictures = crate::preview::Pictures {
-                background: job.source.image_path(),
-                ..crate::preview::Pictures::beside(output, size)
-            };
-            e.insert(PreviewRequest(pictures));
-        }
-        _ => {
-            e.remove::<PreviewRequest>();
-        }
-    }
-    e.insert((job, ChartData(Arc::new(prepared)), Timings(times)));
-    log_start(world, settings, entity, (n_constraints, reuse, superseded), &asset_name);
+    world
+        .entity_mut(entity)
+        .remove::<(Solver, Candidate, Finished, Exported, Failed)>()
+        .insert(job);
+    log_start(world, settings, entity, (n_constraints, kept, superseded), &asset_name);
     Ok(())
 }
 
@@ -740,18 +721,23 @@ fn log_start(
     world: &mut World,
     settings: &WatchSettings,
     entity: Entity,
-    (n_constraints, reuse, superseded): (usize, Reuse, bool),
+    (n_constraints, kept, superseded): (usize, Option<Kept>, bool),
     asset_name: &str,
 ) {
     let name = display(&world.get::<WatchedFile>(entity).expect("watched").path, &settings.cwd);
     let mut registry = world.resource_mut::<WatchRegistry>();
     registry.counters.solves_started += 1;
-    registry.counters.geometry_reused += u64::from(reuse != Reuse::FromScratch);
-    registry.counters.step1_reused += u64::from(reuse == Reuse::Step1);
+    let (geometry, step_one) = match kept {
+        None | Some(Kept::Weld) => (false, false),
+        Some(Kept::Geometry) => (true, false),
+        Some(Kept::StepOne) => (true, true),
+    };
+    registry.counters.geometry_reused += u64::from(geometry);
+    registry.counters.step1_reused += u64::from(step_one);
     let mut log = world.resource_mut::<DaemonLog>();
     let message = format!(
         "solving {n_constraints} constraints, {}{}",
-        reuse.words(),
+        kept_words(kept),
         if superseded {
             " (supersedes the running solve)"
         } else {
@@ -762,7 +748,7 @@ fn log_start(
         "solving",
         Some(&name),
         &message,
-        json!({ "constraints": n_constraints, "reuse_geometry": reuse != Reuse::FromScratch, "reuse_step1": reuse == Reuse::Step1, "superseded": superseded }),
+        json!({ "constraints": n_constraints, "reuse_geometry": geometry, "reuse_step1": step_one, "superseded": superseded }),
     );
     let entry = log.status.entry(&name);
     entry.state = FileState::Solving;

@@ -5,11 +5,11 @@
 //! and wait for the next version (server-sent events).
 
 use super::text::ExistingItem;
-use crate::api::SolvedChart;
 use crate::chart::PrimitiveUvs;
 use crate::constraints::LoadedConstraints;
 use crate::io::SourceAsset;
 use crate::report::Report;
+use crate::session::ChartSession;
 use crate::watch::status::FileState;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -35,8 +35,9 @@ pub struct SolvedView {
     pub uvs: PrimitiveUvs,
     /// Per primitive and vertex: 1 in the solved chart, 0 outside it.
     pub in_chart: Vec<Vec<u8>>,
-    /// The solve itself, which drag previews start from, and its asset.
-    pub chart: Arc<SolvedChart>,
+    /// The chart session after the solve, which drag previews start from
+    /// (its last layout), and its asset.
+    pub session: Arc<ChartSession>,
     pub asset: Arc<SourceAsset>,
 }
 

@@ -2,17 +2,17 @@
 //! dragged the page sends every new position; a newer request drops the
 //! one waiting and stops the one running (between ticks of the chart
 //! solver), so the layout follows the pointer instead of queueing behind
-//! it. Solves reuse the previous one's chart, step 1 and Newton pattern,
-//! start from its layout (the targets moved a little), and skip the
-//! distortion polish (the daemon's solve on release polishes).
+//! it. Solves retarget the previous one's chart session (its chart, step 1
+//! and Newton pattern), start from its layout (the targets moved a little),
+//! and skip the distortion polish (the daemon's solve on release polishes).
 
 use super::hub::EditInputs;
 use super::text::WantedConstraint;
-use crate::api::{Reuse, SolvedChart, solve_chart_reusing};
 use crate::chart::{self, PrimitiveUvs};
 use crate::constraints::{ConstraintSource, ConstraintSpec, LoadedConstraints};
 use crate::options::SolverOptions;
 use crate::report::Report;
+use crate::session::{ChartSession, Solution, StartFrom};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::Instant;
@@ -40,7 +40,7 @@ pub struct Preview {
 struct Job {
     ticket: u64,
     inputs: Arc<EditInputs>,
-    seed: Option<Arc<SolvedChart>>,
+    seed: Option<Arc<ChartSession>>,
     wanted: Vec<WantedConstraint>,
     reply: crossbeam_channel::Sender<PreviewReply>,
     at: Instant,
@@ -83,7 +83,7 @@ impl Previewer {
     pub fn solve(
         &self,
         inputs: Arc<EditInputs>,
-        seed: Option<Arc<SolvedChart>>,
+        seed: Option<Arc<ChartSession>>,
         wanted: Vec<WantedConstraint>,
     ) -> PreviewReply {
         let (reply, answer) = crossbeam_channel::bounded(1);
@@ -122,7 +122,8 @@ impl Drop for Previewer {
 }
 
 fn work(shared: &Shared) {
-    let mut last: Option<(Arc<EditInputs>, SolvedChart)> = None;
+    // The session of the last preview, with the inputs it was opened for.
+    let mut last: Option<(Arc<EditInputs>, ChartSession)> = None;
     loop {
         let job = {
             let mut waiting = shared.waiting.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -139,26 +140,26 @@ fn work(shared: &Shared) {
                     .unwrap_or_else(std::sync::PoisonError::into_inner);
             }
         };
-        let previous = last
-            .as_ref()
-            .filter(|(inputs, _)| Arc::ptr_eq(&inputs.asset, &job.inputs.asset))
-            .map(|(_, solved)| solved)
-            .or(job.seed.as_deref());
+        let kept = last
+            .take()
+            .filter(|(inputs, _)| Arc::ptr_eq(&inputs.asset, &job.inputs.asset));
+        let session = kept.map(|(_, s)| s).or_else(|| job.seed.as_deref().cloned());
         let stop = || shared.newest.load(Ordering::SeqCst) != job.ticket;
         // A bug in one solve must not stop the worker (every later preview
         // would wait for it forever).
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            solve(&job.inputs, &job.wanted, previous, &stop).map(|s| s.map(|solved| (answer(&job, &solved), solved)))
+            let mut session = session;
+            let solved = solve(&job.inputs, &job.wanted, &mut session, &stop);
+            (session, solved)
         }))
-        .unwrap_or_else(|_| Err("internal error while solving the preview".into()));
-        let reply = match outcome {
-            Ok(Some((reply, solved))) => {
-                last = Some((job.inputs.clone(), solved));
-                reply
-            }
-            Ok(None) => PreviewReply::Superseded,
-            Err(message) => PreviewReply::Invalid(message),
+        .unwrap_or_else(|_| (None, Err("internal error while solving the preview".into())));
+        let (session, solved) = outcome;
+        let reply = match (&session, solved) {
+            (Some(session), Ok(Some(solved))) => answer(&job, session, &solved),
+            (_, Ok(_)) => PreviewReply::Superseded,
+            (_, Err(message)) => PreviewReply::Invalid(message),
         };
+        last = session.map(|s| (job.inputs.clone(), s));
         let _ = job.reply.send(reply);
     }
 }
@@ -181,12 +182,14 @@ fn with_targets(loaded: &LoadedConstraints, wanted: &[WantedConstraint]) -> Load
     out
 }
 
+/// Solves `wanted` in `session` (retargeted; opened when `None`), from
+/// its last layout; `None` when stopped.
 fn solve(
     inputs: &EditInputs,
     wanted: &[WantedConstraint],
-    previous: Option<&SolvedChart>,
+    session: &mut Option<ChartSession>,
     stop: &dyn Fn() -> bool,
-) -> Result<Option<SolvedChart>, String> {
+) -> Result<Option<Solution>, String> {
     super::text::check_wanted(wanted).map_err(|e| e.to_string())?;
     let loaded = with_targets(&inputs.loaded, wanted);
     // While a target is dragged the layout is shown without the distortion
@@ -197,19 +200,28 @@ fn solve(
         ..loaded.solver
     };
     let source = ConstraintSource::File(Arc::new(loaded));
-    let reuse = previous.map_or(Reuse::Nothing, Reuse::SetupAndLayout);
-    solve_chart_reusing(&source, &inputs.asset, &options, reuse, stop, 0.0).map_err(|e| e.to_string())
+    let session = match session {
+        Some(s) => {
+            s.retarget(source, 0.0).map_err(|e| e.to_string())?;
+            s
+        }
+        None => session.insert(ChartSession::open(source, inputs.asset.clone(), 0.0).map_err(|e| e.to_string())?),
+    };
+    session
+        .solve_until(&options, StartFrom::LastLayout, stop)
+        .map_err(|e| e.to_string())
 }
 
-fn answer(job: &Job, solved: &SolvedChart) -> PreviewReply {
-    let stored_clean = chart::written_orientation(&solved.prepared, solved.solver.layout()).is_clean();
+fn answer(job: &Job, session: &ChartSession, solved: &Solution) -> PreviewReply {
+    let layout = solved.solver.layout();
+    let stored_clean = chart::written_orientation(session.prepared(), layout).is_clean();
     if !stored_clean {
         // The solver never ends folded; if it ever did, nothing is shown.
         return PreviewReply::Invalid("the solve ended with a folded layout; nothing is shown".into());
     }
     PreviewReply::Solved(Box::new(Preview {
         report: solved.report.clone(),
-        uvs: solved.uvs(&job.inputs.asset),
+        uvs: session.uvs(layout),
         ms: job.at.elapsed().as_secs_f64() * 1e3,
     }))
 }

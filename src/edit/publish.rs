@@ -5,12 +5,10 @@
 
 use super::hub::{EditInputs, FileUpdate, Hub, SolvedView};
 use super::text::ExistingItem;
-use crate::api::SolvedChart;
 use crate::constraints::ConstraintSource;
 use crate::ecs::watch::{DaemonLog, WatchSettings, WatchedFile};
-use crate::ecs::{BarNetFactor, BoundaryLayout, ChartData, Exported, SolveJob, Solver, Step1Layout};
+use crate::ecs::{Exported, Session, SolveJob, Solver};
 use crate::report::Status;
-use crate::solver::step1::{Step1, Step1Times};
 use crate::watch::registry::display;
 use bevy_ecs::prelude::*;
 use std::sync::Arc;
@@ -20,12 +18,13 @@ use std::sync::Arc;
 pub struct EditorFeed(pub Arc<Hub>);
 
 /// The edit inputs of a file's loaded content.
-fn inputs(job: &SolveJob, data: &ChartData, text_hash: Option<u64>) -> Option<Arc<EditInputs>> {
+fn inputs(job: &SolveJob, session: &Session, text_hash: Option<u64>) -> Option<Arc<EditInputs>> {
     let ConstraintSource::File(loaded) = &job.source else {
         return None;
     };
-    let existing = data
+    let existing = session
         .0
+        .prepared()
         .constraints
         .iter()
         .map(|c| ExistingItem {
@@ -42,9 +41,10 @@ fn inputs(job: &SolveJob, data: &ChartData, text_hash: Option<u64>) -> Option<Ar
     }))
 }
 
-/// The written solve of a file.
-fn solved(job: &SolveJob, data: &ChartData, solver: &Solver, step1: Step1, report: &crate::Report) -> Arc<SolvedView> {
-    let prepared = &data.0;
+/// The written solve of a file: its report, UVs, and the session the
+/// editor's drag previews start from.
+fn solved(job: &SolveJob, session: &Session, solver: &Solver, report: &crate::Report) -> Arc<SolvedView> {
+    let prepared = session.0.prepared();
     let in_chart = prepared
         .welded
         .vertex_of
@@ -57,14 +57,9 @@ fn solved(job: &SolveJob, data: &ChartData, solver: &Solver, step1: Step1, repor
         .collect();
     Arc::new(SolvedView {
         report: report.clone(),
-        uvs: crate::chart::assemble_uvs(&job.asset, prepared, solver.0.layout()),
+        uvs: session.0.uvs(solver.0.layout()),
         in_chart,
-        chart: Arc::new(SolvedChart {
-            prepared: (**prepared).clone(),
-            step1,
-            solver: solver.0.clone(),
-            report: report.clone(),
-        }),
+        session: Arc::new(session.0.clone()),
         asset: job.asset.clone(),
     })
 }
@@ -72,23 +67,10 @@ fn solved(job: &SolveJob, data: &ChartData, solver: &Solver, step1: Step1, repor
 type FileParts<'a> = (
     &'a WatchedFile,
     Option<Ref<'a, SolveJob>>,
-    Option<&'a ChartData>,
+    Option<&'a Session>,
     Option<&'a Solver>,
     Option<Ref<'a, Exported>>,
-    Option<Step1Parts<'a>>,
 );
-
-/// Step 1's components (the boundary on the square, the factor, the layout).
-type Step1Parts<'a> = (&'a BoundaryLayout, &'a BarNetFactor, &'a Step1Layout);
-
-fn step1_of((boundary, bar_net, layout): Step1Parts) -> Step1 {
-    Step1 {
-        boundary: boundary.0.clone(),
-        bar_net: bar_net.0.clone(),
-        layout: layout.0.clone(),
-        times: Step1Times::default(),
-    }
-}
 
 /// Publishes every watched file when the status board changed this tick.
 pub fn publish_to_editor(
@@ -102,18 +84,16 @@ pub fn publish_to_editor(
     }
     let updates = files
         .iter()
-        .filter_map(|(watched, job, data, solver, exported, step1)| {
+        .filter_map(|(watched, job, session, solver, exported)| {
             let name = display(&watched.path, &settings.cwd);
             let status = log.status.files.get(&name)?;
-            let new_inputs = match (&job, data) {
-                (Some(job), Some(data)) if job.is_changed() => inputs(job, data, watched.hash),
+            let new_inputs = match (&job, session) {
+                (Some(job), Some(session)) if job.is_changed() => inputs(job, session, watched.hash),
                 _ => None,
             };
-            let new_solve = match (&job, data, solver, &exported, step1) {
-                (Some(job), Some(data), Some(solver), Some(e), Some(step1))
-                    if e.is_changed() && e.0.status != Status::Error =>
-                {
-                    Some(solved(job, data, solver, step1_of(step1), &e.0))
+            let new_solve = match (&job, session, solver, &exported) {
+                (Some(job), Some(session), Some(solver), Some(e)) if e.is_changed() && e.0.status != Status::Error => {
+                    Some(solved(job, session, solver, &e.0))
                 }
                 _ => None,
             };

@@ -426,7 +426,7 @@ fn preview(context: &Context, view: &FileView, body: &serde_json::Value) -> Repl
         .solved
         .as_ref()
         .filter(|s| Arc::ptr_eq(&s.asset, &inputs.asset))
-        .map(|s| s.chart.clone());
+        .map(|s| s.session.clone());
     match context.previewer.solve(inputs, seed, wanted) {
         PreviewReply::Solved(p) => Reply::json(200, &payload::preview(&p, seq)),
         PreviewReply::Superseded => Reply::json(200, &serde_json::json!({ "seq": seq, "superseded": true })),

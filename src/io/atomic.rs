@@ -254,7 +254,26 @@ impl Staged {
     /// made; a file that cannot be written or renamed. Then every target
     /// and folder is as it was.
     pub fn commit(self) -> Result<(), WriteError> {
-        self.commit_with(|| {})
+        let halt = self.test_halt();
+        self.commit_with(move || {
+            if let Some(name) = halt {
+                halt_for_good(&name);
+            }
+        })
+    }
+
+    /// A test hook: with `UVPIN_TEST_HALT_BEFORE_RENAMES=NAME:K` the K-th
+    /// commit of this process that writes a file named NAME stops for good
+    /// once its temporary files are written, before any rename, so a test
+    /// can kill the process there and find every target as it was. Returns
+    /// the name when this commit is that one.
+    fn test_halt(&self) -> Option<String> {
+        static SEEN: AtomicU64 = AtomicU64::new(0);
+        let wanted = std::env::var("UVPIN_TEST_HALT_BEFORE_RENAMES").ok()?;
+        let (name, k) = wanted.rsplit_once(':')?;
+        let k: u64 = k.parse().ok()?;
+        let ours = self.paths().any(|p| p.file_name().is_some_and(|n| n == name));
+        (ours && SEEN.fetch_add(1, Ordering::SeqCst) + 1 == k).then(|| name.to_string())
     }
 
     /// [`Staged::commit`], calling `between` after the temporary files are
@@ -339,6 +358,18 @@ impl Staged {
             progress.renamed.push(((folder.clone(), name.clone()), kept));
         }
         Ok(())
+    }
+}
+
+/// Says on standard error (a JSON log line) that the test hook of
+/// [`Staged::test_halt`] stopped a commit writing `name`, and waits forever.
+fn halt_for_good(name: &str) -> ! {
+    eprintln!(
+        "{}",
+        serde_json::json!({ "event": "halted_before_renames", "file": name })
+    );
+    loop {
+        std::thread::park();
     }
 }
 

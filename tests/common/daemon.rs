@@ -23,13 +23,23 @@ impl Daemon {
         Self::start(cwd, "watch", args, &["--debounce-ms", "100"])
     }
 
+    /// As [`Daemon::watch`], with `env` set in the daemon's environment.
+    pub fn watch_with_env(cwd: &Path, args: &[&str], env: &[(&str, &str)]) -> Daemon {
+        Self::spawn(cwd, "watch", args, &["--debounce-ms", "100"], env)
+    }
+
     /// `uvpin edit ARGS --log json --addr 127.0.0.1:0` in `cwd`.
     pub fn edit(cwd: &Path, args: &[&str]) -> Daemon {
         Self::start(cwd, "edit", args, &["--addr", "127.0.0.1:0"])
     }
 
     fn start(cwd: &Path, command: &str, args: &[&str], extra: &[&str]) -> Daemon {
+        Self::spawn(cwd, command, args, extra, &[])
+    }
+
+    fn spawn(cwd: &Path, command: &str, args: &[&str], extra: &[&str], env: &[(&str, &str)]) -> Daemon {
         let mut child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+            .envs(env.iter().copied())
             .arg(command)
             .args(args)
             .args(["--log", "json"])

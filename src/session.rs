@@ -1,0 +1,399 @@
+//! The chart session: one chart of one asset, with everything a solve
+//! computes once and every later solve of new landmarks reuses (as
+//! geometry-central's precomputing solvers do). The CLI, the sweep, the
+//! editor's previews, the daemon's chart entities and the library all hold
+//! one:
+//!
+//! ```text
+//! open(source, asset) ─ retarget(source) ─┐
+//!        │                                │  keeps the weld; the chart's topology and hole
+//!        ▼                                │  fill for the same chart; step 1 for the same corners
+//! map_boundary → factor_bar_net → solve_force_density     (step 1, §III, Eq. 1–2)
+//!        ▼
+//! start(options, from) → ChartSolver (spline path Eq. 6, guard, completion, polish)
+//!        ▼
+//! report(solver) → export(solver, report, outputs)        (one commit)
+//! ```
+//!
+//! [`ChartSession::solve`] runs it all in a row. Cloning a session is cheap:
+//! its geometry, factor and Newton pattern are shared behind `Arc`s.
+
+use crate::chart::{self, PreparedChart, PrimitiveUvs};
+use crate::complete::pattern::PendingNewtonPattern;
+use crate::constraints::ConstraintSource;
+use crate::error::Error;
+use crate::export::{self, Outputs};
+use crate::free::BoundarySetup;
+use crate::io::SourceAsset;
+use crate::options::SolverOptions;
+use crate::param::bar_net::BarNet;
+use crate::param::boundary::BoundaryMap;
+use crate::report::{self, Report, StageTimes};
+use crate::solver::step1::{self, Step1, Step1Times};
+use crate::solver::{ChartSolver, SolveStart};
+use glam::DVec2;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// A chart of an asset and what its solves share (see the module docs).
+#[derive(Debug, Clone)]
+pub struct ChartSession {
+    asset: Arc<SourceAsset>,
+    source: ConstraintSource,
+    prepared: PreparedChart,
+    /// The outer loop on the square (§III.B): depends on the corners.
+    boundary: Option<Arc<BoundaryMap>>,
+    /// `D` of Eq. 1 factored: depends on the chart only.
+    bar_net: Option<Arc<BarNet>>,
+    /// The step-1 layout of the filled chart: depends on the boundary.
+    step_one: Option<Arc<Vec<DVec2>>>,
+    /// The Newton pattern of the last solver started on this chart.
+    pattern: Option<Arc<PendingNewtonPattern>>,
+    /// The last finished layout of a chart on the square with these
+    /// corners: the start of a [`StartFrom::LastLayout`] solve.
+    last_layout: Option<Arc<Vec<DVec2>>>,
+    /// Milliseconds spent on the current constraints' solve so far.
+    times: StageTimes,
+    /// Counts every change of what a solver would start from, so a running
+    /// solver of an older revision is known to be stale.
+    revision: u64,
+}
+
+/// What a [`ChartSession::retarget`] kept of the session's earlier work.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kept {
+    /// Nothing but the weld: the constraints are in another chart.
+    Weld,
+    /// The chart, its topology and hole fill, the bar-net factor and the
+    /// Newton pattern (the corners moved: a new boundary map and step 1).
+    Geometry,
+    /// All that and step 1: only the spline path and completion run.
+    StepOne,
+}
+
+/// Where a solver starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StartFrom {
+    /// Step 1's layout (or a free chart's own start).
+    #[default]
+    StepOne,
+    /// The last finished layout of this chart, when it was on the square
+    /// with the same corners (dragged targets move a little from where they
+    /// were: the spline path then rarely stalls); else step 1's.
+    LastLayout,
+}
+
+/// A finished solve: the solver (its final layout and record) and the
+/// report, not yet written.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    pub solver: ChartSolver,
+    pub report: Report,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+impl ChartSession {
+    /// The chart of `asset` that `source`'s constraints pick, prepared
+    /// ([`chart::prepare`]); `load_ms` is the time already spent loading.
+    ///
+    /// # Errors
+    /// Constraint and topology errors against the asset.
+    pub fn open(source: ConstraintSource, asset: Arc<SourceAsset>, load_ms: f64) -> Result<Self, Error> {
+        let t0 = Instant::now();
+        let prepared = chart::prepare(&source, &asset)?;
+        let times = StageTimes {
+            load_ms,
+            topology_ms: ms(t0),
+            ..StageTimes::default()
+        };
+        Ok(ChartSession {
+            asset,
+            source,
+            prepared,
+            boundary: None,
+            bar_net: None,
+            step_one: None,
+            pattern: None,
+            last_layout: None,
+            times,
+            revision: 0,
+        })
+    }
+
+    /// New constraints on the same asset: resolved again, keeping what
+    /// still applies ([`Kept`]); `load_ms` is the time spent reading them.
+    ///
+    /// # Errors
+    /// As [`ChartSession::open`]; the session is unchanged then.
+    pub fn retarget(&mut self, source: ConstraintSource, load_ms: f64) -> Result<Kept, Error> {
+        let t0 = Instant::now();
+        let prepared = self.prepared.retargeted(&source, &self.asset)?;
+        let kept = if !prepared.same_geometry(&self.prepared) {
+            Kept::Weld
+        } else if prepared.corners != self.prepared.corners {
+            Kept::Geometry
+        } else {
+            Kept::StepOne
+        };
+        if kept != Kept::StepOne {
+            (self.boundary, self.step_one, self.last_layout) = (None, None, None);
+        }
+        if kept == Kept::Weld {
+            (self.bar_net, self.pattern) = (None, None);
+        }
+        self.source = source;
+        self.prepared = prepared;
+        self.times = StageTimes {
+            load_ms,
+            topology_ms: ms(t0),
+            ..StageTimes::default()
+        };
+        self.revision += 1;
+        Ok(kept)
+    }
+
+    /// Places the outer loop on the square (§III.B), unless it is placed.
+    ///
+    /// # Errors
+    /// Corners that are not on the outer loop, are mirrored, or trap a
+    /// triangle (located at the `corners` field).
+    pub fn map_boundary(&mut self) -> Result<(), Error> {
+        if self.boundary.is_none() {
+            let t0 = Instant::now();
+            self.boundary = Some(Arc::new(step1::map_boundary(&self.prepared, &self.source)?));
+            self.times.boundary_ms += ms(t0);
+        }
+        Ok(())
+    }
+
+    /// Builds and factors `D = CᵀQC` (Eq. 1–2), unless it is factored.
+    ///
+    /// # Errors
+    /// The boundary is not mapped yet (a bug), or `D` is singular.
+    pub fn factor_bar_net(&mut self) -> Result<(), Error> {
+        if self.bar_net.is_none() {
+            let t0 = Instant::now();
+            let boundary = self.mapped_boundary()?;
+            let net = step1::factor_bar_net(&self.prepared, boundary, &self.asset.path)?;
+            self.bar_net = Some(Arc::new(net));
+            self.times.factor_ms += ms(t0);
+        }
+        Ok(())
+    }
+
+    /// Solves Eq. 1 for the nodes off the outer loop, unless solved: the
+    /// step-1 layout.
+    ///
+    /// # Errors
+    /// The boundary is not mapped or `D` not factored yet (a bug).
+    pub fn solve_force_density(&mut self) -> Result<(), Error> {
+        if self.step_one.is_none() {
+            let t0 = Instant::now();
+            let net = self.bar_net.as_ref().ok_or_else(|| not_yet("the bar-net factor"))?;
+            let layout = step1::solve_force_density(&self.prepared, self.mapped_boundary()?, net);
+            self.step_one = Some(Arc::new(layout));
+            self.times.solve_ms += ms(t0);
+        }
+        Ok(())
+    }
+
+    /// Step 1 in a row: [`Self::map_boundary`], [`Self::factor_bar_net`],
+    /// [`Self::solve_force_density`], each only if not done.
+    ///
+    /// # Errors
+    /// As those methods.
+    pub fn run_step_one(&mut self) -> Result<(), Error> {
+        self.map_boundary()?;
+        self.factor_bar_net()?;
+        self.solve_force_density()
+    }
+
+    /// A solver of the current constraints, started `from` where asked,
+    /// after step 1 (run first if needed).
+    ///
+    /// # Errors
+    /// Step-1 errors; a constraint on the outer boundary whose target
+    /// contradicts the boundary map.
+    pub fn start(&mut self, options: &SolverOptions, from: StartFrom) -> Result<ChartSolver, Error> {
+        self.run_step_one()?;
+        let (Some(boundary), Some(step_one)) = (&self.boundary, &self.step_one) else {
+            return Err(not_yet("step 1"));
+        };
+        let warm = match from {
+            StartFrom::LastLayout if self.on_square() => self.last_layout.as_deref(),
+            _ => None,
+        };
+        let solver = ChartSolver::start(SolveStart {
+            prepared: &self.prepared,
+            source: &self.source,
+            options,
+            boundary,
+            step1: warm.unwrap_or(step_one),
+            bar_net: self.bar_net.as_deref(),
+            pattern: self.pattern.as_ref(),
+            elapsed_ms: self.times.total_ms(),
+        })?;
+        self.pattern = Some(solver.pattern().clone());
+        Ok(solver)
+    }
+
+    /// The report of a finished `solver` of this session's constraints;
+    /// remembers its layout as the start of a [`StartFrom::LastLayout`] solve.
+    pub fn report(&mut self, solver: &ChartSolver) -> Report {
+        let boundary = self.boundary.as_deref().expect("a started solver mapped the boundary");
+        let step_one = self.step_one.as_deref().expect("a started solver solved step 1");
+        let report = report::build(&report::SolveSummary {
+            constraint_file: self.source.name(),
+            asset: &self.asset,
+            prepared: &self.prepared,
+            boundary,
+            step1: step_one,
+            solver,
+            times: self.times.with_solver(solver.times()),
+        });
+        if self.on_square() {
+            self.last_layout = Some(Arc::new(solver.layout().to_vec()));
+        }
+        report
+    }
+
+    /// Solves the current constraints from start to end.
+    ///
+    /// # Errors
+    /// As [`Self::start`]; a Newton system that cannot be built (a bug).
+    pub fn solve(&mut self, options: &SolverOptions) -> Result<Solution, Error> {
+        let mut solver = self.start(options, StartFrom::StepOne)?;
+        solver.run()?;
+        let report = self.report(&solver);
+        Ok(Solution { solver, report })
+    }
+
+    /// As [`Self::solve`], started `from` where asked; `stop` is asked
+    /// between ticks, and when it says so the solve is dropped (`None`).
+    ///
+    /// # Errors
+    /// As [`Self::solve`].
+    pub fn solve_until(
+        &mut self,
+        options: &SolverOptions,
+        from: StartFrom,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Option<Solution>, Error> {
+        let mut solver = self.start(options, from)?;
+        while !solver.is_done() {
+            if stop() {
+                return Ok(None);
+            }
+            solver.tick()?;
+        }
+        let report = self.report(&solver);
+        Ok(Some(Solution { solver, report }))
+    }
+
+    /// Checks `solver`'s layout as stored and writes what `outputs` names
+    /// in one commit ([`export::export`]); the final report. Pictures
+    /// without a background are drawn over the constraint file's `image:`.
+    pub fn export(&self, solver: &ChartSolver, report: &Report, outputs: &Outputs) -> Report {
+        let finished = export::Finished {
+            asset: &self.asset,
+            prepared: &self.prepared,
+            outer_loop: self.boundary.as_ref().map_or(&[], |b| &b.loop_vertices),
+            layout: solver.layout(),
+            guard: solver.options().guard,
+        };
+        #[cfg(feature = "pictures")]
+        if outputs.pictures.any() && outputs.pictures.background.is_none() {
+            let mut outputs = outputs.clone();
+            outputs.pictures.background = self.source.image_path();
+            return export::export(&finished, report, &outputs);
+        }
+        export::export(&finished, report, outputs)
+    }
+
+    /// The final UVs per primitive of the asset with `layout` on this chart.
+    pub fn uvs(&self, layout: &[DVec2]) -> PrimitiveUvs {
+        chart::assemble_uvs(&self.asset, &self.prepared, layout)
+    }
+
+    pub fn asset(&self) -> &Arc<SourceAsset> {
+        &self.asset
+    }
+
+    pub fn source(&self) -> &ConstraintSource {
+        &self.source
+    }
+
+    /// The chart: weld, topology, hole fill, resolved constraints.
+    pub fn prepared(&self) -> &PreparedChart {
+        &self.prepared
+    }
+
+    /// The outer loop on the square, once mapped.
+    pub fn boundary(&self) -> Option<&BoundaryMap> {
+        self.boundary.as_deref()
+    }
+
+    /// The bar-net factor, once factored.
+    pub fn bar_net(&self) -> Option<&Arc<BarNet>> {
+        self.bar_net.as_ref()
+    }
+
+    /// The step-1 layout of the filled chart, once solved.
+    pub fn step_one_layout(&self) -> Option<&[DVec2]> {
+        self.step_one.as_deref().map(Vec::as_slice)
+    }
+
+    /// Step 1's results together (`None` until solved), with this
+    /// solve's step-1 times.
+    pub fn step_one(&self) -> Option<Step1> {
+        Some(Step1 {
+            boundary: self.boundary.as_deref()?.clone(),
+            bar_net: self.bar_net.clone()?,
+            layout: self.step_one.as_deref()?.clone(),
+            times: Step1Times {
+                boundary_ms: self.times.boundary_ms,
+                factor_ms: self.times.factor_ms,
+                solve_ms: self.times.solve_ms,
+            },
+        })
+    }
+
+    /// The Newton pattern of the last solver started (kept for the same chart).
+    pub fn pattern(&self) -> Option<&Arc<PendingNewtonPattern>> {
+        self.pattern.as_ref()
+    }
+
+    /// This solve's times so far (load, topology, step 1).
+    pub fn times(&self) -> StageTimes {
+        self.times
+    }
+
+    /// Changes with every new starting point of a solve.
+    pub fn revision(&self) -> u64 {
+        self.revision
+    }
+
+    /// Puts the outer loop where `boundary` says (same loop, new positions):
+    /// step 1 is solved again on the same factor.
+    pub fn replace_boundary(&mut self, boundary: BoundaryMap) {
+        self.boundary = Some(Arc::new(boundary));
+        (self.step_one, self.last_layout) = (None, None);
+        self.revision += 1;
+    }
+
+    fn on_square(&self) -> bool {
+        matches!(self.prepared.boundary, BoundarySetup::Square)
+    }
+
+    fn mapped_boundary(&self) -> Result<&BoundaryMap, Error> {
+        self.boundary.as_deref().ok_or_else(|| not_yet("the boundary map"))
+    }
+}
+
+/// A step asked for before the one it needs (a bug of the caller).
+fn not_yet(what: &str) -> Error {
+    Error::Internal(format!("{what} is needed first"))
+}
