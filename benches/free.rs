@@ -15,11 +15,11 @@ mod common;
 use glam::DVec2;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use uvpin::constraints::BoundaryChoice;
 use uvpin::mesh::TriMesh;
 use uvpin::metrics::sander_stretch;
 use uvpin::options::SolverOptions;
 use uvpin::param::{uv_to_xy, xy_to_uv};
+use uvpin::pins::BoundaryChoice;
 use uvpin::testing::Rng;
 
 /// SLIM iterations per solve.
@@ -73,7 +73,7 @@ struct Case {
 /// mesh to their layout's area.
 fn witnessed_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Case> {
     let (constraints, warped) = uvpin::testing::witnessed_free_case(mesh, k, seed)?;
-    let area = |l: &[DVec2]| uvpin::free::start::layout_area(l, &mesh.triangles);
+    let area = |l: &[DVec2]| uvpin::domain::start::layout_area(l, &mesh.triangles);
     let area_3d: f64 = mesh
         .triangles
         .iter()

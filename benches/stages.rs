@@ -13,10 +13,10 @@ mod common;
 
 use glam::DVec2;
 use std::path::{Path, PathBuf};
-use uvpin::constraints::BoundaryChoice;
 use uvpin::mesh::TriMesh;
 use uvpin::options::SolverOptions;
 use uvpin::param::{uv_to_xy, xy_to_uv};
+use uvpin::pins::BoundaryChoice;
 use uvpin::report::{Report, StageTimes};
 use uvpin::testing::{Rng, grid_mesh, smooth_warp, swirl};
 

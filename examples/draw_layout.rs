@@ -14,8 +14,9 @@ use glam::DVec2;
 use std::fmt::Write;
 use std::path::Path;
 use std::sync::Arc;
-use uvpin::constraints::{BoundaryChoice, ConstraintSource};
+use uvpin::constraints::ConstraintSource;
 use uvpin::options::SolverOptions;
+use uvpin::pins::BoundaryChoice;
 use uvpin::session::{ChartSession, Solution};
 
 const SIZE: f64 = 460.0;

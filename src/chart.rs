@@ -1,9 +1,9 @@
 //! The solved chart: chosen from the constraints, checked, hole-filled, with
 //! constraints and corners in chart-local ids; and the final per-primitive UVs.
 
-use crate::constraints::{ConstraintSource, ResolvedConstraint};
+use crate::constraints::ConstraintSource;
+use crate::domain::Domain;
 use crate::error::Error;
-use crate::free::BoundarySetup;
 use crate::guard::{self, OrientationCounts};
 use crate::io::SourceAsset;
 use crate::mesh::topology::Topology;
@@ -11,6 +11,7 @@ use crate::mesh::weld::{Chart, WeldedMesh, weld};
 use crate::param::bar_net::{FilledChart, fill_holes};
 use crate::param::boundary::{BoundaryMap, TrapCandidates};
 use crate::param::{uv_to_xy, xy_to_uv};
+use crate::pins::ResolvedConstraint;
 use crate::rbf::stepping::{StepProblem, pick_anchors};
 use glam::DVec2;
 use std::sync::Arc;
@@ -33,7 +34,7 @@ pub struct PreparedChart {
     /// Given corners, chart-local.
     pub corners: Option<[u32; 4]>,
     /// The outer boundary on the square, or free inside a region.
-    pub boundary: BoundarySetup,
+    pub boundary: Domain,
     pub warnings: Vec<String>,
 }
 
@@ -81,8 +82,8 @@ fn prepare_on(
         .collect();
     let corners = welded_corners.map(|w| local_corners(w, &chart, source)).transpose()?;
     let mut warnings: Vec<String> = missing_uv_warning(asset, &welded, chart_id).into_iter().collect();
-    let boundary = crate::free::setup::decide(source, asset, &welded, &chart, &constraints)?;
-    if corners.is_some() && matches!(boundary, BoundarySetup::Free(_)) {
+    let boundary = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints)?;
+    if corners.is_some() && matches!(boundary, Domain::Free(_)) {
         warnings.push("corners are ignored: the boundary is free".into());
     }
     Ok(PreparedChart {
@@ -134,7 +135,8 @@ fn choose_chart(
                 welded.n_charts,
                 if asset.primitives.iter().any(|p| p.uvs.is_some()) { " and UVs" } else { "" }
             ),
-        )),
+        )
+        .into()),
     }
 }
 
@@ -253,7 +255,8 @@ pub fn step_problem(
                              the target ({}, {}) contradicts it. Constrain an interior vertex, or make this vertex a corner",
                             c.vertex, uv.x, uv.y, c.target_uv.x, c.target_uv.y
                         ),
-                    ));
+                    )
+                    .into());
                 }
             }
             None => {

@@ -13,25 +13,17 @@
 //! ```
 //! Every error names the file, line and column, and the field.
 
-use crate::error::Error;
-use crate::free::Region;
+use crate::io::MeshSelector;
 use crate::mesh::nearest::{FarReader, nearest_vertices, too_far};
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use crate::options::SolverOptions;
-use crate::pins::{PinError, Pins};
+use crate::param::region::Region;
+use crate::pins::{BoundaryChoice, PinError, Pins, ResolvedConstraint, coincident_message, coincident_targets};
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use thiserror::Error;
-
-/// Which mesh of the asset: its index or its name.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum MeshSelector {
-    Index(usize),
-    Name(String),
-}
 
 /// One constraint: a vertex (by id or nearest to a 3D point) and its target
 /// (in texture coordinates or in pixels of `image_size`).
@@ -138,16 +130,6 @@ impl<'de> Deserialize<'de> for Corners {
     }
 }
 
-/// The `boundary` field.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum BoundaryChoice {
-    /// The outer loop onto the texture's square (§III.B).
-    Square,
-    /// The outer loop and holes move freely inside the region; the layout
-    /// is globally injective.
-    Free,
-}
-
 /// The whole constraint file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -227,26 +209,6 @@ pub struct LoadedConstraints {
     pub region_position: (usize, usize),
     /// The solver options in force: the file's `solver`, else the defaults given at load.
     pub solver: SolverOptions,
-}
-
-/// A constraint resolved against the asset.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ResolvedConstraint {
-    /// Index in the file's `constraints` list.
-    pub index: usize,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub label: Option<String>,
-    pub primitive: usize,
-    /// glTF vertex index in `primitive`.
-    pub vertex: u32,
-    /// Welded vertex id (internal).
-    #[serde(skip)]
-    pub welded: u32,
-    /// Target in glTF texture coordinates.
-    pub target_uv: DVec2,
-    /// For `near` constraints: how far the chosen vertex is from the point.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub snapped_distance: Option<f64>,
 }
 
 impl LoadedConstraints {
@@ -614,48 +576,14 @@ impl LoadedConstraints {
     }
 }
 
-/// Two different vertices whose targets are closer than this (texture units)
-/// cannot both be reached without a zero-area triangle between them (f32
-/// texture coordinates cannot tell them apart either).
-pub const MIN_TARGET_DISTANCE: f64 = 1e-6;
-
-/// Two constraints (positions in `constraints`) on different vertices whose
-/// targets are (nearly) the same point, if any: no one-to-one map reaches both.
-pub fn coincident_targets(constraints: &[ResolvedConstraint]) -> Option<(usize, usize)> {
-    let mut order: Vec<usize> = (0..constraints.len()).collect();
-    order.sort_by(|&a, &b| constraints[a].target_uv.x.total_cmp(&constraints[b].target_uv.x));
-    for (k, &a) in order.iter().enumerate() {
-        let ta = constraints[a].target_uv;
-        for &b in &order[k + 1..] {
-            let tb = constraints[b].target_uv;
-            if tb.x - ta.x > MIN_TARGET_DISTANCE {
-                break;
-            }
-            if ta.distance(tb) <= MIN_TARGET_DISTANCE && constraints[a].welded != constraints[b].welded {
-                return Some((a.min(b), a.max(b)));
-            }
-        }
-    }
-    None
-}
-
-/// The message for two constraints with (nearly) the same target.
-pub fn coincident_message(a: &ResolvedConstraint, b: &ResolvedConstraint) -> String {
-    format!(
-        "constraints[{}] (vertex {}) and constraints[{}] (vertex {}) have the same target ({}, {}){}: two vertices \
-         cannot land on one point without a triangle collapsing between them",
-        a.index,
-        a.vertex,
-        b.index,
-        b.vertex,
-        b.target_uv.x,
-        b.target_uv.y,
-        if a.target_uv == b.target_uv {
-            String::new()
-        } else {
-            format!(" to within {:.1e}", a.target_uv.distance(b.target_uv))
-        }
-    )
+/// A mistake in the constraints, wherever they came from: a file's (with
+/// line and column) or in-memory pins' (with the constraint's index).
+#[derive(Debug, Error)]
+pub enum ConstraintError {
+    #[error(transparent)]
+    File(#[from] ConstraintFileError),
+    #[error(transparent)]
+    Pins(#[from] PinError),
 }
 
 /// Where a solve's constraints came from. Errors found later, against the
@@ -693,7 +621,7 @@ impl ConstraintSource {
         &self,
         primitives: &[PrimitiveGeometry],
         welded: &WeldedMesh,
-    ) -> Result<(Vec<ResolvedConstraint>, Option<[u32; 4]>), Error> {
+    ) -> Result<(Vec<ResolvedConstraint>, Option<[u32; 4]>), ConstraintError> {
         match self {
             ConstraintSource::File(l) => Ok((l.resolve(primitives, welded)?, l.resolve_corners(primitives, welded)?)),
             ConstraintSource::Memory(pins) => Ok(pins.resolve(&primitives[0], welded)?),
@@ -701,7 +629,7 @@ impl ConstraintSource {
     }
 
     /// An error about constraint `index`'s `field`.
-    pub fn error_at(&self, index: usize, field: &str, message: String) -> Error {
+    pub fn error_at(&self, index: usize, field: &str, message: String) -> ConstraintError {
         match self {
             ConstraintSource::File(l) => l.error_at(index, field, message).into(),
             ConstraintSource::Memory(_) => PinError::Constraint { index, message }.into(),
@@ -709,7 +637,7 @@ impl ConstraintSource {
     }
 
     /// An error about the corners.
-    pub fn corners_error(&self, message: String) -> Error {
+    pub fn corners_error(&self, message: String) -> ConstraintError {
         match self {
             ConstraintSource::File(l) => l.corners_error(message).into(),
             ConstraintSource::Memory(_) => PinError::Corners { message }.into(),
@@ -725,7 +653,7 @@ impl ConstraintSource {
     }
 
     /// An error about the region.
-    pub fn region_error(&self, message: String) -> Error {
+    pub fn region_error(&self, message: String) -> ConstraintError {
         match self {
             ConstraintSource::File(l) => l.region_error(message).into(),
             ConstraintSource::Memory(_) => PinError::Region { message }.into(),

@@ -37,10 +37,22 @@ pub enum Error {
         "chart {chart} does not fit in its region (u {:.4}..{:.4}, v {:.4}..{:.4}) across a tenth of it or more: the targets ask for a chart far larger than it, or other islands fill it; give a larger `region`, or `boundary: Square`",
         region.min.x, region.max.x, region.min.y, region.max.y
     )]
-    NoRoom { chart: u32, region: crate::free::Region },
+    NoRoom {
+        chart: u32,
+        region: crate::param::region::Region,
+    },
     /// A bug: a layout that would have been written failed the final check.
     #[error("internal error, nothing written: {0}")]
     Internal(String),
+}
+
+impl From<crate::constraints::ConstraintError> for Error {
+    fn from(e: crate::constraints::ConstraintError) -> Self {
+        match e {
+            crate::constraints::ConstraintError::File(e) => Error::Constraints(e),
+            crate::constraints::ConstraintError::Pins(e) => Error::Pins(e),
+        }
+    }
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

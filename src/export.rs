@@ -165,7 +165,7 @@ pub fn stage_chart(
 /// For a free chart: why its layout, as glTF and OBJ store it, is not
 /// globally injective inside its region and clear of the other islands.
 fn overlap(prepared: &PreparedChart, layout: &[DVec2]) -> Option<crate::free::room::Violation> {
-    let crate::free::BoundarySetup::Free(setup) = &prepared.boundary else {
+    let crate::domain::Domain::Free(setup) = &prepared.boundary else {
         return None;
     };
     let f = &prepared.filled;

@@ -3,7 +3,7 @@
 //! box and which way is up; each chart's outer boundary loop as glTF vertex
 //! ids in order (for `corners`); the vertices nearest a point.
 
-use crate::constraints::MeshSelector;
+use crate::io::MeshSelector;
 use crate::io::{self, AssetError, InputRules, SourceAsset};
 use crate::mesh::nearest::{self, Bounds, Nearest};
 use crate::mesh::topology::Topology;

@@ -38,6 +38,7 @@ pub mod cli;
 pub mod complete;
 pub mod config;
 pub mod constraints;
+pub mod domain;
 pub mod ecs;
 pub mod edit;
 pub mod error;

@@ -2,10 +2,10 @@
 //! targets, checked as a constraint file's are, with errors naming the
 //! constraint's index instead of a line and column.
 
-use crate::constraints::{BoundaryChoice, ResolvedConstraint};
-use crate::free::Region;
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
+use crate::param::region::Region;
 use glam::DVec2;
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 /// Constraints on an in-memory mesh: each `(vertex, target)` puts a vertex
@@ -112,10 +112,10 @@ impl Pins {
                 snapped_distance: None,
             });
         }
-        if let Some((a, b)) = crate::constraints::coincident_targets(&out) {
+        if let Some((a, b)) = coincident_targets(&out) {
             return Err(PinError::Constraint {
                 index: out[b].index,
-                message: crate::constraints::coincident_message(&out[a], &out[b]),
+                message: coincident_message(&out[a], &out[b]),
             });
         }
         let corners = self.corners.map(|c| resolve_corners(c, welded, n)).transpose()?;
@@ -188,4 +188,78 @@ mod tests {
         let merged = Pins::new(&[(1, half), (1, half)]).resolve(&prim, &welded).unwrap();
         assert_eq!(merged.0.len(), 1);
     }
+}
+
+/// The `boundary` field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BoundaryChoice {
+    /// The outer loop onto the texture's square (§III.B).
+    Square,
+    /// The outer loop and holes move freely inside the region; the layout
+    /// is globally injective.
+    Free,
+}
+
+/// A constraint resolved against the asset.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResolvedConstraint {
+    /// Index in the file's `constraints` list.
+    pub index: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
+    pub primitive: usize,
+    /// glTF vertex index in `primitive`.
+    pub vertex: u32,
+    /// Welded vertex id (internal).
+    #[serde(skip)]
+    pub welded: u32,
+    /// Target in glTF texture coordinates.
+    pub target_uv: DVec2,
+    /// For `near` constraints: how far the chosen vertex is from the point.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub snapped_distance: Option<f64>,
+}
+
+/// Two different vertices whose targets are closer than this (texture units)
+/// cannot both be reached without a zero-area triangle between them (f32
+/// texture coordinates cannot tell them apart either).
+pub const MIN_TARGET_DISTANCE: f64 = 1e-6;
+
+/// Two constraints (positions in `constraints`) on different vertices whose
+/// targets are (nearly) the same point, if any: no one-to-one map reaches both.
+pub fn coincident_targets(constraints: &[ResolvedConstraint]) -> Option<(usize, usize)> {
+    let mut order: Vec<usize> = (0..constraints.len()).collect();
+    order.sort_by(|&a, &b| constraints[a].target_uv.x.total_cmp(&constraints[b].target_uv.x));
+    for (k, &a) in order.iter().enumerate() {
+        let ta = constraints[a].target_uv;
+        for &b in &order[k + 1..] {
+            let tb = constraints[b].target_uv;
+            if tb.x - ta.x > MIN_TARGET_DISTANCE {
+                break;
+            }
+            if ta.distance(tb) <= MIN_TARGET_DISTANCE && constraints[a].welded != constraints[b].welded {
+                return Some((a.min(b), a.max(b)));
+            }
+        }
+    }
+    None
+}
+
+/// The message for two constraints with (nearly) the same target.
+pub fn coincident_message(a: &ResolvedConstraint, b: &ResolvedConstraint) -> String {
+    format!(
+        "constraints[{}] (vertex {}) and constraints[{}] (vertex {}) have the same target ({}, {}){}: two vertices \
+         cannot land on one point without a triangle collapsing between them",
+        a.index,
+        a.vertex,
+        b.index,
+        b.vertex,
+        b.target_uv.x,
+        b.target_uv.y,
+        if a.target_uv == b.target_uv {
+            String::new()
+        } else {
+            format!(" to within {:.1e}", a.target_uv.distance(b.target_uv))
+        }
+    )
 }

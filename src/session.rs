@@ -21,9 +21,9 @@
 use crate::chart::{self, PreparedChart, PrimitiveUvs};
 use crate::complete::pattern::PendingNewtonPattern;
 use crate::constraints::ConstraintSource;
+use crate::domain::Domain;
 use crate::error::Error;
 use crate::export::{self, Outputs};
-use crate::free::BoundarySetup;
 use crate::io::SourceAsset;
 use crate::options::SolverOptions;
 use crate::param::bar_net::BarNet;
@@ -385,7 +385,7 @@ impl ChartSession {
     }
 
     fn on_square(&self) -> bool {
-        matches!(self.prepared.boundary, BoundarySetup::Square)
+        matches!(self.prepared.boundary, Domain::Square)
     }
 
     fn mapped_boundary(&self) -> Result<&BoundaryMap, Error> {

@@ -6,8 +6,8 @@
 mod common;
 use common::*;
 use glam::{DVec2, DVec3};
-use uvpin::free::Region;
 use uvpin::mesh::TriMesh;
+use uvpin::param::region::Region;
 use uvpin::param::{uv_to_xy, xy_to_uv};
 use uvpin::testing::{Rng, grid_mesh, random_disk, smooth_warp, swirl};
 
@@ -385,7 +385,7 @@ fn the_alligators_witnessed_cases_are_reached() {
     let options: uvpin::Options = uvpin::options::SolverOptions::DEFAULT.into();
     for (seed, k) in [(2, 24), (17, 24), (2, 40), (14, 40), (18, 40), (20, 40)] {
         let (constraints, _) = uvpin::testing::witnessed_free_case(&mesh, k, seed).expect("a witness");
-        let pins = uvpin::Pins::new(&constraints).with_boundary(uvpin::constraints::BoundaryChoice::Free);
+        let pins = uvpin::Pins::new(&constraints).with_boundary(uvpin::pins::BoundaryChoice::Free);
         let s = uvpin::solve_mesh(&mesh, &pins, &options).unwrap();
         let name = format!("seed {seed}, {k} landmarks");
         assert_eq!(

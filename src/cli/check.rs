@@ -1,8 +1,9 @@
 //! `uvpin check`: metrics of existing UVs, one line per chart.
 
-use crate::constraints::{LoadedConstraints, MeshSelector};
+use crate::constraints::LoadedConstraints;
 use crate::guard;
 use crate::guard::VAxis;
+use crate::io::MeshSelector;
 use crate::mesh::weld::{WeldedMesh, weld};
 use crate::metrics::sander_stretch;
 use crate::param::{uv_to_xy, xy_to_uv};

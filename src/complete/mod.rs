@@ -14,7 +14,7 @@
 //! accepts is fold-free, virtual hole triangles included.
 //!
 //! Each phase advances one Newton step per call; the chart solver
-//! ([`crate::solver`]) sequences them.
+//! sequences them.
 
 pub mod attempts;
 pub mod context;

@@ -6,81 +6,16 @@
 //! its region and clear of the other islands; [`scaffold`] triangulates the
 //! free space around the chart (Jiang, Schaefer and Panozzo 2017), whose
 //! triangles join the orientation guard and carry a small energy, so the
-//! Newton phases keep the boundary apart; [`start`] gives the start layout
-//! (least-squares conformal, or the island as it was) fitted to the targets.
+//! Newton phases keep the boundary apart. The start layouts and the rules
+//! of a free solve are the domain module's.
 
 pub mod room;
 pub mod scaffold;
-pub mod setup;
-pub mod start;
 
+use crate::param::region::Region;
 use glam::DVec2;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::sync::Arc;
-
-/// The smallest side of a region (texture units).
-pub const MIN_REGION_SIDE: f64 = 1e-4;
-
-/// A rectangle of the texture in glTF texture coordinates ((0, 0) top-left, v down).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Region {
-    pub min: DVec2,
-    pub max: DVec2,
-}
-
-impl Region {
-    /// The whole texture.
-    pub const TEXTURE: Region = Region {
-        min: DVec2::ZERO,
-        max: DVec2::ONE,
-    };
-
-    /// Why `self` is not a usable region, if it is not.
-    pub fn problem(&self) -> Option<String> {
-        let finite = self.min.is_finite() && self.max.is_finite();
-        if !finite {
-            return Some("region corners must be finite numbers".into());
-        }
-        let size = self.max - self.min;
-        if size.x < MIN_REGION_SIDE || size.y < MIN_REGION_SIDE {
-            return Some(format!(
-                "region min ({}, {}) must be below max ({}, {}) by at least {MIN_REGION_SIDE} in u and v",
-                self.min.x, self.min.y, self.max.x, self.max.y
-            ));
-        }
-        None
-    }
-
-    /// Whether the texture point `uv` is inside (closed).
-    pub fn contains_uv(&self, uv: DVec2) -> bool {
-        uv.cmpge(self.min).all() && uv.cmple(self.max).all()
-    }
-
-    /// The rectangle in layout coordinates (x = u, y = 1 − v): (lower left, upper right).
-    pub fn layout_box(&self) -> (DVec2, DVec2) {
-        (
-            DVec2::new(self.min.x, 1.0 - self.max.y),
-            DVec2::new(self.max.x, 1.0 - self.min.y),
-        )
-    }
-
-    /// The smallest region holding `self` and the texture points `uvs`.
-    #[must_use]
-    pub fn grown_to(mut self, uvs: impl IntoIterator<Item = DVec2>) -> Region {
-        for p in uvs {
-            self.min = self.min.min(p);
-            self.max = self.max.max(p);
-        }
-        self
-    }
-
-    /// The bounding rectangle of the texture points `uvs` (`None` if empty).
-    pub fn bounding(uvs: impl IntoIterator<Item = DVec2>) -> Option<Region> {
-        let mut it = uvs.into_iter();
-        let first = it.next()?;
-        Some(Region { min: first, max: first }.grown_to(it))
-    }
-}
 
 /// Where a free chart's region came from (for the report).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -174,24 +109,6 @@ fn island_probes(triangles: &[[u32; 3]], n: usize) -> Vec<u32> {
         }
     }
     probes
-}
-
-/// How a chart's boundary is laid out.
-#[derive(Debug, Clone)]
-pub enum BoundarySetup {
-    /// The outer loop on the unit square (§III.B).
-    Square,
-    /// Free inside a region, clear of other islands.
-    Free(Arc<FreeSetup>),
-}
-
-impl BoundarySetup {
-    pub fn free(&self) -> Option<&FreeSetup> {
-        match self {
-            BoundarySetup::Square => None,
-            BoundarySetup::Free(f) => Some(f),
-        }
-    }
 }
 
 /// A free chart's room: its region, where that came from, the other

@@ -265,7 +265,7 @@ mod tests {
     #[test]
     fn islands_are_left_out() {
         let uvs = [[0.05f32, 0.05], [0.3, 0.05], [0.05, 0.3]];
-        let obstacles = Obstacles::new(&uvs, &[[0, 1, 2]], crate::free::Region::TEXTURE);
+        let obstacles = Obstacles::new(&uvs, &[[0, 1, 2]], crate::param::region::Region::TEXTURE);
         let mesh = grid_mesh(3, 3);
         let topology = crate::mesh::topology::Topology::build(&mesh).unwrap();
         let boundary = topology.outer_loop().to_vec();

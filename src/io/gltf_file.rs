@@ -6,9 +6,9 @@
 //! pointed at them, so every other object, extension, extra and unknown field
 //! is written back as read, and every existing accessor keeps its bytes.
 
+use super::MeshSelector;
 use super::atomic::{self, Staged};
 use super::{AssetError, AssetFormat, Container, SourceAsset, glb};
-use crate::constraints::MeshSelector;
 use crate::mesh::weld::PrimitiveGeometry;
 use base64::Engine;
 use serde_json::{Value, json};

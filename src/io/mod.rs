@@ -12,10 +12,17 @@ pub mod validate;
 
 pub use read::{InputLimits, ReadError, ReadScope};
 
-use crate::constraints::MeshSelector;
 use crate::mesh::weld::PrimitiveGeometry;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
+
+/// Which mesh of the asset: its index or its name.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(untagged)]
+pub enum MeshSelector {
+    Index(usize),
+    Name(String),
+}
 
 /// What went wrong with an asset file. Every variant names the file.
 #[derive(Debug, Error)]
@@ -133,7 +140,7 @@ pub struct SourceAsset {
     /// The rules it was read under (its buffers' and images' reads follow them).
     pub rules: InputRules,
     /// The base-colour texture, decoded on first use by
-    /// [`crate::preview::texture::base_colour_texture`] and then shared by
+    /// the pictures' texture lookup and then shared by
     /// every picture of this asset (a sweep draws one per run).
     pub decoded_texture: TextureCache,
 }

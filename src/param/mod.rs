@@ -8,6 +8,7 @@
 
 pub mod bar_net;
 pub mod boundary;
+pub mod region;
 
 use glam::DVec2;
 

@@ -192,7 +192,7 @@ pub struct SteppingState {
 impl SteppingState {
     /// Starts stepping, or is already `Reached` when every residual is
     /// within tolerance. `completion_follows`: a stall hands over to the
-    /// completion (see [`crate::solver::policy::Policy::completion_follows_stall`]).
+    /// completion (the chart solver's policy decides).
     pub fn start(problem: &StepProblem, layout: &[DVec2], options: &SolverOptions, completion_follows: bool) -> Self {
         let phase = if problem.max_residual(layout) <= options.tolerance {
             SteppingPhase::Reached
@@ -276,8 +276,10 @@ fn stall_reason(options: &SolverOptions) -> String {
 mod tests {
     use super::*;
 
+    /// Whether a completion follows a stall with these options (the
+    /// chart solver's policy: the exact guard and `completion: Auto`).
     fn follows(o: &SolverOptions) -> bool {
-        crate::solver::policy::Policy::new(o, 1).completion_follows_stall()
+        o.guard == crate::options::Guard::Exact && o.completion == crate::options::Completion::Auto
     }
 
     #[test]

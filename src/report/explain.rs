@@ -42,10 +42,10 @@ fn free_line(s: &SolveSummary) -> Option<String> {
         crate::free::RegionSource::Island => "the chart's own island",
     };
     let start = match free.start {
-        crate::free::start::StartKind::Island => "its island as it was",
-        crate::free::start::StartKind::Through => "least-squares conformal through the targets",
-        crate::free::start::StartKind::Conformal => "least-squares conformal",
-        crate::free::start::StartKind::StepOne => "step 1 (the conformal layout folded)",
+        crate::domain::start::StartKind::Island => "its island as it was",
+        crate::domain::start::StartKind::Through => "least-squares conformal through the targets",
+        crate::domain::start::StartKind::Conformal => "least-squares conformal",
+        crate::domain::start::StartKind::StepOne => "step 1 (the conformal layout folded)",
     };
     let islands = setup.obstacles.triangles.len();
     Some(format!(

@@ -282,10 +282,10 @@ pub enum BoundaryMode {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FreeReport {
     /// The rectangle the chart stays inside (texture coordinates).
-    pub region: crate::free::Region,
+    pub region: crate::param::region::Region,
     pub region_source: crate::free::RegionSource,
     /// The layout the solve started from.
-    pub start: crate::free::start::StartKind,
+    pub start: crate::domain::start::StartKind,
     /// How much the start was shrunk to fit its room (1: not at all).
     pub start_shrink: f64,
     /// Newton steps that relaxed the start before the spline path.

@@ -20,11 +20,12 @@ use crate::complete::pattern::{Build, PendingNewtonPattern};
 use crate::complete::polish::{Polish, PolishGoal, PolishStats};
 use crate::complete::soft::{SoftCompletion, SoftProgress, SoftStats};
 use crate::constraints::ConstraintSource;
+use crate::domain::Domain;
+use crate::domain::start::{Fit, FreeStart, StartKind, free_start};
 use crate::error::Error;
+use crate::free::FreeSetup;
 use crate::free::room::Room;
 use crate::free::scaffold::Scaffold;
-use crate::free::start::{Fit, FreeStart, StartKind, free_start};
-use crate::free::{BoundarySetup, FreeSetup};
 use crate::guard;
 use crate::metrics::{Stretch, sander_stretch};
 use crate::options::SolverOptions;
@@ -433,7 +434,7 @@ impl ChartSolver {
     }
 
     /// A free chart that no two targets size, once done: scaled up to the
-    /// largest that fits its room ([`crate::free::start::fill_region`]).
+    /// largest that fits its room ([`crate::domain::start::fill_region`]).
     /// An island keeps its size.
     fn fill_free_region(&mut self) {
         let Some(free) = &self.free else {
@@ -444,7 +445,7 @@ impl ChartSolver {
         }
         let n = self.filled.mesh.n_vertices();
         let pivot = self.problem.targets.first().copied();
-        crate::free::start::fill_region(
+        crate::domain::start::fill_region(
             &free.domain.room,
             &mut self.layout[..n],
             &self.filled.mesh.triangles,
@@ -660,7 +661,7 @@ fn start_free(
     let prepared = start.prepared;
     let filled = &prepared.filled;
     let triangles = &filled.mesh.triangles;
-    let BoundarySetup::Free(setup_arc) = &prepared.boundary else {
+    let Domain::Free(setup_arc) = &prepared.boundary else {
         unreachable!("called for free charts")
     };
     debug_assert!(std::ptr::eq(setup_arc.as_ref(), setup));
@@ -742,8 +743,8 @@ fn relax(
         return None;
     }
     let n = filled.mesh.n_vertices();
-    let shape = crate::free::start::Shape::of(filled);
-    let refit = crate::free::start::fit_into_room(
+    let shape = crate::domain::start::Shape::of(filled);
+    let refit = crate::domain::start::fit_into_room(
         &domain.room,
         &shape,
         &layout[..n],

@@ -40,7 +40,8 @@ pub struct Step1Times {
 /// with no way out (located at the `corners` field).
 pub fn map_boundary(prepared: &PreparedChart, source: &ConstraintSource) -> Result<BoundaryMap, Error> {
     let c = prepared;
-    map_outer_boundary(&c.chart.mesh, &c.topology, &c.traps, c.corners).map_err(|e| source.corners_error(e.to_string()))
+    map_outer_boundary(&c.chart.mesh, &c.topology, &c.traps, c.corners)
+        .map_err(|e| source.corners_error(e.to_string()).into())
 }
 
 /// `D = Cᵀ Q C` of Eq. 1 (force densities of Eq. 2) over the nodes off the

@@ -3,7 +3,7 @@
 //! and re-welding its asset.
 
 use crate::config::OutputMode;
-use crate::constraints::MeshSelector;
+use crate::io::MeshSelector;
 use crate::io::{InputRules, ReadError, ReadScope, SourceAsset};
 use std::collections::HashMap;
 use std::hash::Hasher;

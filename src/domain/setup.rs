@@ -2,11 +2,14 @@
 //! `boundary` and `region` and from the UVs the asset already has: a chart
 //! that has UVs stays free inside its own island unless told otherwise.
 
-use super::{BoundarySetup, FreeSetup, Obstacles, Region, RegionSource};
-use crate::constraints::{BoundaryChoice, ConstraintSource, ResolvedConstraint};
+use super::Domain;
+use crate::constraints::ConstraintSource;
 use crate::error::Error;
+use crate::free::{FreeSetup, Obstacles, RegionSource};
 use crate::io::SourceAsset;
 use crate::mesh::weld::{Chart, WeldedMesh};
+use crate::param::region::{MIN_REGION_SIDE, Region};
+use crate::pins::{BoundaryChoice, ResolvedConstraint};
 use glam::DVec2;
 use std::sync::Arc;
 
@@ -29,7 +32,7 @@ pub fn decide(
     welded: &WeldedMesh,
     chart: &Chart,
     constraints: &[ResolvedConstraint],
-) -> Result<BoundarySetup, Error> {
+) -> Result<Domain, Error> {
     let (choice, given) = source.boundary();
     let uvs = welded_uvs(asset, welded);
     let island: Option<Vec<DVec2>> = chart
@@ -38,16 +41,16 @@ pub fn decide(
         .map(|&w| uvs[w as usize].map(|[u, v]| DVec2::new(u as f64, 1.0 - v as f64)))
         .collect();
     let (region, source_kind) = match (choice, given) {
-        (Some(BoundaryChoice::Square), _) => return Ok(BoundarySetup::Square),
+        (Some(BoundaryChoice::Square), _) => return Ok(Domain::Square),
         (_, Some(region)) => (region, RegionSource::Given),
         (Some(BoundaryChoice::Free), None) => (Region::TEXTURE, RegionSource::Texture),
         (None, None) => match &island {
             Some(layout) => (island_region(layout, constraints), RegionSource::Island),
-            None => return Ok(BoundarySetup::Square),
+            None => return Ok(Domain::Square),
         },
     };
     if let Some(problem) = region.problem() {
-        return Err(source.region_error(problem));
+        return Err(source.region_error(problem).into());
     }
     for c in constraints {
         let t = c.target_uv;
@@ -60,11 +63,12 @@ pub fn decide(
                     "target ({}, {}) is not inside the region u {}..{}, v {}..{} (a free chart stays strictly inside it)",
                     t.x, t.y, region.min.x, region.max.x, region.min.y, region.max.y
                 ),
-            ));
+            )
+            .into());
         }
     }
     let obstacles = other_islands(welded, chart.id, &uvs, region);
-    Ok(BoundarySetup::Free(Arc::new(FreeSetup {
+    Ok(Domain::Free(Arc::new(FreeSetup {
         region,
         source: source_kind,
         obstacles: Arc::new(obstacles),
@@ -91,7 +95,7 @@ fn island_region(layout: &[DVec2], constraints: &[ResolvedConstraint]) -> Region
     let uv = |p: &DVec2| DVec2::new(p.x, 1.0 - p.y);
     let bounds = Region::bounding(layout.iter().map(uv)).unwrap_or(Region::TEXTURE);
     let grown = bounds.grown_to(constraints.iter().map(|c| c.target_uv));
-    let pad = GROWTH_MARGIN * (grown.max - grown.min).max(DVec2::splat(super::MIN_REGION_SIDE));
+    let pad = GROWTH_MARGIN * (grown.max - grown.min).max(DVec2::splat(MIN_REGION_SIDE));
     let mut region = grown;
     // Pad only the sides a target pushed out (or sits on).
     for k in 0..2 {

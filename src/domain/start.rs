@@ -6,9 +6,9 @@
 //! fits its constrained vertices to their targets and shrunk until it fits
 //! its room.
 
-use super::room::Room;
 use crate::complete::energy::RestTriangle;
 use crate::complete::newton::NewtonSystem;
+use crate::free::room::Room;
 use crate::guard;
 use crate::param::bar_net::FilledChart;
 use crate::rbf::stepping::StepProblem;
