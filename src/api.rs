@@ -93,7 +93,9 @@ impl From<SolverOptions> for Options {
 /// outside the solved chart get (0, 0)).
 #[derive(Debug, Clone)]
 pub struct MeshSolution {
+    /// What was reached, how far, and the layout's stretch.
     pub report: Report,
+    /// One texture coordinate per vertex of the mesh.
     pub uvs: Vec<[f32; 2]>,
 }
 
@@ -197,7 +199,9 @@ pub fn solve_mesh(mesh: &TriMesh, pins: &Pins, options: &Options) -> Result<Mesh
 /// the bar-net factor and the layout.
 #[derive(Debug, Clone)]
 pub struct MeshStep1 {
+    /// The chart: weld, topology, hole fill.
     pub prepared: PreparedChart,
+    /// The boundary on the square, the factor and the step-1 layout.
     pub step1: Step1,
 }
 

@@ -33,8 +33,8 @@ pub struct PreparedChart {
     pub constraint_vertices: Vec<u32>,
     /// Given corners, chart-local.
     pub corners: Option<[u32; 4]>,
-    /// The outer boundary on the square, or free inside a region.
-    pub boundary: Domain,
+    /// Where it is laid out: the outer boundary on the square, or free inside a region.
+    pub domain: Domain,
     pub warnings: Vec<String>,
 }
 
@@ -82,8 +82,8 @@ fn prepare_on(
         .collect();
     let corners = welded_corners.map(|w| local_corners(w, &chart, source)).transpose()?;
     let mut warnings: Vec<String> = missing_uv_warning(asset, &welded, chart_id).into_iter().collect();
-    let boundary = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints)?;
-    if corners.is_some() && matches!(boundary, Domain::Free(_)) {
+    let domain = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints)?;
+    if corners.is_some() && matches!(domain, Domain::Free(_)) {
         warnings.push("corners are ignored: the boundary is free".into());
     }
     Ok(PreparedChart {
@@ -95,7 +95,7 @@ fn prepare_on(
         constraints,
         constraint_vertices,
         corners,
-        boundary,
+        domain,
         warnings,
     })
 }
@@ -223,7 +223,7 @@ pub fn step_problem(
         on_outer[v as usize] = Some(i);
     }
     let mut problem = StepProblem::default();
-    if prepared.boundary.free().is_some() {
+    if prepared.domain.free().is_some() {
         // A free boundary moves: every constraint is the spline's and every
         // vertex movable (hole centres too); the spline path first holds a
         // sample of the outer loop (as the square does), so its field stays

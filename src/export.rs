@@ -47,7 +47,9 @@ pub enum OnError {
 /// The finished layout of a chart, and what to say about it.
 #[derive(Debug, Clone, Copy)]
 pub struct Finished<'a> {
+    /// The asset the chart is from.
     pub asset: &'a SourceAsset,
+    /// The chart.
     pub prepared: &'a PreparedChart,
     /// The outer loop (chart-local ids), drawn on the layout picture.
     pub outer_loop: &'a [u32],
@@ -165,7 +167,7 @@ pub fn stage_chart(
 /// For a free chart: why its layout, as glTF and OBJ store it, is not
 /// globally injective inside its region and clear of the other islands.
 fn overlap(prepared: &PreparedChart, layout: &[DVec2]) -> Option<crate::free::room::Violation> {
-    let crate::domain::Domain::Free(setup) = &prepared.boundary else {
+    let crate::domain::Domain::Free(setup) = &prepared.domain else {
         return None;
     };
     let f = &prepared.filled;

@@ -76,6 +76,7 @@ pub struct SolverOptions {
 }
 
 impl SolverOptions {
+    /// The defaults: the exact guard, the completion and the polish on.
     pub const DEFAULT: SolverOptions = SolverOptions {
         guard: Guard::Exact,
         max_iterations: 100,
@@ -100,8 +101,11 @@ impl SolverOptions {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("solver.{field}: {why}, got {value}")]
 pub struct OptionError {
+    /// The option's name under `solver`.
     pub field: &'static str,
+    /// The value given.
     pub value: f64,
+    /// What it must be.
     pub why: &'static str,
 }
 

@@ -15,7 +15,9 @@ use thiserror::Error;
 /// top_right).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Pins {
+    /// Each pinned vertex and its target (glTF texture coordinates).
     pub targets: Vec<(u32, DVec2)>,
+    /// The outer-boundary vertices that go to the texture's corners.
     pub corners: Option<[u32; 4]>,
     /// The boundary layout (default as a constraint file's `boundary`).
     pub boundary: Option<BoundaryChoice>,
@@ -57,12 +59,26 @@ impl Pins {
 /// A mistake in [`Pins`]: which constraint (or the corners) and what is wrong.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum PinError {
+    /// Pin `index` (in [`Pins::targets`]) is wrong.
     #[error("constraints[{index}]: {message}")]
-    Constraint { index: usize, message: String },
+    Constraint {
+        /// The pin's index.
+        index: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The corners are wrong.
     #[error("corners: {message}")]
-    Corners { message: String },
+    Corners {
+        /// What is wrong.
+        message: String,
+    },
+    /// The region is wrong.
     #[error("region: {message}")]
-    Region { message: String },
+    Region {
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl Pins {
@@ -205,8 +221,10 @@ pub enum BoundaryChoice {
 pub struct ResolvedConstraint {
     /// Index in the file's `constraints` list.
     pub index: usize,
+    /// The constraint's name in the file, if it has one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub label: Option<String>,
+    /// The glTF primitive holding the vertex.
     pub primitive: usize,
     /// glTF vertex index in `primitive`.
     pub vertex: u32,

@@ -18,7 +18,7 @@ pub struct RonSyntaxError {
 }
 
 /// Characters of a file that a message may quote.
-const SNIPPET_CHARS: usize = 40;
+pub const SNIPPET_CHARS: usize = 40;
 
 /// At most [`SNIPPET_CHARS`] characters of `text`, control characters and
 /// quotes escaped, in backquotes: what an error may show of a file.

@@ -87,7 +87,9 @@ pub enum StartFrom {
 /// report, not yet written.
 #[derive(Debug, Clone)]
 pub struct Solution {
+    /// The finished solver: its final layout and record.
     pub solver: ChartSolver,
+    /// What was reached, and how.
     pub report: Report,
 }
 
@@ -318,10 +320,12 @@ impl ChartSession {
         chart::assemble_uvs(&self.asset, &self.prepared, layout)
     }
 
+    /// The asset the chart is from.
     pub fn asset(&self) -> &Arc<SourceAsset> {
         &self.asset
     }
 
+    /// Where the current constraints came from.
     pub fn source(&self) -> &ConstraintSource {
         &self.source
     }
@@ -385,7 +389,7 @@ impl ChartSession {
     }
 
     fn on_square(&self) -> bool {
-        matches!(self.prepared.boundary, Domain::Square)
+        matches!(self.prepared.domain, Domain::Square)
     }
 
     fn mapped_boundary(&self) -> Result<&BoundaryMap, Error> {

@@ -10,14 +10,15 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use uvpin::complete::pattern::PendingNewtonPattern;
 use uvpin::config::{LogFormat, OutputMode};
-use uvpin::ecs::watch::*;
+use uvpin::daemon::charts::*;
+use uvpin::daemon::events::{FileEvent, FileRules};
+use uvpin::daemon::log::Logger;
+use uvpin::daemon::paths::WatchRoot;
+use uvpin::daemon::registry::{WatchCounters, WatchSettings};
+use uvpin::daemon::status::StatusBoard;
 use uvpin::ecs::*;
 use uvpin::report::Status;
 use uvpin::testing::grid_mesh;
-use uvpin::watch::events::{FileEvent, FileRules};
-use uvpin::watch::log::Logger;
-use uvpin::watch::registry::WatchRoot;
-use uvpin::watch::status::StatusBoard;
 
 const N: usize = 12;
 const A: u32 = (6 + 6 * N) as u32;
@@ -83,7 +84,7 @@ impl Fixture {
     }
 
     fn send(&mut self, event: FileEvent) {
-        self.world.write_message(FileChanged(event));
+        handle(&mut self.world, &[event]);
     }
 
     fn run(&mut self) {
@@ -91,11 +92,11 @@ impl Fixture {
     }
 
     fn entity(&self) -> Entity {
-        self.world.resource::<WatchRegistry>().files[&self.ron()]
+        self.world.resource::<DaemonState>().entities[&self.ron()]
     }
 
     fn counters(&self) -> WatchCounters {
-        self.world.resource::<WatchRegistry>().counters
+        self.world.resource::<DaemonState>().registry.counters
     }
 
     fn factor(&self) -> Arc<uvpin::param::bar_net::BarNet> {

@@ -127,15 +127,14 @@ pub fn run(args: EditArgs) -> ExitCode {
         Some(LogArg::Json) => watch.log = LogFormat::Json,
         None => {}
     }
-    let options = crate::watch::daemon::WatchOptions {
+    let options = crate::daemon::run::WatchOptions {
         config: watch,
         solver: config.solver,
         limits: config.limits,
         once: false,
-        serve: Some(args.addr),
-        open: args.open,
     };
-    match crate::watch::daemon::run(options) {
+    let editor = crate::edit::publish::EditorAttachment::new(args.addr, args.open);
+    match crate::daemon::run::run(options, vec![Box::new(editor)]) {
         Ok(outcome) => ExitCode::from(outcome.exit_code()),
         Err(e) => fail(&format!("{e:#}")),
     }

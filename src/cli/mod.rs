@@ -322,15 +322,20 @@ fn watch(args: WatchArgs) -> ExitCode {
         Err(e) => return fail(&e),
     };
     let (once, serve) = (args.once, args.serve.clone());
-    let options = crate::watch::daemon::WatchOptions {
+    let options = crate::daemon::run::WatchOptions {
         config: args.apply(config.watch),
         solver: config.solver,
         limits: config.limits,
         once,
-        serve,
-        open: false,
     };
-    match crate::watch::daemon::run(options) {
+    // `--once` solves what is there and exits: nothing to serve.
+    let editor = serve
+        .filter(|_| !once)
+        .map(|addr| crate::edit::publish::EditorAttachment::new(addr, false));
+    let attachments = editor
+        .into_iter()
+        .map(|e| Box::new(e) as Box<dyn crate::daemon::run::Attachment>);
+    match crate::daemon::run::run(options, attachments.collect()) {
         Ok(outcome) => ExitCode::from(outcome.exit_code()),
         Err(e) => fail(&format!("{e:#}")),
     }

@@ -20,7 +20,7 @@ const ARC_BULGE: f64 = 0.5;
 
 /// How the targets travel in one attempt.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Path {
+pub enum TargetPath {
     Straight,
     /// Along arcs bulging right (`side` = 1) or left (−1) of the direction of travel.
     Arc {
@@ -44,7 +44,7 @@ pub struct Attempts {
     start: Vec<DVec2>,
     /// Per constraint, where it starts and its target.
     paths: Vec<(DVec2, DVec2)>,
-    order: Vec<Path>,
+    order: Vec<TargetPath>,
     current: usize,
     /// Largest residual at the end of the last round, and how many rounds
     /// in a row have not lowered it.
@@ -77,13 +77,13 @@ impl Attempts {
             .zip(&problem.targets)
             .map(|(&v, &t)| (start[v as usize], t))
             .collect();
-        let (right, left) = (Path::Arc { side: 1.0 }, Path::Arc { side: -1.0 });
+        let (right, left) = (TargetPath::Arc { side: 1.0 }, TargetPath::Arc { side: -1.0 });
         let order = if proven_unreachable {
-            vec![Path::Straight]
+            vec![TargetPath::Straight]
         } else if paths_cross(&paths) {
-            vec![right, left, Path::Straight]
+            vec![right, left, TargetPath::Straight]
         } else {
-            vec![Path::Straight, right, left]
+            vec![TargetPath::Straight, right, left]
         };
         Attempts {
             start: start.to_vec(),
@@ -114,14 +114,14 @@ impl Attempts {
         paths_cross(&self.paths)
     }
 
-    pub fn path(&self) -> Path {
+    pub fn path(&self) -> TargetPath {
         self.order[self.current]
     }
 
     /// Where the targets are in round `round` of the current attempt:
     /// `None` when they are at their final places.
     pub fn moving_targets(&self, round: u32) -> Option<Vec<DVec2>> {
-        let Path::Arc { side } = self.path() else {
+        let TargetPath::Arc { side } = self.path() else {
             return None;
         };
         let s = ((round + 1) as f64 / ARC_ROUNDS as f64).min(1.0);
@@ -133,7 +133,7 @@ impl Attempts {
     /// arrived (arcs travelled), rounds that no longer bring the constraints
     /// closer mean the attempt is stuck against the barrier.
     pub fn end_round(&mut self, round: u32, residual: f64, last_round: bool) -> RoundEnd {
-        let arrived = self.path() == Path::Straight || round + 1 >= ARC_ROUNDS;
+        let arrived = self.path() == TargetPath::Straight || round + 1 >= ARC_ROUNDS;
         self.stalled_rounds = if arrived && residual > 0.99 * self.last_round_residual {
             self.stalled_rounds + 1
         } else {
@@ -253,11 +253,11 @@ mod tests {
         let swap = problem(&[(0.8, 0.5), (0.2, 0.5)]);
         let a = Attempts::begin(&start, &swap, false);
         assert!(a.paths_cross());
-        assert_eq!(a.path(), Path::Arc { side: 1.0 });
+        assert_eq!(a.path(), TargetPath::Arc { side: 1.0 });
         let apart = problem(&[(0.2, 0.6), (0.8, 0.6)]);
-        assert_eq!(Attempts::begin(&start, &apart, false).path(), Path::Straight);
+        assert_eq!(Attempts::begin(&start, &apart, false).path(), TargetPath::Straight);
         let proven = Attempts::begin(&start, &swap, true);
-        assert_eq!(proven.order, vec![Path::Straight]);
+        assert_eq!(proven.order, vec![TargetPath::Straight]);
     }
 
     #[test]

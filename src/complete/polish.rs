@@ -18,7 +18,7 @@ use glam::DVec2;
 /// alligator's closed mouth) stays squeezed: every step toward relief is
 /// cut at the sliver (0.2 % of the Newton step), and the polish stops at
 /// once (L2 1.571, L∞ 129; seed 7, 24 landmarks).
-const SQUEEZED_PSI: f64 = 1000.0;
+pub const SQUEEZED_PSI: f64 = 1000.0;
 
 /// Why the polish runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -3,7 +3,7 @@
 //! each round, and snap the constrained vertices onto their targets as soon
 //! as that keeps every triangle positive (as stored).
 
-use super::attempts::{Attempts, Path, RoundEnd};
+use super::attempts::{Attempts, RoundEnd, TargetPath};
 use super::context::{NewtonContext, StepRequest};
 use super::energy::{self, RestTriangle};
 use super::newton::SoftTargets;
@@ -34,7 +34,7 @@ pub struct SoftStats {
     /// The round in which the constrained vertices were put exactly on
     /// their targets, and how the targets travelled in that attempt.
     pub snapped_at_round: Option<u32>,
-    pub snapped_path: Option<Path>,
+    pub snapped_path: Option<TargetPath>,
     /// Some constraints' straight paths meet head-on, so arcs were tried first.
     pub paths_cross: bool,
     /// A certificate that the targets are unreachable ([`super::obstruction`]),

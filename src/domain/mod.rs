@@ -5,6 +5,7 @@
 //! how a solve starts ([`start`]), what it admits and how it ends.
 
 pub mod setup;
+pub mod solve;
 pub mod start;
 
 use crate::free::FreeSetup;

@@ -48,7 +48,7 @@ pub struct FreeStart {
 const FIRST_FILL: f64 = 0.6;
 
 /// How much of the region a chart without two targets fills at the end (at most).
-const FINAL_FILL: f64 = 0.98;
+pub const FINAL_FILL: f64 = 0.98;
 
 /// Shrink factors tried, in order, to fit a start into its room.
 const SHRINKS: [f64; 12] = [1.0, 1.0 - 1e-6, 0.99, 0.9, 0.75, 0.5, 0.25, 0.1, 0.03, 1e-2, 1e-3, 1e-4];

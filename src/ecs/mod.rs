@@ -13,8 +13,6 @@
 
 pub mod components;
 pub mod systems;
-#[cfg(feature = "daemon")]
-pub mod watch;
 
 pub use components::*;
 

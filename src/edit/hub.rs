@@ -7,10 +7,10 @@
 use super::text::ExistingItem;
 use crate::chart::PrimitiveUvs;
 use crate::constraints::LoadedConstraints;
+use crate::daemon::status::FileState;
 use crate::io::SourceAsset;
 use crate::report::Report;
 use crate::session::ChartSession;
-use crate::watch::status::FileState;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -24,7 +24,7 @@ pub struct EditInputs {
     pub asset: Arc<SourceAsset>,
     /// The vertex each item of the file resolved to.
     pub existing: Vec<ExistingItem>,
-    /// Hash of the file's bytes (see [`crate::watch::registry::content_hash`]).
+    /// Hash of the file's bytes (see [`crate::io::content_hash`]).
     pub text_hash: u64,
 }
 

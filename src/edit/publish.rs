@@ -1,16 +1,19 @@
-//! The daemon's side of the editor: after a tick that changed a file's
-//! status, [`publish_to_editor`] hands each watched file's state, the
-//! inputs of its last loaded content and its last written solve to the
-//! [`Hub`] the server reads.
+//! The daemon's side of the editor: [`EditorAttachment`] serves it beside
+//! the daemon; after a tick that changed a file's status,
+//! [`publish_to_editor`] hands each watched file's state, the inputs of its
+//! last loaded content and its last written solve to the [`Hub`] the
+//! server reads.
 
 use super::hub::{EditInputs, FileUpdate, Hub, SolvedView};
 use super::text::ExistingItem;
 use crate::constraints::ConstraintSource;
-use crate::ecs::watch::{DaemonLog, WatchSettings, WatchedFile};
+use crate::daemon::charts::{DaemonLog, DaemonState, Settings, WatchedFile, report_results, write_status_file};
+use crate::daemon::log::Logger;
+use crate::daemon::paths::display;
 use crate::ecs::{Exported, Session, SolveJob, Solver};
 use crate::report::Status;
-use crate::watch::registry::display;
 use bevy_ecs::prelude::*;
+use serde_json::json;
 use std::sync::Arc;
 
 /// The hub the daemon publishes to (present only when serving the editor).
@@ -75,8 +78,9 @@ type FileParts<'a> = (
 /// Publishes every watched file when the status board changed this tick.
 pub fn publish_to_editor(
     feed: Res<EditorFeed>,
-    settings: Res<WatchSettings>,
+    settings: Res<Settings>,
     log: Res<DaemonLog>,
+    state: Res<DaemonState>,
     files: Query<FileParts>,
 ) {
     if !log.status.dirty {
@@ -85,10 +89,11 @@ pub fn publish_to_editor(
     let updates = files
         .iter()
         .filter_map(|(watched, job, session, solver, exported)| {
-            let name = display(&watched.path, &settings.cwd);
+            let name = display(&watched.path, &settings.0.cwd);
             let status = log.status.files.get(&name)?;
+            let text_hash = state.registry.files.get(&watched.path).and_then(|r| r.hash);
             let new_inputs = match (&job, session) {
-                (Some(job), Some(session)) if job.is_changed() => inputs(job, session, watched.hash),
+                (Some(job), Some(session)) if job.is_changed() => inputs(job, session, text_hash),
                 _ => None,
             };
             let new_solve = match (&job, session, solver, &exported) {
@@ -102,11 +107,73 @@ pub fn publish_to_editor(
                 name,
                 state: status.state,
                 error: status.last_error.clone(),
-                text_hash: watched.hash,
+                text_hash,
                 inputs: new_inputs,
                 solved: new_solve,
             })
         })
         .collect();
     feed.0.publish(updates);
+}
+
+/// The editor served beside the daemon (`uvpin edit`, `uvpin watch --serve`).
+pub struct EditorAttachment {
+    /// Where to serve it (`HOST:PORT`).
+    pub addr: String,
+    /// Open its page in a browser once it is served.
+    pub open: bool,
+    server: Option<super::server::EditorServer>,
+}
+
+impl EditorAttachment {
+    pub fn new(addr: String, open: bool) -> Self {
+        EditorAttachment {
+            addr,
+            open,
+            server: None,
+        }
+    }
+}
+
+impl crate::daemon::run::Attachment for EditorAttachment {
+    /// Starts the editor's server on the address, fed by the daemon's
+    /// schedule; logs its address (and opens it in a browser if asked).
+    fn attach(&mut self, world: &mut World, schedule: &mut Schedule, logger: &Logger) -> anyhow::Result<()> {
+        let hub = Arc::new(Hub::default());
+        let input = world.resource::<Settings>().0.input.clone();
+        let server = super::server::EditorServer::start(&self.addr, hub.clone(), input)?;
+        world.insert_resource(EditorFeed(hub));
+        schedule.add_systems(publish_to_editor.after(report_results).before(write_status_file));
+        let message = format!("editor at {} (open it in a browser)", server.url);
+        logger.info("serve", None, &message, json!({ "url": server.url }));
+        if !server.loopback {
+            let warning =
+                "the editor is served beyond this machine: anyone who can reach it can change the constraint files";
+            logger.warn("serve", None, warning, json!({}));
+        }
+        if self.open && !open_in_browser(&server.url) {
+            let message = "could not open a browser: open the address above";
+            logger.warn("serve", None, message, json!({}));
+        }
+        self.server = Some(server);
+        Ok(())
+    }
+
+    fn stop(&mut self) {
+        if let Some(server) = self.server.take() {
+            server.stop();
+        }
+    }
+}
+
+/// Opens `url` with the desktop's opener; whether one started.
+fn open_in_browser(url: &str) -> bool {
+    ["xdg-open", "open"].iter().any(|opener| {
+        std::process::Command::new(opener)
+            .arg(url)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .is_ok()
+    })
 }

@@ -16,7 +16,7 @@ use super::preview::{PreviewReply, Previewer};
 use super::text::{EditError, rewrite_constraints};
 use super::{page, payload};
 use crate::io::InputRules;
-use crate::watch::registry::content_hash;
+use crate::io::content_hash;
 use std::io::Write;
 use std::net::{IpAddr, SocketAddr};
 use std::sync::{Arc, Mutex};

@@ -272,3 +272,12 @@ impl SourceAsset {
         }
     }
 }
+
+/// A content hash (64-bit, for change detection only).
+pub fn content_hash(bytes: &[u8]) -> u64 {
+    use std::hash::Hasher;
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    h.write_usize(bytes.len());
+    h.write(bytes);
+    h.finish()
+}

@@ -132,14 +132,6 @@ pub fn apply_step(layout: &[DVec2], problem: &StepProblem, full: &[DVec2], t: f6
     candidate
 }
 
-/// [`full_step`] then [`apply_step`]: the candidate for fraction `t`.
-///
-/// # Errors
-/// A [`TpsError`] when the centres make the spline system singular.
-pub fn propose_step(layout: &[DVec2], problem: &StepProblem, t: f64) -> Result<Vec<DVec2>, TpsError> {
-    Ok(apply_step(layout, problem, &full_step(layout, problem)?.field, t))
-}
-
 /// Spline evaluations (vertices × centres) above which the work is split
 /// over rayon's threads; below it the split costs more than it saves.
 const PARALLEL_EVALUATIONS: usize = 40_000;

@@ -1,30 +1,15 @@
 //! The report of a finished chart solve.
 
 use super::explain::explain_lines;
-use super::{
-    BoundaryMode, BoundaryReport, CompletionStats, ConstraintReport, Counts, FreeReport, Report, StageTimes, Status,
-};
+use super::summary::SolveSummary;
+use super::{BoundaryMode, BoundaryReport, CompletionStats, ConstraintReport, Counts, FreeReport, Report, Status};
 use crate::chart::PreparedChart;
 use crate::complete::obstruction::Obstruction;
 use crate::metrics::{Stretch, sander_stretch};
-use crate::param::boundary::{BoundaryMap, BoundaryShape};
+use crate::param::boundary::BoundaryShape;
 use crate::param::xy_to_uv;
 use crate::rbf::stepping::SteppingPhase;
-use crate::solver::ChartSolver;
 use glam::DVec2;
-
-/// Everything [`build`] needs about a finished solve.
-pub struct SolveSummary<'a> {
-    /// How the report names the constraints' source (a path or `<memory>`).
-    pub constraint_file: String,
-    pub asset: &'a crate::io::SourceAsset,
-    pub prepared: &'a PreparedChart,
-    pub boundary: &'a BoundaryMap,
-    pub step1: &'a [DVec2],
-    pub solver: &'a ChartSolver,
-    /// Every stage's time so far (the solver's own included).
-    pub times: StageTimes,
-}
 
 /// A chart vertex's id in the asset (the first primitive that has it).
 fn gltf_id(p: &PreparedChart, local: u32) -> Option<u32> {

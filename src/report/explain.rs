@@ -1,6 +1,6 @@
 //! `uvpin solve --explain`: one line per phase.
 
-use super::build::SolveSummary;
+use super::summary::SolveSummary;
 use super::{CompletionStats, Status};
 use crate::metrics::Stretch;
 use crate::param::boundary::{BoundaryShape, CornerSource};

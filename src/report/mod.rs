@@ -3,9 +3,11 @@
 
 mod build;
 mod explain;
+mod summary;
 
+pub use build::build;
 pub(crate) use build::vertex_namer;
-pub use build::{SolveSummary, build};
+pub use summary::SolveSummary;
 
 use crate::guard::OrientationCounts;
 use crate::metrics::Stretch;
@@ -26,6 +28,7 @@ pub enum Status {
 }
 
 impl Status {
+    /// The command line's exit code for this status.
     pub fn exit_code(self) -> i32 {
         match self {
             Status::Reached => 0,
@@ -40,9 +43,12 @@ impl Status {
 pub struct ConstraintReport {
     /// Index in the constraint file's list.
     pub index: usize,
+    /// Its label in the file.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub label: Option<String>,
+    /// The glTF primitive holding the vertex.
     pub primitive: usize,
+    /// The vertex (glTF index in `primitive`).
     pub vertex: u32,
     /// Target, glTF texture coordinates.
     pub target: DVec2,
@@ -52,9 +58,11 @@ pub struct ConstraintReport {
     pub step1: DVec2,
     /// Distance from result to target, texture units.
     pub residual: f64,
+    /// Within the solver's tolerance of the target.
     pub reached: bool,
     /// On the outer boundary (placed by the boundary map, not moved).
     pub on_boundary: bool,
+    /// For a `near` constraint: how far the chosen vertex is from the point.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub snapped_distance: Option<f64>,
 }
@@ -96,6 +104,7 @@ impl StageTimes {
         self
     }
 
+    /// Every stage's time together.
     pub fn total_ms(&self) -> f64 {
         self.load_ms
             + self.topology_ms
@@ -117,16 +126,22 @@ pub struct Counts {
     pub charts: usize,
     /// The solved chart's id.
     pub chart: u32,
+    /// The chart's vertices.
     pub vertices: usize,
+    /// The chart's triangles.
     pub triangles: usize,
+    /// Its holes (inner boundary loops).
     pub holes: usize,
+    /// Vertices on its outer loop.
     pub boundary_vertices: usize,
 }
 
 /// How the outer boundary was placed.
 #[derive(Debug, Clone, Serialize)]
 pub struct BoundaryReport {
+    /// The shape the outer loop was mapped onto.
     pub shape: BoundaryShape,
+    /// Whether the corners were given or chosen.
     pub corner_source: CornerSource,
     /// glTF vertex ids (in the first primitive that has them) of the corners,
     /// top_left, bottom_left, bottom_right, top_right.
@@ -138,10 +153,13 @@ pub struct BoundaryReport {
 pub struct CompletionStats {
     /// The soft-to-hard phase ran.
     pub soft: bool,
+    /// Soft-to-hard rounds run.
     pub rounds: u32,
+    /// Newton steps over all rounds.
     pub newton_steps: u32,
     /// Constrained vertices were put exactly on their targets.
     pub snapped: bool,
+    /// The round after which they were snapped.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub snapped_at_round: Option<u32>,
     /// The distortion polish ran.
@@ -149,6 +167,7 @@ pub struct CompletionStats {
     /// A layout too squeezed to store as f32 was spread first (before the
     /// soft rounds, or by the polish).
     pub repair: bool,
+    /// Newton steps of the polish.
     pub polish_steps: u32,
     /// Steps spent spreading a start too squeezed for f32, before the soft rounds.
     pub repair_steps: u32,
@@ -156,6 +175,7 @@ pub struct CompletionStats {
     pub polish_repair_steps: u32,
     /// Symmetric Dirichlet energy (area-weighted, 4 per unit area = isometry) at the start and end.
     pub energy_start: f64,
+    /// The energy at the end.
     pub energy_end: f64,
     /// The same energy right after the snap onto the targets (before any polish).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -164,6 +184,7 @@ pub struct CompletionStats {
     /// start of the soft rounds, and right after the snap.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub worst_start: Option<f64>,
+    /// The largest energy of one real triangle right after the snap.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub worst_snapped: Option<f64>,
     /// The most triangles any soft step measured against a progressive
@@ -183,7 +204,7 @@ pub struct CompletionStats {
 impl CompletionStats {
     /// The section for a solve's record.
     pub fn from_record(r: &crate::solver::SolveRecord) -> Self {
-        use crate::complete::attempts::Path;
+        use crate::complete::attempts::TargetPath;
         use crate::complete::polish::PolishGoal;
         let mut c = CompletionStats {
             energy_end: r.energy_end,
@@ -210,7 +231,7 @@ impl CompletionStats {
             c.worst_start = Some(s.worst_start);
             c.worst_snapped = s.worst_snapped;
             c.capped_triangles = s.capped_triangles;
-            c.arc_retry = matches!(s.snapped_path, Some(Path::Arc { .. }));
+            c.arc_retry = matches!(s.snapped_path, Some(TargetPath::Arc { .. }));
             c.paths_cross = s.paths_cross;
             c.proven_unreachable = s.obstruction.is_some();
         }
@@ -221,17 +242,25 @@ impl CompletionStats {
 /// The full report of one solve.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
+    /// Reached, partial or error.
     pub status: Status,
     /// Why stepping stopped short, or the error.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub message: Option<String>,
+    /// The constraint file (or `<memory>`).
     pub constraint_file: String,
+    /// The asset solved.
     pub asset: String,
+    /// The file written (`None`: nothing written).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
+    /// The UV set written (`TEXCOORD_n`).
     pub uv_set: u32,
+    /// Every constraint's outcome, in the file's order.
     pub constraints: Vec<ConstraintReport>,
+    /// The largest distance of a constraint from its target (texture units).
     pub max_residual: f64,
+    /// The mean distance of the constraints from their targets.
     pub mean_residual: f64,
     /// Orientation of the solved chart as written (f32), virtual hole triangles included.
     pub orientation: OrientationCounts,
@@ -255,11 +284,17 @@ pub struct Report {
     pub unreachable_proof: Option<String>,
     /// What each phase did, one line each (`uvpin solve --explain`).
     pub explain: Vec<String>,
+    /// Spline-path iterations (Eq. 6 steps accepted or halved).
     pub iterations: u32,
+    /// Step halvings by the foldover guard.
     pub halvings: u32,
+    /// Milliseconds per stage.
     pub times: StageTimes,
+    /// Milliseconds in all.
     pub total_ms: f64,
+    /// Sizes of what was solved.
     pub counts: Counts,
+    /// How the outer loop was placed on the square (`None`: free).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub boundary: Option<BoundaryReport>,
     /// `square` (the outer loop on the square) or `free`.
@@ -267,6 +302,7 @@ pub struct Report {
     /// A free boundary's region, start and global injectivity.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub free: Option<FreeReport>,
+    /// What the user should know that did not stop the solve.
     pub warnings: Vec<String>,
 }
 
@@ -274,7 +310,9 @@ pub struct Report {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BoundaryMode {
+    /// The outer loop on the unit square.
     Square,
+    /// The outer loop free inside a region.
     Free,
 }
 
@@ -283,6 +321,7 @@ pub enum BoundaryMode {
 pub struct FreeReport {
     /// The rectangle the chart stays inside (texture coordinates).
     pub region: crate::param::region::Region,
+    /// Where the region came from.
     pub region_source: crate::free::RegionSource,
     /// The layout the solve started from.
     pub start: crate::domain::start::StartKind,
@@ -303,6 +342,7 @@ pub struct FreeReport {
     /// Milliseconds spent on the start (conformal solve, fit, relaxing)
     /// and on triangulating scaffolds.
     pub start_ms: f64,
+    /// Milliseconds spent triangulating scaffolds.
     pub scaffold_ms: f64,
 }
 

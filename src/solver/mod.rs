@@ -15,17 +15,13 @@ pub mod policy;
 pub mod step1;
 
 use crate::chart::{self, PreparedChart};
-use crate::complete::context::{FreeDomain, NewtonContext};
+use crate::complete::context::NewtonContext;
 use crate::complete::pattern::{Build, PendingNewtonPattern};
 use crate::complete::polish::{Polish, PolishGoal, PolishStats};
 use crate::complete::soft::{SoftCompletion, SoftProgress, SoftStats};
 use crate::constraints::ConstraintSource;
-use crate::domain::Domain;
-use crate::domain::start::{Fit, FreeStart, StartKind, free_start};
+use crate::domain::solve::{ChartParts, FreeSolve, SolveDomain};
 use crate::error::Error;
-use crate::free::FreeSetup;
-use crate::free::room::Room;
-use crate::free::scaffold::Scaffold;
 use crate::guard;
 use crate::metrics::{Stretch, sander_stretch};
 use crate::options::SolverOptions;
@@ -33,7 +29,7 @@ use crate::param::bar_net::{BarNet, FilledChart};
 use crate::param::boundary::BoundaryMap;
 use crate::rbf::stepping::{FullStep, StepProblem, SteppingPhase, SteppingState, apply_step, fit_spline, full_step};
 use glam::DVec2;
-use policy::{AfterSpline, Policy, PolishOutcome};
+use policy::{AfterSpline, Policy, PolishOutcome, SplineEnd};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -118,28 +114,6 @@ pub struct SolveStart<'a> {
     pub elapsed_ms: f64,
 }
 
-/// A free chart's solve: its room and scaffold, where it started.
-#[derive(Debug, Clone)]
-pub struct FreeSolve {
-    pub domain: FreeDomain,
-    pub start: StartKind,
-    /// The layout area the rest shapes are scaled to.
-    pub rest_area: f64,
-    /// How much the start was shrunk to fit its room (1: not at all).
-    pub shrink: f64,
-    /// Newton steps that relaxed the start before the spline path.
-    pub relax_steps: u32,
-    /// Milliseconds spent on the start (conformal solve, fitting) and on
-    /// triangulating scaffolds.
-    pub start_ms: f64,
-}
-
-/// Newton steps at most that relax a free start before the spline path.
-const RELAX_STEPS: u32 = 3;
-
-/// Relaxing stops once a step gains less than this (relative).
-const RELAX_GAIN: f64 = 0.05;
-
 /// The solve of one chart, from step 1's results to the final layout.
 #[derive(Debug, Clone)]
 pub struct ChartSolver {
@@ -151,7 +125,7 @@ pub struct ChartSolver {
     /// (square), or the fitted free start with the scaffold's fixed points
     /// appended (free).
     start: Vec<DVec2>,
-    free: Option<FreeSolve>,
+    domain: SolveDomain,
     /// The current layout: fold-free at all times (in double precision, and
     /// as stored once it is storable).
     layout: Vec<DVec2>,
@@ -201,7 +175,7 @@ impl ChartSolver {
             )));
         }
         let options = *start.options;
-        let free_setup = start.prepared.boundary.free();
+        let free_setup = start.prepared.domain.free();
         let problem = chart::step_problem(
             start.prepared,
             start.source,
@@ -227,15 +201,16 @@ impl ChartSolver {
                 ))
             }
         };
-        let (layout, free) = match free_setup {
-            None => (start.step1.to_vec(), None),
-            Some(setup) => {
-                let (layout, solve) = start_free(start, setup, &problem, &pattern)?;
-                (layout, Some(solve))
-            }
+        let chart = ChartParts {
+            id: start.prepared.chart.id,
+            filled,
+            topology: &start.prepared.topology,
+            step1: start.step1,
+            pattern: &pattern,
         };
+        let (layout, domain) = SolveDomain::start(&start.prepared.domain, &chart, &problem)?;
         let spline = SteppingState::start(&problem, &layout, &options, policy.completion_follows_stall());
-        let spline_storable = storable || free.is_some();
+        let spline_storable = storable || free_setup.is_some();
         Ok(ChartSolver {
             filled: filled.clone(),
             problem,
@@ -243,7 +218,7 @@ impl ChartSolver {
             policy,
             start: layout.clone(),
             layout,
-            free,
+            domain,
             spline,
             spline_storable,
             spline_layout: None,
@@ -279,7 +254,7 @@ impl ChartSolver {
 
     /// A free chart's room, scaffold and start (`None`: a square chart).
     pub fn free(&self) -> Option<&FreeSolve> {
-        self.free.as_ref()
+        self.domain.free()
     }
 
     pub fn problem(&self) -> &StepProblem {
@@ -367,13 +342,7 @@ impl ChartSolver {
         let triangles = &self.filled.mesh.triangles;
         let accepted = match (self.policy.paper_guard, full_step.as_ref()) {
             (true, Some(step)) => step.paper_guard_accepts(&self.layout, &self.problem, self.spline.t),
-            _ => {
-                guard::acceptable(candidate, triangles, self.spline_storable)
-                    && self
-                        .free
-                        .as_ref()
-                        .is_none_or(|f| f.domain.room.admits(candidate).is_ok())
-            }
+            _ => guard::acceptable(candidate, triangles, self.spline_storable) && self.domain.admits(candidate),
         };
         if accepted {
             let residual = self.problem.max_residual(candidate);
@@ -403,7 +372,7 @@ impl ChartSolver {
                 let result = self.after_spline();
                 self.times.complete_ms += ms(t0);
                 if self.is_done() {
-                    self.fill_free_region();
+                    self.finish_in_domain();
                 }
                 return result;
             }
@@ -428,29 +397,17 @@ impl ChartSolver {
         }
         self.check_budget();
         if self.is_done() {
-            self.fill_free_region();
+            self.finish_in_domain();
         }
         Ok(())
     }
 
-    /// A free chart that no two targets size, once done: scaled up to the
-    /// largest that fits its room ([`crate::domain::start::fill_region`]).
-    /// An island keeps its size.
-    fn fill_free_region(&mut self) {
-        let Some(free) = &self.free else {
-            return;
-        };
-        if free.start == StartKind::Island || self.problem.targets.len() >= 2 {
-            return;
-        }
+    /// Once done: the domain's last word on the layout
+    /// ([`SolveDomain::finish`]).
+    fn finish_in_domain(&mut self) {
         let n = self.filled.mesh.n_vertices();
-        let pivot = self.problem.targets.first().copied();
-        crate::domain::start::fill_region(
-            &free.domain.room,
-            &mut self.layout[..n],
-            &self.filled.mesh.triangles,
-            pivot,
-        );
+        self.domain
+            .finish(&mut self.layout[..n], &self.filled.mesh.triangles, &self.problem);
     }
 
     /// The Sander stretch of the current layout (real triangles).
@@ -468,10 +425,9 @@ impl ChartSolver {
             .pattern
             .get()
             .map_err(|e| Error::Internal(format!("completion system: {e}")))?;
-        Ok(match &self.free {
-            None => NewtonContext::new(&self.filled, &self.problem, pattern, &self.layout),
-            Some(f) => NewtonContext::free(&self.filled, pattern, &self.layout, f.domain.clone(), f.rest_area),
-        })
+        Ok(self
+            .domain
+            .newton_context(&self.filled, &self.problem, pattern, &self.layout))
     }
 
     /// What follows the spline path ([`Policy::after_spline`]).
@@ -483,11 +439,13 @@ impl ChartSolver {
         } else {
             self.spline_storable
         };
-        let has_free = !self.problem.movable.is_empty();
-        match self
-            .policy
-            .after_spline(reached, has_free, storable, self.can_free_the_loop())
-        {
+        let end = SplineEnd {
+            reached,
+            movable: !self.problem.movable.is_empty(),
+            storable,
+            loop_can_be_freed: self.can_free_the_loop(),
+        };
+        match self.policy.after_spline(end) {
             AfterSpline::Done(outcome) => {
                 self.record.polish_outcome = Some(outcome);
                 self.phase = Phase::Done;
@@ -540,7 +498,7 @@ impl ChartSolver {
     /// one line, none coinciding).
     fn can_free_the_loop(&self) -> bool {
         let stalled = matches!(self.spline.phase, SteppingPhase::Stalled(_));
-        if self.free.is_none() || self.problem.anchors.is_empty() || !stalled || self.budget_spent() {
+        if self.domain.free().is_none() || self.problem.anchors.is_empty() || !stalled || self.budget_spent() {
             return false;
         }
         let freed = StepProblem {
@@ -576,11 +534,7 @@ impl ChartSolver {
         // A free chart on its targets: its rest shapes take the scale its
         // layout fits best, the scale the targets made, so the polish does
         // not press it larger or smaller than they allow.
-        if let Some(free) = &mut self.free
-            && self.problem.targets.len() >= 2
-        {
-            free.rest_area = context.fit_rest_scale(&self.layout);
-        }
+        self.domain.fit_rest_scale(&mut context, &self.layout, &self.problem);
         let polish = Polish::new(context, &self.problem, &self.layout, goal);
         self.record.energy_end = polish.energy();
         self.record.polish = Some(polish.stats);
@@ -643,114 +597,4 @@ impl ChartSolver {
             Phase::SplineStepping { .. } | Phase::Done => {}
         }
     }
-}
-
-/// A free chart's start ([`free_start`]) with its scaffold's fixed points
-/// appended, and its room.
-///
-/// # Errors
-/// The Newton pattern could not be built, or no placement fits the region
-/// (other islands fill it).
-fn start_free(
-    start: SolveStart,
-    setup: &FreeSetup,
-    problem: &StepProblem,
-    pattern: &PendingNewtonPattern,
-) -> Result<(Vec<DVec2>, FreeSolve), Error> {
-    let t0 = Instant::now();
-    let prepared = start.prepared;
-    let filled = &prepared.filled;
-    let triangles = &filled.mesh.triangles;
-    let Domain::Free(setup_arc) = &prepared.boundary else {
-        unreachable!("called for free charts")
-    };
-    debug_assert!(std::ptr::eq(setup_arc.as_ref(), setup));
-    let room = Arc::new(Room::new(setup_arc.clone(), &prepared.topology, triangles));
-    let n_real = filled.n_real_triangles;
-    let pattern = pattern
-        .get()
-        .map_err(|e| Error::Internal(format!("free-boundary system: {e}")))?;
-    let rest = crate::complete::energy::rest_shapes(
-        &filled.mesh.positions,
-        triangles,
-        n_real,
-        crate::complete::VIRTUAL_WEIGHT,
-    );
-    let system = crate::complete::newton::NewtonSystem::new(pattern);
-    let FreeStart {
-        mut layout,
-        kind,
-        rest_area,
-        shrink,
-    } = free_start(&room, filled, &rest, &system, start.step1, problem).ok_or_else(|| Error::NoRoom {
-        chart: prepared.chart.id,
-        region: setup.region,
-    })?;
-    let (lo, hi) = setup.region.layout_box();
-    let scaffold = Arc::new(Scaffold::new(lo, hi, &setup.obstacles, room.boundary_vertices().len()));
-    let offset = layout.len() as u32;
-    layout.extend_from_slice(scaffold.fixed_points());
-    let domain = FreeDomain::new(room, scaffold, offset);
-    let (mut rest_area, mut shrink, mut relax_steps) = (rest_area, shrink, 0);
-    if matches!(kind, StartKind::Conformal | StartKind::StepOne) && problem.targets.len() >= 2 {
-        let relaxed = relax(filled, system.pattern(), &mut layout, &domain, rest_area, problem, kind);
-        if let Some((refit, steps)) = relaxed {
-            layout[..refit.layout.len()].copy_from_slice(&refit.layout);
-            (rest_area, shrink, relax_steps) = (refit.rest_area, refit.shrink, steps);
-        }
-    }
-    let solve = FreeSolve {
-        domain,
-        start: kind,
-        rest_area,
-        shrink,
-        relax_steps,
-        start_ms: ms(t0),
-    };
-    Ok((layout, solve))
-}
-
-/// Relaxes a free start toward its own low-distortion shape (symmetric
-/// Dirichlet, nothing held, [`RELAX_STEPS`] Newton steps at most), then fits
-/// it to the targets again: the spline path then only has to bend it a
-/// little, and the fit's scale is the one the targets ask for. `None` if no
-/// step gained or the refit does not fit the room.
-fn relax(
-    filled: &FilledChart,
-    pattern: &Arc<crate::complete::newton::NewtonPattern>,
-    layout: &mut [DVec2],
-    domain: &FreeDomain,
-    rest_area: f64,
-    problem: &StepProblem,
-    kind: StartKind,
-) -> Option<(FreeStart, u32)> {
-    let mut context = NewtonContext::free(filled, pattern.clone(), layout, domain.clone(), rest_area);
-    let mut steps = 0;
-    while steps < RELAX_STEPS {
-        let request = crate::complete::context::StepRequest {
-            reference: None,
-            soft: None,
-            held: None,
-            tolerance: RELAX_GAIN,
-        };
-        let step = context.step(layout, request);
-        steps += u32::from(step.alpha > 0.0);
-        if step.converged || step.alpha == 0.0 || step.energy_after > (1.0 - RELAX_GAIN) * step.energy_before {
-            break;
-        }
-    }
-    if steps == 0 {
-        return None;
-    }
-    let n = filled.mesh.n_vertices();
-    let shape = crate::domain::start::Shape::of(filled);
-    let refit = crate::domain::start::fit_into_room(
-        &domain.room,
-        &shape,
-        &layout[..n],
-        problem,
-        kind,
-        Fit::ToTargetsAsShaped,
-    )?;
-    Some((refit, steps))
 }

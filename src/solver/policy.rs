@@ -57,6 +57,21 @@ pub enum AfterSpline {
     Done(PolishOutcome),
 }
 
+/// How the spline path ended, as [`Policy::after_spline`] weighs it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SplineEnd {
+    /// Every target was reached.
+    pub reached: bool,
+    /// The chart has vertices the solve may move (not every one is on the
+    /// outer loop or pinned).
+    pub movable: bool,
+    /// The layout is fold-free as stored (f32).
+    pub storable: bool,
+    /// A free chart's path stalled holding a sample of its outer loop and
+    /// can run again without it.
+    pub loop_can_be_freed: bool,
+}
+
 /// The solve's rules for one chart, fixed by the options and the chart's size.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Policy {
@@ -106,27 +121,24 @@ impl Policy {
         }
     }
 
-    /// What follows the spline path: it `reached` the targets or not, the
-    /// chart `has_free` vertices, its layout is `storable` as f32, and
-    /// `can_free_loop`: a free chart's path stalled holding a sample of its
-    /// outer loop and can run without it.
-    pub fn after_spline(&self, reached: bool, has_free: bool, storable: bool, can_free_loop: bool) -> AfterSpline {
+    /// What follows the spline path, from how it ended.
+    pub fn after_spline(&self, end: SplineEnd) -> AfterSpline {
         if self.paper_guard {
             return AfterSpline::Done(self.not_run(PolishOutcome::PaperGuard));
         }
-        if !reached && can_free_loop {
+        if !end.reached && end.loop_can_be_freed {
             return AfterSpline::FreeTheLoop;
         }
-        if !reached {
+        if !end.reached {
             return match self.completion {
                 Completion::Never => AfterSpline::Done(self.not_run(PolishOutcome::TargetsNotReached)),
                 Completion::Auto | Completion::Always => AfterSpline::Complete,
             };
         }
-        if !has_free {
+        if !end.movable {
             return AfterSpline::Done(self.not_run(PolishOutcome::NothingToMove));
         }
-        match (self.polish, storable) {
+        match (self.polish, end.storable) {
             (PolishRule::Always, _) => AfterSpline::Polish(PolishGoal::Distortion),
             (_, false) => AfterSpline::Polish(PolishGoal::Storable),
             (PolishRule::IfSnapDistorts, true) => AfterSpline::Done(PolishOutcome::AboveLimit {
@@ -174,6 +186,15 @@ impl Policy {
 mod tests {
     use super::*;
 
+    fn end(reached: bool, movable: bool, storable: bool, loop_can_be_freed: bool) -> SplineEnd {
+        SplineEnd {
+            reached,
+            movable,
+            storable,
+            loop_can_be_freed,
+        }
+    }
+
     fn policy(n: usize, edit: impl Fn(&mut SolverOptions)) -> Policy {
         let mut o = SolverOptions::DEFAULT;
         edit(&mut o);
@@ -193,46 +214,49 @@ mod tests {
         use AfterSpline::*;
         let small = policy(10, |_| {});
         assert_eq!(
-            small.after_spline(true, true, true, false),
+            small.after_spline(end(true, true, true, false)),
             Polish(PolishGoal::Distortion)
         );
-        assert_eq!(small.after_spline(false, true, true, false), Complete);
-        assert_eq!(small.after_spline(false, true, true, true), FreeTheLoop);
+        assert_eq!(small.after_spline(end(false, true, true, false)), Complete);
+        assert_eq!(small.after_spline(end(false, true, true, true)), FreeTheLoop);
         assert_eq!(
-            small.after_spline(true, true, true, true),
+            small.after_spline(end(true, true, true, true)),
             Polish(PolishGoal::Distortion)
         );
         assert_eq!(
-            small.after_spline(true, false, true, false),
+            small.after_spline(end(true, false, true, false)),
             Done(PolishOutcome::NothingToMove)
         );
         let large = policy(60_000, |_| {});
         let after = Reached::SplinePath;
         assert_eq!(
-            large.after_spline(true, true, true, false),
+            large.after_spline(end(true, true, true, false)),
             Done(PolishOutcome::AboveLimit { after })
         );
         // A layout f32 cannot store is always spread, whatever the rule...
         assert_eq!(
-            large.after_spline(true, true, false, false),
+            large.after_spline(end(true, true, false, false)),
             Polish(PolishGoal::Storable)
         );
         let off = policy(10, |o| o.polish = false);
-        assert_eq!(off.after_spline(true, true, false, false), Polish(PolishGoal::Storable));
-        assert_eq!(off.after_spline(true, true, true, false), Done(PolishOutcome::Off));
+        assert_eq!(
+            off.after_spline(end(true, true, false, false)),
+            Polish(PolishGoal::Storable)
+        );
+        assert_eq!(off.after_spline(end(true, true, true, false)), Done(PolishOutcome::Off));
         // ...but not under the paper's guard, which runs its spline path alone.
         let paper = policy(10, |o| o.guard = Guard::Paper);
         assert_eq!(
-            paper.after_spline(true, true, false, false),
+            paper.after_spline(end(true, true, false, false)),
             Done(PolishOutcome::PaperGuard)
         );
         assert_eq!(
-            paper.after_spline(false, true, true, false),
+            paper.after_spline(end(false, true, true, false)),
             Done(PolishOutcome::PaperGuard)
         );
         let never = policy(10, |o| o.completion = Completion::Never);
         assert_eq!(
-            never.after_spline(false, true, true, false),
+            never.after_spline(end(false, true, true, false)),
             Done(PolishOutcome::TargetsNotReached)
         );
         let never_off = policy(10, |o| {
@@ -240,7 +264,7 @@ mod tests {
             o.polish = false;
         });
         assert_eq!(
-            never_off.after_spline(false, true, true, false),
+            never_off.after_spline(end(false, true, true, false)),
             Done(PolishOutcome::Off)
         );
     }

@@ -1,17 +1,17 @@
 //! The daemon loop: a debounced notify watcher sends [`FileEvent`]s over a
-//! crossbeam channel; the loop hands them to the ECS World as messages and
-//! runs the watch schedule one tick at a time while there is work, and blocks
-//! (no polling) while idle. SIGINT/SIGTERM end it after the tick in progress,
-//! so a write in progress is finished.
+//! crossbeam channel; the loop hands them to the registry
+//! ([`charts::handle`]), arms the watches and re-reads it asks for, and
+//! runs the watch schedule one tick at a time while there is work, and
+//! blocks (no polling) while idle. SIGINT/SIGTERM end it after the tick in
+//! progress, so a write in progress is finished.
 
+use super::charts::{self, DaemonLog, WatchRequest, init_watch_world, is_busy, watch_schedule};
 use super::events::{FileEvent, FileRules};
 use super::log::Logger;
-use super::registry::{WatchRoot, display, normalize};
+use super::paths::{WatchRoot, display, normalize};
+use super::registry::WatchSettings;
 use super::status::{FileState, StatusBoard};
 use crate::config::{OutputMode, WatchConfig};
-use crate::ecs::watch::{
-    DaemonLog, FileChanged, WatchRegistry, WatchSettings, init_watch_world, is_busy, watch_schedule,
-};
 use crate::options::SolverOptions;
 use anyhow::{Context, bail};
 use bevy_ecs::prelude::{Schedule, World};
@@ -32,12 +32,19 @@ pub struct WatchOptions {
     pub limits: crate::io::InputLimits,
     /// Process everything present, print a summary and exit.
     pub once: bool,
-    /// Serve the landmark editor on this address (`HOST:PORT`).
-    #[cfg(feature = "editor")]
-    pub serve: Option<String>,
-    /// Open the editor's page in a browser once it is served.
-    #[cfg(feature = "editor")]
-    pub open: bool,
+}
+
+/// Something served beside the daemon (the landmark editor): it adds its
+/// systems and resources to the daemon's world and schedule, and is
+/// stopped when the daemon stops.
+pub trait Attachment {
+    /// Starts it beside the daemon's `world` and `schedule`.
+    ///
+    /// # Errors
+    /// It cannot start (an address in use): the daemon does not start either.
+    fn attach(&mut self, world: &mut World, schedule: &mut Schedule, logger: &Logger) -> anyhow::Result<()>;
+    /// Stops it once the daemon's loop is over.
+    fn stop(&mut self);
 }
 
 /// How the daemon ended (its exit code).
@@ -132,12 +139,13 @@ fn scan_event(root: &WatchRoot) -> FileEvent {
     }
 }
 
-/// Runs `uvpin watch`.
+/// Runs `uvpin watch`, with `attachments` served beside it.
 ///
 /// # Errors
 /// Only start-up failures (no working directory, the watcher cannot start,
-/// the signal handler cannot be set). Everything later is logged.
-pub fn run(options: WatchOptions) -> anyhow::Result<Outcome> {
+/// the signal handler cannot be set, an attachment cannot start). Everything
+/// later is logged.
+pub fn run(options: WatchOptions, mut attachments: Vec<Box<dyn Attachment>>) -> anyhow::Result<Outcome> {
     let cwd = std::env::current_dir()
         .and_then(|d| d.canonicalize())
         .context("cannot read the working directory")?;
@@ -199,76 +207,30 @@ pub fn run(options: WatchOptions) -> anyhow::Result<Outcome> {
     if options.once {
         return Ok(run_once(&mut world, &mut schedule, &roots, &logger, &cwd));
     }
-    #[cfg(feature = "editor")]
-    let server = match &options.serve {
-        Some(addr) => Some(serve_editor(&mut world, &mut schedule, addr, options.open, &logger)?),
-        None => None,
-    };
+    for attachment in &mut attachments {
+        attachment.attach(&mut world, &mut schedule, &logger)?;
+    }
     let outcome = run_daemon(&mut world, &mut schedule, roots, config, &rules, &logger, &cwd);
-    #[cfg(feature = "editor")]
-    if let Some(server) = server {
-        server.stop();
+    for attachment in &mut attachments {
+        attachment.stop();
     }
     outcome
-}
-
-/// Starts the editor's server on `addr`, fed by `world`'s schedule; prints
-/// its address on standard error (and opens it in a browser if asked).
-#[cfg(feature = "editor")]
-fn serve_editor(
-    world: &mut World,
-    schedule: &mut Schedule,
-    addr: &str,
-    open: bool,
-    logger: &Logger,
-) -> anyhow::Result<crate::edit::server::EditorServer> {
-    use crate::ecs::watch::{report_results, write_status_file};
-    use crate::edit::publish::{EditorFeed, publish_to_editor};
-    use bevy_ecs::schedule::IntoScheduleConfigs;
-    let hub = std::sync::Arc::new(crate::edit::hub::Hub::default());
-    let input = world.resource::<WatchSettings>().input.clone();
-    let server = crate::edit::server::EditorServer::start(addr, hub.clone(), input)?;
-    world.insert_resource(EditorFeed(hub));
-    schedule.add_systems(publish_to_editor.after(report_results).before(write_status_file));
-    let message = format!("editor at {} (open it in a browser)", server.url);
-    logger.info("serve", None, &message, json!({ "url": server.url }));
-    if !server.loopback {
-        let warning =
-            "the editor is served beyond this machine: anyone who can reach it can change the constraint files";
-        logger.warn("serve", None, warning, json!({}));
-    }
-    if open {
-        let opened = ["xdg-open", "open"].iter().any(|opener| {
-            std::process::Command::new(opener)
-                .arg(&server.url)
-                .stdout(std::process::Stdio::null())
-                .stderr(std::process::Stdio::null())
-                .spawn()
-                .is_ok()
-        });
-        if !opened {
-            logger.warn(
-                "serve",
-                None,
-                "could not open a browser: open the address above",
-                json!({}),
-            );
-        }
-    }
-    Ok(server)
 }
 
 /// `--once`: solve every constraint file present, then summarise.
 fn run_once(world: &mut World, schedule: &mut Schedule, roots: &[WatchRoot], logger: &Logger, cwd: &Path) -> Outcome {
     let mut missing = 0;
+    let mut events = Vec::new();
     for root in roots {
         if root.path.exists() {
-            world.write_message(FileChanged(scan_event(root)));
+            events.push(scan_event(root));
         } else {
             missing += 1;
             logger.error("error", Some(&display(&root.path, cwd)), "does not exist", json!({}));
         }
     }
+    // Nothing is read again later: no re-reads, no more watches.
+    charts::handle(world, &events);
     crate::ecs::run_to_convergence(world, schedule, crate::ecs::MAX_TICKS);
     let log = world.resource::<DaemonLog>();
     let count = |s: FileState| log.status.files.values().filter(|f| f.state == s).count();
@@ -337,6 +299,21 @@ impl Watches {
                 false
             }
         }
+    }
+
+    /// Watches an asset's folder outside every watched one, if it exists;
+    /// whether it is watched now.
+    fn watch_asset_folder(&mut self, folder: &Path, logger: &Logger, cwd: &Path) -> bool {
+        let covered = self.covers(folder);
+        if !(folder.is_dir() && self.watch(folder, false, logger, cwd)) {
+            return false;
+        }
+        // Said once it is armed, so a script (or a test) knows edits there are seen.
+        if !covered {
+            let name = display(folder, cwd);
+            logger.info("asset_folder", Some(&name), "watching an asset's folder", json!({}));
+        }
+        true
     }
 
     /// Arms `root` if its folder exists (returns the scan event), else
@@ -450,7 +427,8 @@ fn run_daemon(
     for root in roots {
         pending_events.extend(watches.arm(root, logger, cwd));
     }
-    let mut asset_folders_watched: HashSet<PathBuf> = HashSet::new();
+    // Asset folders the registry asked to watch, until each is armed.
+    let mut folders_wanted: Vec<PathBuf> = Vec::new();
     let mut rechecks: Vec<(Instant, PathBuf)> = Vec::new();
     loop {
         if pending_events.is_empty() && !is_busy(world) {
@@ -482,31 +460,16 @@ fn run_daemon(
             {
                 pending_events.extend(watches.refresh(logger, cwd));
             }
-            for e in pending_events.drain(..) {
-                world.write_message(FileChanged(e));
+            for request in charts::handle(world, &pending_events) {
+                match request {
+                    WatchRequest::Recheck { file, after } => rechecks.push((Instant::now() + after, file)),
+                    WatchRequest::Watch { folder } => folders_wanted.push(folder),
+                }
             }
+            pending_events.clear();
         }
         schedule.run(world);
-        rechecks.append(&mut world.resource_mut::<WatchRegistry>().rechecks);
-        let folders: Vec<PathBuf> = world
-            .resource::<WatchRegistry>()
-            .asset_folders
-            .iter()
-            .filter(|f| !asset_folders_watched.contains(*f))
-            .cloned()
-            .collect();
-        for folder in folders {
-            let covered = watches.covers(&folder);
-            if folder.is_dir() && watches.watch(&folder, false, logger, cwd) {
-                // A folder outside every watched one: said once it is armed,
-                // so a script (or a test) knows edits there are seen.
-                if !covered {
-                    let name = display(&folder, cwd);
-                    logger.info("asset_folder", Some(&name), "watching an asset's folder", json!({}));
-                }
-                asset_folders_watched.insert(folder);
-            }
-        }
+        folders_wanted.retain(|folder| !watches.watch_asset_folder(folder, logger, cwd));
     }
     logger.info("stop", None, "stopping (signal)", json!({}));
     let mut log = world.resource_mut::<DaemonLog>();
