@@ -8,6 +8,7 @@
 //! before anyone writes it.
 
 use crate::constraints::{ConstraintSpec, LoadedConstraints};
+use crate::ron_file::tokens::{Kind, Token, fields, groups_inside, tokens, top_fields};
 use glam::DVec2;
 use std::ops::Range;
 use thiserror::Error;
@@ -47,167 +48,6 @@ pub enum EditError {
     Mismatch(String),
 }
 
-/// A token of RON text: its kind and byte range.
-#[derive(Debug, Clone, PartialEq)]
-struct Token {
-    kind: Kind,
-    span: Range<usize>,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Kind {
-    /// Whitespace or a comment.
-    Trivia,
-    Open,
-    Close,
-    Comma,
-    Colon,
-    /// An identifier, number, string or other word.
-    Word,
-}
-
-/// Splits `text` into tokens; strings and (nested) comments are one token.
-fn tokens(text: &str) -> Vec<Token> {
-    let bytes = text.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < bytes.len() {
-        let start = i;
-        let kind = match bytes[i] {
-            b'(' | b'[' | b'{' => {
-                i += 1;
-                Kind::Open
-            }
-            b')' | b']' | b'}' => {
-                i += 1;
-                Kind::Close
-            }
-            b',' => {
-                i += 1;
-                Kind::Comma
-            }
-            b':' => {
-                i += 1;
-                Kind::Colon
-            }
-            b'/' if bytes.get(i + 1) == Some(&b'/') => {
-                i = text[i..].find('\n').map_or(bytes.len(), |n| i + n);
-                Kind::Trivia
-            }
-            b'/' if bytes.get(i + 1) == Some(&b'*') => {
-                i = block_comment_end(bytes, i);
-                Kind::Trivia
-            }
-            b'"' => {
-                i = string_end(bytes, i);
-                Kind::Word
-            }
-            c if c.is_ascii_whitespace() => {
-                while i < bytes.len() && bytes[i].is_ascii_whitespace() {
-                    i += 1;
-                }
-                Kind::Trivia
-            }
-            _ => {
-                while i < bytes.len() && !b"()[]{},:\" \t\r\n/".contains(&bytes[i]) {
-                    i += 1;
-                }
-                i = i.max(start + 1);
-                Kind::Word
-            }
-        };
-        // Never split a UTF-8 character.
-        while !text.is_char_boundary(i) {
-            i += 1;
-        }
-        out.push(Token { kind, span: start..i });
-    }
-    out
-}
-
-/// The end of a nestable `/* */` comment starting at `i`.
-fn block_comment_end(bytes: &[u8], mut i: usize) -> usize {
-    let mut depth = 0;
-    while i < bytes.len() {
-        if bytes[i..].starts_with(b"/*") {
-            depth += 1;
-            i += 2;
-        } else if bytes[i..].starts_with(b"*/") {
-            depth -= 1;
-            i += 2;
-            if depth == 0 {
-                return i;
-            }
-        } else {
-            i += 1;
-        }
-    }
-    i
-}
-
-/// The end of a string literal starting at `i` (escapes skipped).
-fn string_end(bytes: &[u8], mut i: usize) -> usize {
-    i += 1;
-    while i < bytes.len() && bytes[i] != b'"' {
-        i += if bytes[i] == b'\\' { 2 } else { 1 };
-    }
-    (i + 1).min(bytes.len())
-}
-
-/// A bracketed group: the index of its opening token and of its closing one.
-fn matching_close(tokens: &[Token], open: usize) -> Option<usize> {
-    let mut depth = 0usize;
-    for (k, t) in tokens.iter().enumerate().skip(open) {
-        match t.kind {
-            Kind::Open => depth += 1,
-            Kind::Close => {
-                depth -= 1;
-                if depth == 0 {
-                    return Some(k);
-                }
-            }
-            _ => {}
-        }
-    }
-    None
-}
-
-/// The fields `name: value` directly inside the group opened at `open`:
-/// name, the token range of the value.
-fn fields(text: &str, tokens: &[Token], open: usize) -> Vec<(String, Range<usize>)> {
-    let Some(close) = matching_close(tokens, open) else {
-        return Vec::new();
-    };
-    let mut out = Vec::new();
-    let mut k = open + 1;
-    while k < close {
-        let significant = |j: usize| (j..close).find(|&j| tokens[j].kind != Kind::Trivia);
-        let Some(name) = significant(k) else { break };
-        let colon = significant(name + 1);
-        let value = colon.and_then(|c| significant(c + 1));
-        let (true, Some(colon), Some(value)) = (tokens[name].kind == Kind::Word, colon, value) else {
-            break;
-        };
-        if tokens[colon].kind != Kind::Colon {
-            break;
-        }
-        let end = match tokens[value].kind {
-            Kind::Open => matching_close(tokens, value).unwrap_or(close),
-            _ => value,
-        };
-        // A word directly followed by a group is a named struct: `Some(...)`.
-        let end = match significant(end + 1) {
-            Some(j) if tokens[end].kind == Kind::Word && tokens[j].kind == Kind::Open => {
-                matching_close(tokens, j).unwrap_or(close)
-            }
-            _ => end,
-        };
-        out.push((text[tokens[name].span.clone()].to_string(), value..end + 1));
-        k = significant(end + 1).map_or(close, |j| if tokens[j].kind == Kind::Comma { j + 1 } else { j });
-    }
-    out
-}
-
 /// The `constraints` list: the token indices of `[` and `]`, and each
 /// item's tokens (from its `(` to its `)`).
 struct List {
@@ -217,27 +57,17 @@ struct List {
 }
 
 fn find_list(text: &str, tokens: &[Token]) -> Option<List> {
-    let outer = tokens.iter().position(|t| t.kind == Kind::Open)?;
-    let (_, value) = fields(text, tokens, outer)
-        .into_iter()
-        .find(|(n, _)| n == "constraints")?;
+    let (_, value) = top_fields(text, tokens).into_iter().find(|(n, _)| n == "constraints")?;
     let open = value.start;
     if &text[tokens[open].span.clone()] != "[" {
         return None;
     }
-    let close = value.end - 1;
-    let mut items = Vec::new();
-    let mut k = open + 1;
-    while k < close {
-        if tokens[k].kind == Kind::Open {
-            let end = matching_close(tokens, k)?;
-            items.push(k..end + 1);
-            k = end + 1;
-        } else {
-            k += 1;
-        }
-    }
-    Some(List { open, close, items })
+    let items = groups_inside(tokens, open);
+    Some(List {
+        open,
+        close: value.end - 1,
+        items,
+    })
 }
 
 /// A number as the file stores it: at most six decimals, no trailing zeros.

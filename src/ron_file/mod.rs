@@ -3,6 +3,8 @@
 //! byte-order mark is skipped; error messages quote at most a short,
 //! escaped snippet of the file.
 
+pub mod tokens;
+
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
