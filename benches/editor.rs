@@ -22,7 +22,7 @@ fn witnessed_file(dir: &Path, mesh_file: &Path, k: usize) -> PathBuf {
     std::fs::copy(mesh_file, dir.join("mesh.glb")).expect("copy mesh");
     let asset = uvpin::io::load_asset(&dir.join("mesh.glb"), None, 0, &Default::default()).expect("mesh");
     let mesh = uvpin::mesh::weld::weld(&asset.primitives).mesh;
-    let step1 = uvpin::step1(&mesh, None).expect("step 1");
+    let step1 = uvpin::step_one(&mesh, None).expect("step 1");
     let layout = step1.vertex_layout();
     let interior = step1.interior_vertices();
     let mut rng = Rng::new(11);

@@ -105,7 +105,7 @@ fn run_uvpin(mesh: &TriMesh, constraints: &[(u32, DVec2)], boundary: BoundaryCho
 /// Step 1 alone: its stretch, how far the landmarks are from their targets.
 fn run_step1(mesh: &TriMesh, constraints: &[(u32, DVec2)], out: &mut Outcome) {
     let t0 = std::time::Instant::now();
-    let s = uvpin::step1(mesh, None).expect("step 1");
+    let s = uvpin::step_one(mesh, None).expect("step 1");
     out.ms.push(t0.elapsed().as_secs_f64() * 1e3);
     let layout: Vec<DVec2> = s
         .vertex_layout()

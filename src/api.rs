@@ -31,7 +31,7 @@ use crate::options::SolverOptions;
 use crate::pins::Pins;
 use crate::report::{self, Report};
 use crate::session::ChartSession;
-use crate::solver::step1::Step1;
+use crate::solver::step_one::StepOne;
 use glam::DVec2;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -198,21 +198,21 @@ pub fn solve_mesh(mesh: &TriMesh, pins: &Pins, options: &Options) -> Result<Mesh
 /// Step 1 of a mesh held in memory: the chart, the boundary on the square,
 /// the bar-net factor and the layout.
 #[derive(Debug, Clone)]
-pub struct MeshStep1 {
+pub struct MeshStepOne {
     /// The chart: weld, topology, hole fill.
     pub prepared: PreparedChart,
     /// The boundary on the square, the factor and the step-1 layout.
-    pub step1: Step1,
+    pub step_one: StepOne,
 }
 
-impl MeshStep1 {
+impl MeshStepOne {
     /// The step-1 position (layout coordinates, y up) of every vertex of
     /// the mesh; `None` outside the chart.
     pub fn vertex_layout(&self) -> Vec<Option<DVec2>> {
         let p = &self.prepared;
         p.welded.vertex_of[0]
             .iter()
-            .map(|&w| p.chart.local_of(w).map(|local| self.step1.layout[local as usize]))
+            .map(|&w| p.chart.local_of(w).map(|local| self.step_one.layout[local as usize]))
             .collect()
     }
 
@@ -234,7 +234,7 @@ impl MeshStep1 {
 ///
 /// # Errors
 /// Corners out of range or not on the outer loop; topology errors.
-pub fn step1(mesh: &TriMesh, corners: Option<[u32; 4]>) -> Result<MeshStep1, Error> {
+pub fn step_one(mesh: &TriMesh, corners: Option<[u32; 4]>) -> Result<MeshStepOne, Error> {
     let pins = Pins {
         corners,
         ..Pins::default()
@@ -242,12 +242,12 @@ pub fn step1(mesh: &TriMesh, corners: Option<[u32; 4]>) -> Result<MeshStep1, Err
     let source = ConstraintSource::Memory(Arc::new(pins));
     let mut session = ChartSession::open(source, Arc::new(SourceAsset::from_mesh(mesh)), 0.0)?;
     session.run_step_one()?;
-    let step1 = session
+    let step_one = session
         .step_one()
         .ok_or_else(|| Error::Internal("step 1 was not solved".into()))?;
-    Ok(MeshStep1 {
+    Ok(MeshStepOne {
         prepared: session.prepared().clone(),
-        step1,
+        step_one,
     })
 }
 

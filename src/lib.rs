@@ -11,7 +11,7 @@
 //! |---|---|---|
 //! | §III.B | outer boundary loop → unit square, corners, arc length | [`param::boundary::map_outer_boundary`] |
 //! | Eq. 2 | force densities `q = 1 − len/max_len + ε` | [`param::bar_net::force_densities`] |
-//! | Eq. 1 | bar-net equilibrium `D x = −D_f x_f` (holes fan-filled) | [`param::bar_net::BarNet`], [`solver::step1`] |
+//! | Eq. 1 | bar-net equilibrium `D x = −D_f x_f` (holes fan-filled) | [`param::bar_net::BarNet`], [`solver::step_one`] |
 //! | Eq. 3 | foldover-free condition `det ∇U > 0`, checked exactly per triangle | [`guard`] |
 //! | Eq. 5/7 | the paper's pointwise guard `det(I + t ∇ΔX) > 0` at constraint points (comparison only) | [`rbf::stepping::FullStep::paper_guard_accepts`] |
 //! | Eq. 6 | thin-plate-spline displacement | [`rbf::tps::ThinPlateSpline`] |
@@ -22,7 +22,7 @@
 //! ([`solver::ChartSolver`]) sequences step 1, the spline path, the
 //! completion ([`complete`]) and the polish, each rule once
 //! ([`solver::policy`]). The library API ([`solve_file`], [`solve_mesh`],
-//! [`step1`], [`unreachable_proof`]) runs it directly. The ECS layer
+//! [`step_one`], [`unreachable_proof`]) runs it directly. The ECS layer
 //! ([`ecs`]) holds charts as `bevy_ecs` entities and runs one core function
 //! per system, tick by tick, for the daemon.
 //!
@@ -99,7 +99,9 @@ pub mod testing;
 #[doc = include_str!("../README.md")]
 pub struct ReadmeExample;
 
-pub use api::{MeshSolution, MeshStep1, Options, load, solve_file, solve_loaded, solve_mesh, step1, unreachable_proof};
+pub use api::{
+    MeshSolution, MeshStepOne, Options, load, solve_file, solve_loaded, solve_mesh, step_one, unreachable_proof,
+};
 pub use error::{Error, Result};
 pub use pins::Pins;
 pub use report::{Report, Status};

@@ -10,7 +10,7 @@
 //!        ▼                                │  fill for the same chart; step 1 for the same corners
 //! map_boundary → factor_bar_net → solve_force_density     (step 1, §III, Eq. 1–2)
 //!        ▼
-//! start(options, from) → ChartSolver (spline path Eq. 6, guard, completion, polish)
+//! new_solver(options, from) → ChartSolver (spline path Eq. 6, guard, completion, polish)
 //!        ▼
 //! report(solver) → export(solver, report, outputs)        (one commit)
 //! ```
@@ -29,8 +29,8 @@ use crate::options::SolverOptions;
 use crate::param::bar_net::BarNet;
 use crate::param::boundary::BoundaryMap;
 use crate::report::{self, Report, StageTimes};
-use crate::solver::step1::{self, Step1, Step1Times};
-use crate::solver::{ChartSolver, SolveStart};
+use crate::solver::step_one::{self, StepOne, StepOneTimes};
+use crate::solver::{ChartSolver, SolverInputs};
 use glam::DVec2;
 use std::sync::Arc;
 use std::time::Instant;
@@ -165,7 +165,7 @@ impl ChartSession {
     pub fn map_boundary(&mut self) -> Result<(), Error> {
         if self.boundary.is_none() {
             let t0 = Instant::now();
-            self.boundary = Some(Arc::new(step1::map_boundary(&self.prepared, &self.source)?));
+            self.boundary = Some(Arc::new(step_one::map_boundary(&self.prepared, &self.source)?));
             self.times.boundary_ms += ms(t0);
         }
         Ok(())
@@ -179,7 +179,7 @@ impl ChartSession {
         if self.bar_net.is_none() {
             let t0 = Instant::now();
             let boundary = self.mapped_boundary()?;
-            let net = step1::factor_bar_net(&self.prepared, boundary, &self.asset.path)?;
+            let net = step_one::factor_bar_net(&self.prepared, boundary, &self.asset.path)?;
             self.bar_net = Some(Arc::new(net));
             self.times.factor_ms += ms(t0);
         }
@@ -195,7 +195,7 @@ impl ChartSession {
         if self.step_one.is_none() {
             let t0 = Instant::now();
             let net = self.bar_net.as_ref().ok_or_else(|| not_yet("the bar-net factor"))?;
-            let layout = step1::solve_force_density(&self.prepared, self.mapped_boundary()?, net);
+            let layout = step_one::solve_force_density(&self.prepared, self.mapped_boundary()?, net);
             self.step_one = Some(Arc::new(layout));
             self.times.solve_ms += ms(t0);
         }
@@ -219,7 +219,7 @@ impl ChartSession {
     /// # Errors
     /// Step-1 errors; a constraint on the outer boundary whose target
     /// contradicts the boundary map.
-    pub fn start(&mut self, options: &SolverOptions, from: StartFrom) -> Result<ChartSolver, Error> {
+    pub fn new_solver(&mut self, options: &SolverOptions, from: StartFrom) -> Result<ChartSolver, Error> {
         self.run_step_one()?;
         let (Some(boundary), Some(step_one)) = (&self.boundary, &self.step_one) else {
             return Err(not_yet("step 1"));
@@ -228,7 +228,7 @@ impl ChartSession {
             StartFrom::LastLayout if self.on_square() => self.last_layout.as_deref(),
             _ => None,
         };
-        let solver = ChartSolver::start(SolveStart {
+        let solver = ChartSolver::new(SolverInputs {
             prepared: &self.prepared,
             source: &self.source,
             options,
@@ -265,9 +265,9 @@ impl ChartSession {
     /// Solves the current constraints from start to end.
     ///
     /// # Errors
-    /// As [`Self::start`]; a Newton system that cannot be built (a bug).
+    /// As [`Self::new_solver`]; a Newton system that cannot be built (a bug).
     pub fn solve(&mut self, options: &SolverOptions) -> Result<Solution, Error> {
-        let mut solver = self.start(options, StartFrom::StepOne)?;
+        let mut solver = self.new_solver(options, StartFrom::StepOne)?;
         solver.run()?;
         let report = self.report(&solver);
         Ok(Solution { solver, report })
@@ -284,7 +284,7 @@ impl ChartSession {
         from: StartFrom,
         stop: &dyn Fn() -> bool,
     ) -> Result<Option<Solution>, Error> {
-        let mut solver = self.start(options, from)?;
+        let mut solver = self.new_solver(options, from)?;
         while !solver.is_done() {
             if stop() {
                 return Ok(None);
@@ -352,12 +352,12 @@ impl ChartSession {
 
     /// Step 1's results together (`None` until solved), with this
     /// solve's step-1 times.
-    pub fn step_one(&self) -> Option<Step1> {
-        Some(Step1 {
+    pub fn step_one(&self) -> Option<StepOne> {
+        Some(StepOne {
             boundary: self.boundary.as_deref()?.clone(),
             bar_net: self.bar_net.clone()?,
             layout: self.step_one.as_deref()?.clone(),
-            times: Step1Times {
+            times: StepOneTimes {
                 boundary_ms: self.times.boundary_ms,
                 factor_ms: self.times.factor_ms,
                 solve_ms: self.times.solve_ms,

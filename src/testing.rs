@@ -152,7 +152,7 @@ pub type WitnessedCase = (Vec<(u32, glam::DVec2)>, Vec<glam::DVec2>);
 pub fn witnessed_free_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<WitnessedCase> {
     use crate::param::{uv_to_xy, xy_to_uv};
     use glam::DVec2;
-    let pins = crate::Pins::new(&[]).with_boundary(crate::pins::BoundaryChoice::Free);
+    let pins = crate::pins::Pins::new(&[]).with_boundary(crate::pins::BoundaryChoice::Free);
     let free = crate::solve_mesh(mesh, &pins, &crate::options::SolverOptions::DEFAULT.into()).ok()?;
     let one_to_one = free.report.free.as_ref().is_some_and(|f| f.crossings == 0);
     if !one_to_one || !free.report.orientation.is_clean() {

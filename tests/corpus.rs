@@ -35,7 +35,7 @@ fn step1(mesh: &TriMesh) -> (Vec<DVec2>, Vec<u32>) {
 
 /// The raw step-1 layout (double precision) per mesh vertex, and the interior vertices.
 fn raw_step1(mesh: &TriMesh) -> (Vec<DVec2>, Vec<u32>) {
-    let s = uvpin::step1(mesh, None).expect("step 1");
+    let s = uvpin::step_one(mesh, None).expect("step 1");
     let layout = s
         .vertex_layout()
         .into_iter()

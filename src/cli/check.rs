@@ -68,7 +68,7 @@ pub(super) fn mesh_selector(m: &str) -> MeshSelector {
 fn load_checked(asset_path: &Path, uv_set: u32, mesh: Option<&str>) -> crate::Result<StoredAsset> {
     let rules = crate::io::InputRules::default();
     let missing = |asset: &crate::io::SourceAsset, primitive: usize, what: String| {
-        crate::Error::from(crate::io::AssetError::Primitive {
+        crate::error::Error::from(crate::io::AssetError::Primitive {
             path: asset.path.clone(),
             mesh: asset.mesh_index,
             primitive,

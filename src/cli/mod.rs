@@ -385,7 +385,7 @@ fn solve(
     let result = config
         .map(crate::config::Config::load)
         .transpose()
-        .map_err(crate::Error::from)
+        .map_err(crate::error::Error::from)
         .and_then(|c| {
             let config = c.unwrap_or_default();
             let options = crate::api::Options {

@@ -14,8 +14,8 @@
 //! Every error names the file, line and column, and the field.
 
 //!
-//! [`schema`] is what may be written, [`parse`] reads and locates it,
-//! [`resolve`] finds its vertices in an asset.
+//! [`schema`] is what may be written, `parse` reads and locates it,
+//! `resolve` finds its vertices in an asset.
 
 mod parse;
 mod resolve;

@@ -303,7 +303,7 @@ fn report_error(log: &mut DaemonLog, name: &str, message: &str, output_kept: boo
 }
 
 /// Logs a written solve (and its hint when partial); the status board keeps it.
-fn report_solved(log: &mut DaemonLog, name: &str, report: &crate::Report, cwd: &Path) {
+fn report_solved(log: &mut DaemonLog, name: &str, report: &crate::report::Report, cwd: &Path) {
     let reached = report.constraints.iter().filter(|c| c.reached).count();
     let output = report
         .output

@@ -4,7 +4,7 @@
 //! admits, which Newton context to use and how to end.
 
 use super::Domain;
-use super::start::{Fit, FreeStart, StartKind, free_start};
+use super::start::{ChosenStart, Fit, StartKind, choose_start};
 use crate::complete::context::{FreeDomain, NewtonContext};
 use crate::complete::pattern::PendingNewtonPattern;
 use crate::error::Error;
@@ -49,12 +49,12 @@ impl SolveDomain {
     /// was not laid through them) with the scaffold's fixed points appended.
     ///
     /// # Errors
-    /// As [`start_free`].
+    /// The free start cannot be built (no placement fits its region).
     pub fn start(domain: &Domain, chart: &ChartParts, problem: &StepProblem) -> Result<(Vec<DVec2>, Self), Error> {
         match domain {
             Domain::Square => Ok((chart.step1.to_vec(), SolveDomain::Square)),
             Domain::Free(setup) => {
-                let (layout, solve) = start_free(chart, setup, problem)?;
+                let (layout, solve) = open_free(chart, setup, problem)?;
                 Ok((layout, SolveDomain::Free(solve)))
             }
         }
@@ -139,13 +139,13 @@ const RELAX_STEPS: u32 = 3;
 /// Relaxing stops once a step gains less than this (relative).
 const RELAX_GAIN: f64 = 0.05;
 
-/// A free chart's start ([`free_start`]) with its scaffold's fixed points
+/// A free chart's start ([`choose_start`]) with its scaffold's fixed points
 /// appended, and its room.
 ///
 /// # Errors
 /// The Newton pattern could not be built, or no placement fits the region
 /// (other islands fill it).
-fn start_free(
+fn open_free(
     chart: &ChartParts,
     setup: &Arc<FreeSetup>,
     problem: &StepProblem,
@@ -166,12 +166,12 @@ fn start_free(
         crate::complete::VIRTUAL_WEIGHT,
     );
     let system = crate::complete::newton::NewtonSystem::new(pattern);
-    let FreeStart {
+    let ChosenStart {
         mut layout,
         kind,
         rest_area,
         shrink,
-    } = free_start(&room, filled, &rest, &system, chart.step1, problem).ok_or_else(|| Error::NoRoom {
+    } = choose_start(&room, filled, &rest, &system, chart.step1, problem).ok_or_else(|| Error::NoRoom {
         chart: chart.id,
         region: setup.region,
     })?;
@@ -212,7 +212,7 @@ fn relax(
     rest_area: f64,
     problem: &StepProblem,
     kind: StartKind,
-) -> Option<(FreeStart, u32)> {
+) -> Option<(ChosenStart, u32)> {
     let mut context = NewtonContext::free(filled, pattern.clone(), layout, domain.clone(), rest_area);
     let mut steps = 0;
     while steps < RELAX_STEPS {

@@ -31,7 +31,7 @@ pub enum StartKind {
 
 /// The start of a free chart's solve.
 #[derive(Debug, Clone)]
-pub struct FreeStart {
+pub struct ChosenStart {
     /// Layout of the filled chart (virtual hole vertices where step 1 had them).
     pub layout: Vec<DVec2>,
     pub kind: StartKind,
@@ -66,14 +66,14 @@ const MIN_SPAN: f64 = 0.1;
 /// chart's rest shapes (real area 1, virtual triangles light), `system` the
 /// Newton system over every vertex, `step1` step 1's layout. `None` when no
 /// placement fits (the region is full of other islands).
-pub fn free_start(
+pub fn choose_start(
     room: &Room,
     filled: &FilledChart,
     rest: &[RestTriangle],
     system: &NewtonSystem,
     step1: &[DVec2],
     problem: &StepProblem,
-) -> Option<FreeStart> {
+) -> Option<ChosenStart> {
     let shape = Shape::of(filled);
     if let Some(island) = &room.setup().island {
         let layout = island_layout(filled, island, step1);
@@ -107,7 +107,7 @@ fn through_targets(
     system: &NewtonSystem,
     step1: &[DVec2],
     problem: &StepProblem,
-) -> Option<FreeStart> {
+) -> Option<ChosenStart> {
     if problem.targets.len() < 2 {
         return None;
     }
@@ -120,7 +120,7 @@ fn through_targets(
     let fits = system.solve_conformal(&mut layout, rest, shape.triangles, &held)
         && guard::all_positive_as_stored(&layout, shape.triangles)
         && room.admits(&layout).is_ok();
-    fits.then(|| FreeStart {
+    fits.then(|| ChosenStart {
         rest_area: layout_area(&layout, &shape.triangles[..shape.n_real_triangles]),
         layout,
         kind: StartKind::Through,
@@ -225,7 +225,7 @@ pub fn fit_into_room(
     problem: &StepProblem,
     kind: StartKind,
     fit: Fit,
-) -> Option<FreeStart> {
+) -> Option<ChosenStart> {
     let triangles = shape.triangles;
     let placed: Vec<DVec2> = if fit == Fit::InPlace {
         base.to_vec()
@@ -262,7 +262,7 @@ pub fn fit_into_room(
             }
             // The room first: it looks at the boundary only.
             if room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles) {
-                return Some(FreeStart {
+                return Some(ChosenStart {
                     layout,
                     kind,
                     rest_area,

@@ -66,7 +66,7 @@ pub fn solve_schedule() -> Schedule {
 ///
 /// # Errors
 /// Errors of [`crate::session::ChartSession::open`].
-pub fn spawn_job(world: &mut World, job: SolveJob, load_ms: f64) -> Result<Entity, crate::Error> {
+pub fn spawn_job(world: &mut World, job: SolveJob, load_ms: f64) -> Result<Entity, crate::error::Error> {
     let session = crate::session::ChartSession::open(job.source.clone(), job.asset.clone(), load_ms)?;
     Ok(world.spawn((job, Session(session))).id())
 }

@@ -59,7 +59,7 @@ pub fn start_stepping(
         if solver.is_some_and(|s| s.1 == revision) || session.0.step_one_layout().is_none() {
             continue;
         }
-        match session.0.start(&job.options, StartFrom::StepOne) {
+        match session.0.new_solver(&job.options, StartFrom::StepOne) {
             Ok(solver) => {
                 commands
                     .entity(entity)

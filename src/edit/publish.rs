@@ -46,7 +46,7 @@ fn inputs(job: &SolveJob, session: &Session, text_hash: Option<u64>) -> Option<A
 
 /// The written solve of a file: its report, UVs, and the session the
 /// editor's drag previews start from.
-fn solved(job: &SolveJob, session: &Session, solver: &Solver, report: &crate::Report) -> Arc<SolvedView> {
+fn solved(job: &SolveJob, session: &Session, solver: &Solver, report: &crate::report::Report) -> Arc<SolvedView> {
     let prepared = session.0.prepared();
     let in_chart = prepared
         .welded

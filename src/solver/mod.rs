@@ -12,7 +12,7 @@
 //! of a tick, in that order.
 
 pub mod policy;
-pub mod step1;
+pub mod step_one;
 
 use crate::chart::{self, PreparedChart};
 use crate::complete::context::NewtonContext;
@@ -97,7 +97,7 @@ pub enum LoopFreed {
 
 /// Everything a chart's solve starts from.
 #[derive(Debug, Clone, Copy)]
-pub struct SolveStart<'a> {
+pub struct SolverInputs<'a> {
     pub prepared: &'a PreparedChart,
     /// Where the constraints came from: errors found here point into it.
     pub source: &'a ConstraintSource,
@@ -159,7 +159,7 @@ impl ChartSolver {
     /// # Errors
     /// A constraint on the outer boundary whose target contradicts the
     /// boundary map; a step-1 layout that folds (a bug).
-    pub fn start(start: SolveStart) -> Result<Self, Error> {
+    pub fn new(start: SolverInputs) -> Result<Self, Error> {
         let t0 = Instant::now();
         let filled = &start.prepared.filled;
         let triangles = &filled.mesh.triangles;

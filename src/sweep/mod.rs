@@ -217,7 +217,7 @@ struct Input {
 }
 
 /// Step-1 position and whether on the outer boundary, per constraint (file order).
-type Step1 = Result<Vec<(DVec2, bool)>, String>;
+type Probe = Result<Vec<(DVec2, bool)>, String>;
 
 fn options_for(loaded: &LoadedConstraints, setting: &Setting) -> SolverOptions {
     setting.solver.unwrap_or(loaded.solver)
@@ -234,19 +234,24 @@ fn with_setting(loaded: &LoadedConstraints, setting: &Setting) -> LoadedConstrai
 
 /// Step 1 only (the probe): where the bar-net puts each constraint, and
 /// whether it is on the outer boundary.
-fn probe_step1(loaded: &LoadedConstraints, asset: &Arc<SourceAsset>, corners: CornerChoice) -> Step1 {
+fn probe_step1(loaded: &LoadedConstraints, asset: &Arc<SourceAsset>, corners: CornerChoice) -> Probe {
     let setting = Setting {
         name: String::new(),
         solver: None,
         corners,
     };
     let source = ConstraintSource::File(Arc::new(with_setting(loaded, &setting)));
-    let prepared = crate::chart::prepare(&source, asset).map_err(|e| e.to_string())?;
-    let step1 = crate::solver::step1::step1(&prepared, &source, &asset.path).map_err(|e| e.to_string())?;
-    let on_outer = step1.boundary.on_loop(prepared.filled.mesh.n_vertices());
+    let mut session = crate::session::ChartSession::open(source, asset.clone(), 0.0).map_err(|e| e.to_string())?;
+    session.run_step_one().map_err(|e| e.to_string())?;
+    let step_one = session.step_one().ok_or("step 1 was not solved")?;
+    let prepared = session.prepared();
+    let on_outer = step_one.boundary.on_loop(prepared.filled.mesh.n_vertices());
     let mut out = vec![(DVec2::ZERO, false); loaded.file.constraints.len()];
     for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
-        out[c.index] = (crate::param::xy_to_uv(step1.layout[v as usize]), on_outer[v as usize]);
+        out[c.index] = (
+            crate::param::xy_to_uv(step_one.layout[v as usize]),
+            on_outer[v as usize],
+        );
     }
     Ok(out)
 }
@@ -266,7 +271,7 @@ fn thumbnail_name(run: &Run) -> String {
     format!("{:04}-{}.png", run.index, safe.chars().take(80).collect::<String>())
 }
 
-fn solve_run(run: &Run, input: &Input, step1: &Step1, sweep: &SweepFile, thumbs: Option<&Path>) -> Row {
+fn solve_run(run: &Run, input: &Input, step1: &Probe, sweep: &SweepFile, thumbs: Option<&Path>) -> Row {
     let started = std::time::Instant::now();
     let mut row = Row {
         run: run.index,
@@ -626,7 +631,7 @@ fn load_inputs(files: &[PathBuf], names: &[String], pending: &[&Run]) -> HashMap
 }
 
 /// Step 1 of every (file, corner choice) the pending runs need.
-fn probe_all(inputs: &HashMap<usize, Input>, pending: &[&Run]) -> HashMap<(usize, CornerChoice), Step1> {
+fn probe_all(inputs: &HashMap<usize, Input>, pending: &[&Run]) -> HashMap<(usize, CornerChoice), Probe> {
     let mut keys: Vec<(usize, CornerChoice)> = pending.iter().map(|r| (r.file_index, r.setting.corners)).collect();
     keys.sort_by_key(|(i, c)| (*i, *c == CornerChoice::Auto));
     keys.dedup();
@@ -644,7 +649,7 @@ fn probe_all(inputs: &HashMap<usize, Input>, pending: &[&Run]) -> HashMap<(usize
 /// What every run of one sweep shares.
 struct RunContext<'a> {
     inputs: &'a HashMap<usize, Input>,
-    probes: &'a HashMap<(usize, CornerChoice), Step1>,
+    probes: &'a HashMap<(usize, CornerChoice), Probe>,
     sweep: &'a SweepFile,
     thumbs: Option<&'a Path>,
 }

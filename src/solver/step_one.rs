@@ -1,8 +1,7 @@
 //! Step 1 of the paper (§III): the outer boundary onto the unit square,
 //! then the force-density ("bar-net") solve for everything else (Eq. 1–2).
-//! Three functions, one per stage, which the ECS runs as three systems (so
-//! the daemon can keep the factor when only the corners change), and
-//! [`step1`], which runs them in a row.
+//! Three functions, one per stage, which the chart session runs (and keeps
+//! the results of: the factor survives new corners).
 
 use crate::chart::PreparedChart;
 use crate::constraints::ConstraintSource;
@@ -12,22 +11,21 @@ use crate::param::boundary::{BoundaryMap, map_outer_boundary};
 use glam::DVec2;
 use std::path::Path;
 use std::sync::Arc;
-use std::time::Instant;
 
 /// Step 1's results for one chart: the outer loop on the square, the
 /// factored bar-net matrix `D` of Eq. 1 (kept for re-solves), and the
 /// layout of the filled chart (layout coordinates, y up).
 #[derive(Debug, Clone)]
-pub struct Step1 {
+pub struct StepOne {
     pub boundary: BoundaryMap,
     pub bar_net: Arc<BarNet>,
     pub layout: Vec<DVec2>,
-    pub times: Step1Times,
+    pub times: StepOneTimes,
 }
 
 /// Milliseconds per stage of step 1.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Step1Times {
+pub struct StepOneTimes {
     pub boundary_ms: f64,
     pub factor_ms: f64,
     pub solve_ms: f64,
@@ -71,29 +69,4 @@ pub fn solve_force_density(prepared: &PreparedChart, boundary: &BoundaryMap, net
     }
     net.solve(&mut layout);
     layout
-}
-
-/// Step 1 in a row: [`map_boundary`], [`factor_bar_net`], [`solve_force_density`].
-///
-/// # Errors
-/// As those functions.
-pub fn step1(prepared: &PreparedChart, source: &ConstraintSource, asset: &Path) -> Result<Step1, Error> {
-    let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
-    let t0 = Instant::now();
-    let boundary = map_boundary(prepared, source)?;
-    let t1 = Instant::now();
-    let bar_net = factor_bar_net(prepared, &boundary, asset)?;
-    let t2 = Instant::now();
-    let layout = solve_force_density(prepared, &boundary, &bar_net);
-    let times = Step1Times {
-        boundary_ms: t1.duration_since(t0).as_secs_f64() * 1e3,
-        factor_ms: t2.duration_since(t1).as_secs_f64() * 1e3,
-        solve_ms: ms(t2),
-    };
-    Ok(Step1 {
-        boundary,
-        bar_net: Arc::new(bar_net),
-        layout,
-        times,
-    })
 }
