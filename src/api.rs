@@ -20,6 +20,8 @@
 //! # Ok::<(), uvpin::Error>(())
 //! ```
 
+#![warn(missing_docs)]
+
 use crate::chart::{self, PreparedChart};
 use crate::constraints::{ConstraintSource, LoadedConstraints};
 use crate::error::Error;

@@ -1,6 +1,8 @@
 //! The crate's top-level error: a caller mistake in an input file, named with
 //! the file and the place; or an internal failure, kept apart.
 
+#![warn(missing_docs)]
+
 use crate::constraints::ConstraintFileError;
 use crate::io::AssetError;
 use crate::mesh::topology::TopologyError;

@@ -3,6 +3,8 @@
 //! texture coordinates), then the asset's files with the new UV set are
 //! staged, to be replaced atomically together with the report and pictures.
 
+#![warn(missing_docs)]
+
 use crate::chart::{self, PreparedChart};
 use crate::io::SourceAsset;
 use crate::io::atomic::{Staged, Writing};

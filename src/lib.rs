@@ -1,4 +1,3 @@
-#![warn(missing_docs)]
 //! # uvpin — constrained, fold-free texture mapping
 //!
 //! Gives a 3D mesh texture coordinates so that chosen vertices land exactly on
@@ -26,6 +25,10 @@
 //! ([`ecs`]) holds charts as `bevy_ecs` entities and runs one core function
 //! per system, tick by tick, for the daemon.
 //!
+//! `missing_docs` holds for the library's facade (`api`, `session`, `pins`,
+//! `report`, `error`, `options`, `export`); the internal layers are public
+//! for the tests and benches and documented per module.
+//!
 //! Cargo features: `cli` (default) gives the command line, the daemon
 //! (`daemon`), the landmark editor's server (`editor`), sweeps and the
 //! pictures (`pictures`); without default features the crate is the
@@ -33,65 +36,41 @@
 //! edits of [`edit::text`]).
 
 pub mod api;
-#[allow(missing_docs)]
 pub mod chart;
 #[cfg(feature = "cli")]
-#[allow(missing_docs)]
 pub mod cli;
-#[allow(missing_docs)]
 pub mod complete;
-#[allow(missing_docs)]
 pub mod config;
-#[allow(missing_docs)]
 pub mod constraints;
 #[cfg(feature = "daemon")]
-#[allow(missing_docs)]
 pub mod daemon;
-#[allow(missing_docs)]
 pub mod domain;
-#[allow(missing_docs)]
 pub mod ecs;
-#[allow(missing_docs)]
 pub mod edit;
 pub mod error;
 pub mod export;
-#[allow(missing_docs)]
 pub mod free;
-#[allow(missing_docs)]
 pub mod guard;
-#[allow(missing_docs)]
 pub mod injective;
-#[allow(missing_docs)]
 pub mod inspect;
-#[allow(missing_docs)]
 pub mod io;
-#[allow(missing_docs)]
 pub mod mesh;
-#[allow(missing_docs)]
 pub mod metrics;
 pub mod options;
-#[allow(missing_docs)]
 pub mod param;
 pub mod pins;
 #[cfg(feature = "pictures")]
-#[allow(missing_docs)]
 pub mod preview;
-#[allow(missing_docs)]
 pub mod rbf;
 pub mod report;
-#[allow(missing_docs)]
 pub mod ron_file;
 pub mod session;
 mod simd;
-#[allow(missing_docs)]
 pub mod solver;
-#[allow(missing_docs)]
 pub mod sparse;
 #[cfg(feature = "cli")]
-#[allow(missing_docs)]
 pub mod sweep;
 #[doc(hidden)]
-#[allow(missing_docs)]
 pub mod testing;
 
 /// The README's Rust example, compiled and run as a doc test.

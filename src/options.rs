@@ -1,6 +1,8 @@
 //! Solver options: the `solver` section of a constraint file or of
 //! `config/uvpin.ron`. Every field is optional; its default is in its doc.
 
+#![warn(missing_docs)]
+
 use serde::{Deserialize, Serialize};
 
 /// When the completion phase runs.

@@ -2,6 +2,8 @@
 //! targets, checked as a constraint file's are, with errors naming the
 //! constraint's index instead of a line and column.
 
+#![warn(missing_docs)]
+
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use crate::param::region::Region;
 use glam::DVec2;

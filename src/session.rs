@@ -18,6 +18,8 @@
 //! [`ChartSession::solve`] runs it all in a row. Cloning a session is cheap:
 //! its geometry, factor and Newton pattern are shared behind `Arc`s.
 
+#![warn(missing_docs)]
+
 use crate::chart::{self, PreparedChart, PrimitiveUvs};
 use crate::complete::pattern::PendingNewtonPattern;
 use crate::constraints::ConstraintSource;

@@ -75,12 +75,6 @@ pub fn init_watch_world(world: &mut World, settings: WatchSettings, log: DaemonL
     world.init_resource::<DaemonState>();
 }
 
-/// Whether any chart is still being solved.
-pub fn is_busy(world: &mut World) -> bool {
-    let mut working = world.query_filtered::<(), (With<SolveJob>, Without<Exported>, Without<Failed>)>();
-    working.iter(world).next().is_some()
-}
-
 /// Hands file events to the registry and applies what it decides to the
 /// chart entities; returns what the watcher must do.
 pub fn handle(world: &mut World, events: &[FileEvent]) -> Vec<WatchRequest> {

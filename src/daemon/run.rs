@@ -5,13 +5,14 @@
 //! blocks (no polling) while idle. SIGINT/SIGTERM end it after the tick in
 //! progress, so a write in progress is finished.
 
-use super::charts::{self, DaemonLog, WatchRequest, init_watch_world, is_busy, watch_schedule};
+use super::charts::{self, DaemonLog, WatchRequest, init_watch_world, watch_schedule};
 use super::events::{FileEvent, FileRules};
 use super::log::Logger;
 use super::paths::{WatchRoot, display, normalize};
 use super::registry::WatchSettings;
 use super::status::{FileState, StatusBoard};
 use crate::config::{OutputMode, WatchConfig};
+use crate::ecs::is_busy;
 use crate::options::SolverOptions;
 use anyhow::{Context, bail};
 use bevy_ecs::prelude::{Schedule, World};

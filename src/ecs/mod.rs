@@ -80,10 +80,15 @@ pub const MAX_TICKS: usize = 1_000_000;
 pub fn run_to_convergence(world: &mut World, schedule: &mut Schedule, max_ticks: usize) -> usize {
     for tick in 0..max_ticks {
         schedule.run(world);
-        let mut working = world.query_filtered::<(), (With<SolveJob>, Without<Exported>, Without<Failed>)>();
-        if working.iter(world).next().is_none() {
+        if !is_busy(world) {
             return tick + 1;
         }
     }
     max_ticks
+}
+
+/// Whether any chart is still being solved (neither exported nor failed).
+pub fn is_busy(world: &mut World) -> bool {
+    let mut working = world.query_filtered::<(), (With<SolveJob>, Without<Exported>, Without<Failed>)>();
+    working.iter(world).next().is_some()
 }

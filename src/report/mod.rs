@@ -1,6 +1,8 @@
 //! The solve report: status, per-constraint results, fold counts, stretch,
 //! iterations, time per stage, sizes. Written as JSON; summarised on stderr.
 
+#![warn(missing_docs)]
+
 mod build;
 mod explain;
 mod summary;

@@ -243,15 +243,14 @@ fn probe_step1(loaded: &LoadedConstraints, asset: &Arc<SourceAsset>, corners: Co
     let source = ConstraintSource::File(Arc::new(with_setting(loaded, &setting)));
     let mut session = crate::session::ChartSession::open(source, asset.clone(), 0.0).map_err(|e| e.to_string())?;
     session.run_step_one().map_err(|e| e.to_string())?;
-    let step_one = session.step_one().ok_or("step 1 was not solved")?;
+    let (Some(boundary), Some(layout)) = (session.boundary(), session.step_one_layout()) else {
+        return Err("step 1 was not solved".into());
+    };
     let prepared = session.prepared();
-    let on_outer = step_one.boundary.on_loop(prepared.filled.mesh.n_vertices());
+    let on_outer = boundary.on_loop(prepared.filled.mesh.n_vertices());
     let mut out = vec![(DVec2::ZERO, false); loaded.file.constraints.len()];
     for (c, &v) in prepared.constraints.iter().zip(&prepared.constraint_vertices) {
-        out[c.index] = (
-            crate::param::xy_to_uv(step_one.layout[v as usize]),
-            on_outer[v as usize],
-        );
+        out[c.index] = (crate::param::xy_to_uv(layout[v as usize]), on_outer[v as usize]);
     }
     Ok(out)
 }
