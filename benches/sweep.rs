@@ -48,6 +48,7 @@ fn main() {
                 force: true,
                 jobs: Some(jobs),
                 progress: Progress::Quiet,
+                shard: None,
             },
         )
         .unwrap();

@@ -58,6 +58,7 @@ fn main() {
             force: false,
             jobs: None,
             progress: uvpin::sweep::Progress::Auto,
+            shard: None,
         },
     )
     .expect("sample sweep");

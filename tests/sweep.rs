@@ -265,3 +265,103 @@ fn a_bare_sweep_file_name_finds_its_files_and_a_bad_setting_is_named() {
     );
     assert!(!dir.path("r2").exists(), "nothing written");
 }
+
+/// Every CSV row with its `time_ms` column left out.
+fn without_time(rows: &[Vec<String>]) -> Vec<Vec<String>> {
+    let time = uvpin::sweep::COLUMNS.iter().position(|c| *c == "time_ms").unwrap();
+    rows.iter()
+        .map(|r| {
+            r.iter()
+                .enumerate()
+                .filter(|(i, _)| *i != time)
+                .map(|(_, v)| v.clone())
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn shards_run_as_separate_processes_and_merged_give_the_rows_of_one_machine() {
+    let dir = TempDir::new("sweep-shards");
+    setup(&dir);
+    let one = sweep_file(&dir, SWEEP);
+    let sharded = dir.path("sharded.sweep.ron");
+    std::fs::write(&sharded, SWEEP.replace("\"results\"", "\"sharded\"")).unwrap();
+    let o = uvpin(&["sweep", one.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // Two of three shards, at once, as a job array would start them.
+    let s = sharded.to_str().unwrap();
+    let spawn = |shard: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_uvpin"))
+            .args(["sweep", s, "--shard", shard, "--quiet"])
+            .output()
+    };
+    let (a, b) = std::thread::scope(|scope| {
+        let a = scope.spawn(|| spawn("0/3"));
+        let b = scope.spawn(|| spawn("1/3"));
+        (a.join().unwrap().unwrap(), b.join().unwrap().unwrap())
+    });
+    assert!(a.status.success() && b.status.success(), "{}{}", stderr(&a), stderr(&b));
+    assert_eq!(read_csv(&dir.path("sharded/shards/0-of-3/runs.csv")).len(), 1 + 8);
+    // A merge with a shard missing names it and writes nothing.
+    let o = uvpin(&["sweep", s, "--merge"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("shard 2/3 has no row for 8 run(s)"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path("sharded/runs.csv").exists());
+
+    let c = spawn("2/3").unwrap();
+    assert!(c.status.success(), "{}", stderr(&c));
+    let o = uvpin(&["sweep", s, "--merge"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let merged = read_csv(&dir.path("sharded/runs.csv"));
+    let single = read_csv(&dir.path("results/runs.csv"));
+    assert_eq!(merged.len(), 1 + 24);
+    assert_eq!(
+        without_time(&merged),
+        without_time(&single),
+        "the same rows but the time"
+    );
+    let sheet = |p: &str| image::open(dir.path(p)).unwrap().to_rgba8();
+    assert!(
+        sheet("sharded/contact_sheet.png") == sheet("results/contact_sheet.png"),
+        "the same contact sheet"
+    );
+    assert_eq!(std::fs::read_dir(dir.path("sharded/thumbs")).unwrap().count(), 24);
+}
+
+#[test]
+fn bad_shards_and_mixed_splits_are_refused_by_name() {
+    let dir = TempDir::new("sweep-bad-shards");
+    setup(&dir);
+    let sweep = sweep_file(&dir, SWEEP);
+    let s = sweep.to_str().unwrap();
+    for (given, says) in [
+        ("3/3", "numbered 0 to 2"),
+        ("1/0", "between 1 and"),
+        ("x/2", "\"x\" is not a whole number"),
+        ("2", "expected I/N"),
+    ] {
+        let o = uvpin(&["sweep", s, "--shard", given, "--quiet"]);
+        assert_eq!(o.status.code(), Some(1), "{given}");
+        assert!(stderr(&o).contains(says), "{given}: {}", stderr(&o));
+    }
+    assert!(!dir.path("results").exists(), "a refused shard writes nothing");
+    let o = uvpin(&["sweep", s, "--merge"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--shard I/N"), "{}", stderr(&o));
+    for shard in ["0/2", "0/3"] {
+        assert!(uvpin(&["sweep", s, "--shard", shard, "--quiet"]).status.success());
+    }
+    let o = uvpin(&["sweep", s, "--merge"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("shards of different counts ([2, 3])"),
+        "{}",
+        stderr(&o)
+    );
+}

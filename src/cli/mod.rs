@@ -80,6 +80,14 @@ pub enum Command {
     Sweep {
         /// The sweep file (RON).
         sweep: PathBuf,
+        /// Run part I of N (I from 0 to N-1, a job array's task index) into
+        /// OUTPUT/shards/I-of-N; `--merge` joins the parts.
+        #[arg(long, value_name = "I/N", conflicts_with = "merge")]
+        shard: Option<crate::sweep::Shard>,
+        /// Join the shards' rows into runs.csv, runs.jsonl, summary.md and
+        /// the contact sheet, as one machine writes them.
+        #[arg(long)]
+        merge: bool,
         /// Re-run every run, even those already done.
         #[arg(long)]
         force: bool,
@@ -223,10 +231,18 @@ pub fn main() -> ExitCode {
         },
         Command::Sweep {
             sweep,
+            shard: None,
+            merge: true,
+            ..
+        } => merge_sweep(&sweep),
+        Command::Sweep {
+            sweep,
+            shard,
             force,
             jobs,
             quiet,
-        } => run_sweep(&sweep, force, jobs, quiet),
+            ..
+        } => run_sweep(&sweep, shard, force, jobs, quiet),
         Command::Watch(args) => watch(args),
         Command::Edit(args) => edit::run(args),
         Command::Inspect {
@@ -257,10 +273,29 @@ fn fail(e: &dyn std::fmt::Display) -> ExitCode {
     ExitCode::from(1)
 }
 
-fn run_sweep(sweep: &std::path::Path, force: bool, jobs: Option<usize>, quiet: bool) -> ExitCode {
+/// `uvpin sweep --merge`: the shards' rows joined.
+fn merge_sweep(sweep: &std::path::Path) -> ExitCode {
+    match crate::sweep::merge(sweep) {
+        Ok(outcome) => {
+            print!("{}", outcome.summary);
+            eprintln!("{} runs merged -> {}", outcome.rows.len(), outcome.output.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(&e),
+    }
+}
+
+fn run_sweep(
+    sweep: &std::path::Path,
+    shard: Option<crate::sweep::Shard>,
+    force: bool,
+    jobs: Option<usize>,
+    quiet: bool,
+) -> ExitCode {
     let options = crate::sweep::SweepOptions {
         force,
         jobs,
+        shard,
         progress: if quiet {
             crate::sweep::Progress::Quiet
         } else {
