@@ -187,8 +187,35 @@ fn solve_loaded_in(
 /// Invalid pins (out of range, outside the square, conflicting duplicates)
 /// and topology errors.
 pub fn solve_mesh(mesh: &TriMesh, pins: &Pins, options: &Options) -> Result<MeshSolution, Error> {
+    solve_memory(SourceAsset::from_mesh(mesh), pins, options)
+}
+
+/// Solves a mesh held in memory that already has texture coordinates, one
+/// per vertex (an atlas; glTF's convention, v down): vertices with the same
+/// position and UV are one, the chart holding the pins is laid out again
+/// (a free boundary keeps clear of the other charts), and every other vertex
+/// keeps its UV.
+///
+/// # Errors
+/// As [`solve_mesh`]; `uvs` not one per vertex.
+pub fn solve_atlas(mesh: &TriMesh, uvs: &[[f32; 2]], pins: &Pins, options: &Options) -> Result<MeshSolution, Error> {
+    let mut asset = SourceAsset::from_mesh(mesh);
+    if uvs.len() != mesh.n_vertices() {
+        return Err(Error::Asset(io::AssetError::Primitive {
+            path: asset.path,
+            mesh: 0,
+            primitive: 0,
+            message: format!("has {} UVs for {} vertices", uvs.len(), mesh.n_vertices()),
+        }));
+    }
+    asset.primitives[0].uvs = Some(uvs.to_vec());
+    solve_memory(asset, pins, options)
+}
+
+/// A session on an in-memory asset, solved; nothing written.
+fn solve_memory(asset: SourceAsset, pins: &Pins, options: &Options) -> Result<MeshSolution, Error> {
     let source = ConstraintSource::Memory(Arc::new(pins.clone()));
-    let mut session = ChartSession::open(source, Arc::new(SourceAsset::from_mesh(mesh)), 0.0)?;
+    let mut session = ChartSession::open(source, Arc::new(asset), 0.0)?;
     let solved = session.solve(&options.solver)?;
     let mut uvs = session.uvs(solved.solver.layout());
     Ok(MeshSolution {

@@ -37,6 +37,7 @@
 
 pub mod api;
 pub mod chart;
+pub mod check;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod complete;
@@ -68,7 +69,7 @@ pub mod session;
 mod simd;
 pub mod solver;
 pub mod sparse;
-#[cfg(feature = "cli")]
+#[cfg(feature = "sweep")]
 pub mod sweep;
 #[doc(hidden)]
 pub mod testing;
