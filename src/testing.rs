@@ -219,3 +219,150 @@ pub fn fresh_dir(name: &str) -> std::path::PathBuf {
     std::fs::create_dir_all(&dir).expect("a temporary folder");
     dir
 }
+
+/// A closed UV sphere of radius 1: `n_lat` bands from pole to pole, `n_lon`
+/// around, the poles single vertices; outward-facing.
+pub fn uv_sphere(n_lat: usize, n_lon: usize) -> TriMesh {
+    use std::f64::consts::PI;
+    assert!(n_lat >= 2 && n_lon >= 3);
+    let mut positions = vec![DVec3::Z];
+    for i in 1..n_lat {
+        let theta = PI * i as f64 / n_lat as f64;
+        for j in 0..n_lon {
+            let phi = 2.0 * PI * j as f64 / n_lon as f64;
+            positions.push(DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            ));
+        }
+    }
+    positions.push(-DVec3::Z);
+    let south = (positions.len() - 1) as u32;
+    let ring = |i: usize, j: usize| (1 + (i - 1) * n_lon + j % n_lon) as u32;
+    let mut triangles = Vec::new();
+    for j in 0..n_lon {
+        triangles.push([0, ring(1, j), ring(1, j + 1)]);
+        triangles.push([ring(n_lat - 1, j), south, ring(n_lat - 1, j + 1)]);
+    }
+    for i in 1..n_lat - 1 {
+        for j in 0..n_lon {
+            let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j));
+            triangles.push([a, d, c]);
+            triangles.push([a, c, b]);
+        }
+    }
+    TriMesh { positions, triangles }
+}
+
+/// A closed torus around the z axis: tube radius `r` around a circle of
+/// radius `big_r`, `n_major × n_minor` quads split in two; outward-facing.
+pub fn torus(n_major: usize, n_minor: usize, big_r: f64, r: f64) -> TriMesh {
+    use std::f64::consts::TAU;
+    let mut positions = Vec::with_capacity(n_major * n_minor);
+    for i in 0..n_major {
+        let a = TAU * i as f64 / n_major as f64;
+        for j in 0..n_minor {
+            let b = TAU * j as f64 / n_minor as f64;
+            let rho = big_r + r * b.cos();
+            positions.push(DVec3::new(rho * a.cos(), rho * a.sin(), r * b.sin()));
+        }
+    }
+    let id = |i: usize, j: usize| ((i % n_major) * n_minor + j % n_minor) as u32;
+    let mut triangles = Vec::new();
+    for i in 0..n_major {
+        for j in 0..n_minor {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    TriMesh { positions, triangles }
+}
+
+/// A closed surface of genus `holes`: an `n × n` plate (over [0, 2] × [0, 1]
+/// when `holes` is 2, else the unit square) with `holes` square holes,
+/// thickened into a top and a bottom sheet stitched along every boundary,
+/// its edges rounded. Outward-facing.
+pub fn holed_plate(n: usize, holes: usize) -> TriMesh {
+    let width = if holes >= 2 { 2.0 } else { 1.0 };
+    let (nx, ny) = (if holes >= 2 { 2 * n - 1 } else { n }, n);
+    let mut top = grid_mesh(nx, ny);
+    for p in &mut top.positions {
+        p.x *= width;
+    }
+    let centres: Vec<f64> = (0..holes)
+        .map(|h| width * (h as f64 + 0.5) / holes.max(1) as f64)
+        .collect();
+    top.triangles.retain(|t| {
+        let c = t.iter().map(|&v| top.positions[v as usize]).sum::<DVec3>() / 3.0;
+        !centres
+            .iter()
+            .any(|&x| (c.x - x).abs() < 0.2 && (c.y - 0.5).abs() < 0.2)
+    });
+    let top = compact(top);
+    let topology = crate::mesh::topology::Topology::build(&top).expect("a plate with holes");
+    let n_top = top.positions.len() as u32;
+    // Thicker towards the middle of the sheet, thin at every rim.
+    let rim = |p: DVec3| {
+        let mut d = p.x.min(width - p.x).min(p.y).min(1.0 - p.y);
+        for &x in &centres {
+            d = d.min(((p.x - x).abs() - 0.2).max((p.y - 0.5).abs() - 0.2).abs());
+        }
+        0.02 + 0.15 * (d * 6.0).min(1.0).sqrt()
+    };
+    let mut positions: Vec<DVec3> = top.positions.iter().map(|&p| p + DVec3::Z * rim(p)).collect();
+    positions.extend(top.positions.iter().map(|&p| p - DVec3::Z * rim(p)));
+    let mut triangles = top.triangles.clone();
+    triangles.extend(top.triangles.iter().map(|t| [t[0] + n_top, t[2] + n_top, t[1] + n_top]));
+    for lp in &topology.loops {
+        for k in 0..lp.len() {
+            let (a, b) = (lp[k], lp[(k + 1) % lp.len()]);
+            triangles.push([b, a, a + n_top]);
+            triangles.push([b, a + n_top, b + n_top]);
+        }
+    }
+    TriMesh { positions, triangles }
+}
+
+/// A closed head-like blob facing −y: a sphere stretched taller, two eye
+/// sockets, a nose and two ears. Returns it with the vertices nearest its
+/// eye corners, nose tip, mouth corners and chin (in that order).
+pub fn blob_head(n_lat: usize, n_lon: usize) -> (TriMesh, Vec<u32>) {
+    let mut mesh = uv_sphere(n_lat, n_lon);
+    let bump = |p: DVec3, at: DVec3, width: f64, height: f64| {
+        let d2 = (p.normalize() - at.normalize()).length_squared();
+        height * (-d2 / (width * width)).exp()
+    };
+    for p in &mut mesh.positions {
+        let q = *p;
+        let mut r = 1.0;
+        r -= bump(q, DVec3::new(-0.35, -0.8, 0.25), 0.22, 0.12);
+        r -= bump(q, DVec3::new(0.35, -0.8, 0.25), 0.22, 0.12);
+        r += bump(q, DVec3::new(0.0, -1.0, 0.0), 0.18, 0.18);
+        r += bump(q, DVec3::new(-1.0, 0.0, 0.05), 0.15, 0.15);
+        r += bump(q, DVec3::new(1.0, 0.0, 0.05), 0.15, 0.15);
+        *p = DVec3::new(q.x * r * 0.85, q.y * r, q.z * r * 1.15);
+    }
+    let nearest = |target: DVec3| {
+        (0..mesh.positions.len())
+            .min_by(|&a, &b| {
+                (mesh.positions[a] - target)
+                    .length_squared()
+                    .total_cmp(&(mesh.positions[b] - target).length_squared())
+            })
+            .expect("vertices") as u32
+    };
+    let features = [
+        DVec3::new(-0.45, -0.75, 0.3),
+        DVec3::new(-0.18, -0.85, 0.3),
+        DVec3::new(0.18, -0.85, 0.3),
+        DVec3::new(0.45, -0.75, 0.3),
+        DVec3::new(0.0, -1.2, 0.0),
+        DVec3::new(-0.3, -0.85, -0.45),
+        DVec3::new(0.3, -0.85, -0.45),
+        DVec3::new(0.0, -0.7, -0.85),
+    ];
+    let landmarks = features.iter().map(|&f| nearest(f)).collect();
+    (mesh, landmarks)
+}

@@ -3,7 +3,9 @@
 //! disk topology) that the force-density solve of §III needs.
 
 pub mod nearest;
+pub mod polygon;
 pub mod topology;
+pub mod wedges;
 pub mod weld;
 
 use glam::DVec3;

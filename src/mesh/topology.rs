@@ -310,6 +310,32 @@ pub fn loop_length(mesh: &TriMesh, lp: &[u32]) -> f64 {
         .sum()
 }
 
+/// The connected pieces of `mesh` (triangles joined through shared
+/// vertices): their number, and each triangle's piece, numbered in
+/// triangle order.
+pub fn triangle_components(mesh: &TriMesh) -> (usize, Vec<u32>) {
+    let mut uf = UnionFind::new(mesh.n_vertices());
+    for t in &mesh.triangles {
+        uf.union(t[0] as usize, t[1] as usize);
+        uf.union(t[1] as usize, t[2] as usize);
+    }
+    let mut piece_of_root = vec![u32::MAX; mesh.n_vertices()];
+    let mut n = 0u32;
+    let pieces = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let root = uf.find(t[0] as usize);
+            if piece_of_root[root] == u32::MAX {
+                piece_of_root[root] = n;
+                n += 1;
+            }
+            piece_of_root[root]
+        })
+        .collect();
+    (n as usize, pieces)
+}
+
 /// Disjoint sets with path halving and union by size.
 #[derive(Debug, Clone)]
 pub struct UnionFind {

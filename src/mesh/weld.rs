@@ -36,21 +36,56 @@ pub struct WeldedMesh {
 }
 
 /// A chart cut out of a [`WeldedMesh`], with chart-local vertex numbering.
+/// Once opened along seams or repaired ([`Chart::opened`]), a welded vertex
+/// may have several chart vertices (one per side of a seam): its first
+/// keeps the chart-local id it had.
 #[derive(Debug, Clone)]
 pub struct Chart {
     pub id: u32,
     pub mesh: TriMesh,
     /// Chart-local vertex → welded vertex.
     pub welded_ids: Vec<u32>,
+    /// Chart triangle → welded triangle (the primitives' triangles in order).
+    pub triangle_ids: Vec<u32>,
     /// Welded vertex → chart-local vertex; `None` outside this chart.
     local_of: Vec<Option<u32>>,
 }
 
 impl Chart {
-    /// Chart-local id of welded vertex `welded`, if it belongs to this chart.
+    /// Chart-local id of welded vertex `welded`, if it belongs to this chart
+    /// (its first copy, if it was split).
     #[inline]
     pub fn local_of(&self, welded: u32) -> Option<u32> {
         self.local_of.get(welded as usize).copied().flatten()
+    }
+
+    /// This chart with its vertices split as `wedges` (made from this
+    /// chart's mesh) says: the same triangles, the copies after the
+    /// vertices, each copy standing for its original's welded vertex.
+    pub fn opened(&self, wedges: &super::wedges::Wedges) -> Chart {
+        debug_assert_eq!(wedges.mesh.triangles.len(), self.mesh.triangles.len());
+        Chart {
+            id: self.id,
+            mesh: wedges.mesh.clone(),
+            welded_ids: wedges.origin.iter().map(|&o| self.welded_ids[o as usize]).collect(),
+            triangle_ids: self.triangle_ids.clone(),
+            local_of: self.local_of.clone(),
+        }
+    }
+
+    /// This chart with only the triangles `keep` marks (same vertices).
+    pub fn with_triangles(&self, keep: &[bool]) -> Chart {
+        let pick = |k: &usize| keep[*k];
+        Chart {
+            id: self.id,
+            mesh: TriMesh {
+                positions: self.mesh.positions.clone(),
+                triangles: (0..keep.len()).filter(pick).map(|k| self.mesh.triangles[k]).collect(),
+            },
+            welded_ids: self.welded_ids.clone(),
+            triangle_ids: (0..keep.len()).filter(pick).map(|k| self.triangle_ids[k]).collect(),
+            local_of: self.local_of.clone(),
+        }
     }
 }
 
@@ -138,17 +173,18 @@ impl WeldedMesh {
             }
         }
         let positions = welded_ids.iter().map(|&v| self.mesh.positions[v as usize]).collect();
-        let triangles = self
-            .mesh
-            .triangles
-            .iter()
-            .filter(|t| self.chart_of_vertex[t[0] as usize] == Some(id))
-            .map(|t| t.map(|v| local_of[v as usize].expect("same chart")))
-            .collect();
+        let (mut triangles, mut triangle_ids) = (Vec::new(), Vec::new());
+        for (k, t) in self.mesh.triangles.iter().enumerate() {
+            if self.chart_of_vertex[t[0] as usize] == Some(id) {
+                triangles.push(t.map(|v| local_of[v as usize].expect("same chart")));
+                triangle_ids.push(k as u32);
+            }
+        }
         Chart {
             id,
             mesh: TriMesh { positions, triangles },
             welded_ids,
+            triangle_ids,
             local_of,
         }
     }
