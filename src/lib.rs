@@ -43,6 +43,7 @@ pub mod cli;
 pub mod complete;
 pub mod config;
 pub mod constraints;
+pub mod cut;
 #[cfg(feature = "daemon")]
 pub mod daemon;
 pub mod domain;
