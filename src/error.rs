@@ -4,8 +4,8 @@
 #![warn(missing_docs)]
 
 use crate::constraints::ConstraintFileError;
+use crate::cut::prepare::SolvableError;
 use crate::io::AssetError;
-use crate::mesh::topology::TopologyError;
 use crate::param::bar_net::BarNetError;
 use std::path::PathBuf;
 use thiserror::Error;
@@ -26,7 +26,8 @@ pub enum Error {
     /// A configuration file's mistake.
     #[error(transparent)]
     Config(#[from] crate::config::ConfigError),
-    /// The solved chart is not a disk (closed, non-manifold, pinched).
+    /// The solved chart cannot be made a disk (given seams that do not open
+    /// it, a double-sided face, a chart that falls apart when repaired).
     #[error("{path}: mesh {mesh}, chart {chart} ({n_vertices} vertices, {n_triangles} triangles): {source}")]
     Topology {
         /// The asset.
@@ -39,8 +40,8 @@ pub enum Error {
         n_vertices: usize,
         /// The chart's triangle count.
         n_triangles: usize,
-        /// What is wrong, with the offending edge or vertex.
-        source: TopologyError,
+        /// What is wrong, with the offending edge, vertex or triangles.
+        source: SolvableError,
     },
     /// The force-density system of Eq. 1 cannot be factored.
     #[error("{path}: force-density solve of chart {chart}: {source}")]

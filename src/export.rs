@@ -151,8 +151,9 @@ pub fn stage_chart(
         return Staged::new();
     };
     let uvs = StoredUvs {
-        gltf: chart::assemble_uvs(asset, prepared, layout),
-        obj_vt: (asset.format == crate::io::AssetFormat::Obj).then(|| chart::assemble_obj_vt(asset, prepared, layout)),
+        gltf: chart::assemble_corner_uvs(asset, prepared, layout),
+        obj_vt: (asset.format == crate::io::AssetFormat::Obj)
+            .then(|| chart::assemble_obj_corners(asset, prepared, layout)),
     };
     match crate::io::gltf_file::stage_asset(asset, &uvs, out) {
         Ok(staged) => {

@@ -25,6 +25,8 @@ pub struct Pins {
     pub boundary: Option<BoundaryChoice>,
     /// A free boundary's region (texture coordinates).
     pub region: Option<Region>,
+    /// Where a chart that must be opened is cut (default `Auto`).
+    pub seams: SeamsChoice,
 }
 
 impl Pins {
@@ -47,6 +49,13 @@ impl Pins {
     #[must_use]
     pub fn within(mut self, region: Region) -> Self {
         self.region = Some(region);
+        self
+    }
+
+    /// The same pins with these seams.
+    #[must_use]
+    pub fn with_seams(mut self, seams: SeamsChoice) -> Self {
+        self.seams = seams;
         self
     }
 
@@ -78,6 +87,12 @@ pub enum PinError {
     /// The region is wrong.
     #[error("region: {message}")]
     Region {
+        /// What is wrong.
+        message: String,
+    },
+    /// The seams are wrong.
+    #[error("seams: {message}")]
+    Seams {
         /// What is wrong.
         message: String,
     },
@@ -216,6 +231,18 @@ pub enum BoundaryChoice {
     /// The outer loop and holes move freely inside the region; the layout
     /// is globally injective.
     Free,
+}
+
+/// The `seams` field: where a chart that must be opened is cut.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum SeamsChoice {
+    /// Where it must be opened (closed, or with handles), placed away from
+    /// the landmarks.
+    #[default]
+    Auto,
+    /// Along these vertex paths, each step an edge of the mesh (vertex ids
+    /// of the file's `primitive`), and nowhere else.
+    Edges(Vec<Vec<u32>>),
 }
 
 /// A constraint resolved against the asset.

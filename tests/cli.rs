@@ -301,9 +301,10 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
             [0, 3, 5],
         ],
     };
+    // Given seams that leave it closed are refused by name.
     let asset = tmp.path("closed.glb");
     write_mesh_glb(&asset, &octa);
-    write_constraints(&ron, &asset, &[(4, 0.5, 0.5)], "");
+    write_constraints(&ron, &asset, &[(4, 0.5, 0.5)], "seams: Edges([[0, 2]]),");
     assert_fails_writing_nothing(&ron, &tmp, &["closed.glb", "chart 0", "closed"]);
     // A fin: three triangles on one edge.
     let mut fin = grid_mesh(4, 4);
@@ -431,15 +432,41 @@ fn obj_input_writes_obj_or_glb() {
     assert!(obj.contains("f 1/1 2/2 8/8") || obj.contains("f 1/1"), "{obj}");
     let o = uvpin(&["check", tmp.path("out.glb").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
-    std::fs::write(tmp.path("q.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
-    write_constraints(&ron, std::path::Path::new("q.obj"), &[], "");
-    let o = uvpin(&["solve", ron.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(1));
+    // Quads, as modelling tools export them: solved as triangles, written back as quads.
+    let mut quads = String::new();
+    for j in 0..6 {
+        for i in 0..6 {
+            quads += &format!(
+                "v {} {} {}\n",
+                i as f64 / 5.0,
+                j as f64 / 5.0,
+                0.1 * (i * j) as f64 / 25.0
+            );
+        }
+    }
+    for j in 0..5 {
+        for i in 0..5 {
+            let v = 1 + i + 6 * j;
+            quads += &format!("f {} {} {} {}\n", v, v + 1, v + 7, v + 6);
+        }
+    }
+    std::fs::write(tmp.path("q.obj"), quads).unwrap();
+    write_constraints(&ron, std::path::Path::new("q.obj"), &[(14, 0.45, 0.5)], "");
+    let o = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        tmp.path("q-out.obj").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let written = std::fs::read_to_string(tmp.path("q-out.obj")).unwrap();
+    let faces: Vec<&str> = written.lines().filter(|l| l.starts_with("f ")).collect();
+    assert_eq!(faces.len(), 25);
     assert!(
-        stderr(&o).contains("q.obj:5") && stderr(&o).contains("only triangles"),
-        "{}",
-        stderr(&o)
+        faces.iter().all(|f| f.split_whitespace().count() == 5),
+        "every face a quad: {written}"
     );
+    assert!(faces.contains(&"f 1/1 2/2 8/8 7/7"), "{written}");
 }
 
 #[test]

@@ -366,35 +366,62 @@ fn chart_membership(p: &uvpin::chart::PreparedChart, asset: &uvpin::io::SourceAs
 fn assert_written_fold_free(out: &Path, asset: &uvpin::io::SourceAsset, in_chart: &[Vec<bool>]) {
     use uvpin::guard::VAxis;
     let rules = uvpin::io::InputRules::default();
-    let (uvs, axis): (Vec<Vec<[f32; 2]>>, VAxis) = if out.extension().is_some_and(|e| e == "obj") {
-        // uvpin writes one `vt` per `v`, in order: the i-th is vertex i's.
+    if out.extension().is_some_and(|e| e == "obj") {
+        // Read as any OBJ reader does: each face corner names its own `vt`.
         let text = std::fs::read_to_string(out).expect("our OBJ output reads back");
-        let vt: Vec<[f32; 2]> = text
-            .lines()
-            .filter_map(|l| l.strip_prefix("vt "))
-            .map(|l| {
-                let mut xy = l.split_whitespace().map(|x| x.parse::<f32>().expect("a vt number"));
-                [xy.next().expect("u"), xy.next().expect("v")]
-            })
-            .collect();
-        (vec![vt], VAxis::Up)
-    } else {
-        let back = uvpin::io::load_asset(out, None, asset.uv_set, &rules).expect("our output reads back");
-        let uvs = back
-            .primitives
-            .iter()
-            .map(|p| p.uvs.clone().expect("the written UV set"))
-            .collect();
-        (uvs, VAxis::Down)
-    };
-    for ((prim, uvs), inside) in asset.primitives.iter().zip(&uvs).zip(in_chart) {
+        let (n_v, mut vt, mut flipped) = (std::cell::Cell::new(0usize), Vec::<[f32; 2]>::new(), 0);
+        let number = |x: &str| x.parse::<f32>().expect("a number");
+        for line in text.lines() {
+            let mut parts = line.split_whitespace();
+            match parts.next() {
+                Some("v") => n_v.set(n_v.get() + 1),
+                Some("vt") => vt.push([number(parts.next().unwrap()), number(parts.next().unwrap())]),
+                Some("f") => {
+                    let index = |s: &str, n: usize| {
+                        let i: i64 = s.parse().expect("an index");
+                        if i > 0 { i as usize - 1 } else { (n as i64 + i) as usize }
+                    };
+                    let corners: Vec<(usize, [f32; 2])> = parts
+                        .map(|c| {
+                            let mut f = c.split('/');
+                            let v = index(f.next().unwrap(), n_v.get());
+                            let t = f.next().filter(|t| !t.is_empty()).expect("every corner has a vt");
+                            (v, vt[index(t, vt.len())])
+                        })
+                        .collect();
+                    if corners.iter().all(|(v, _)| in_chart[0][*v]) {
+                        let uvs: Vec<[f32; 2]> = corners.iter().map(|c| c.1).collect();
+                        let fan: Vec<[u32; 3]> = (1..uvs.len() as u32 - 1).map(|k| [0, k, k + 1]).collect();
+                        let counts = uvpin::guard::count_stored_orientations(&uvs, &fan, VAxis::Up);
+                        flipped += counts.flipped + counts.zero_area;
+                    }
+                }
+                _ => {}
+            }
+        }
+        assert_eq!(
+            flipped,
+            0,
+            "{}: flipped or flat faces of the solved chart as written",
+            out.display()
+        );
+        return;
+    }
+    let back = uvpin::io::load_asset(out, None, asset.uv_set, &rules).expect("our output reads back");
+    let uvs: Vec<Vec<[f32; 2]>> = back
+        .primitives
+        .iter()
+        .map(|p| p.uvs.clone().expect("the written UV set"))
+        .collect();
+    for ((prim, uvs), inside) in back.primitives.iter().zip(&uvs).zip(in_chart) {
+        let _ = asset;
         let triangles: Vec<[u32; 3]> = prim
             .indices
             .chunks_exact(3)
             .map(|t| [t[0], t[1], t[2]])
-            .filter(|t| t.iter().all(|&v| inside[v as usize]))
+            .filter(|t| t.iter().all(|&v| inside.get(v as usize).copied().unwrap_or(true)))
             .collect();
-        let counts = uvpin::guard::count_stored_orientations(uvs, &triangles, axis);
+        let counts = uvpin::guard::count_stored_orientations(uvs, &triangles, VAxis::Down);
         assert!(
             counts.is_clean(),
             "{}: {counts:?} in the solved chart as written",

@@ -26,7 +26,7 @@ pub use schema::{ConstraintFile, ConstraintSpec, CornerSpec, Corners};
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use crate::options::SolverOptions;
 use crate::param::region::Region;
-use crate::pins::{BoundaryChoice, PinError, Pins, ResolvedConstraint};
+use crate::pins::{BoundaryChoice, PinError, Pins, ResolvedConstraint, SeamsChoice};
 use std::path::PathBuf;
 use std::sync::Arc;
 use thiserror::Error;
@@ -66,6 +66,8 @@ pub struct LoadedConstraints {
     pub asset_position: (usize, usize),
     /// (line, column) of the `region` value, or of the file start.
     pub region_position: (usize, usize),
+    /// (line, column) of the `seams` value, or of the file start.
+    pub seams_position: (usize, usize),
     /// The solver options in force: the file's `solver`, else the defaults given at load.
     pub solver: SolverOptions,
 }
@@ -143,6 +145,54 @@ impl ConstraintSource {
         match self {
             ConstraintSource::File(l) => (l.file.boundary, l.file.region),
             ConstraintSource::Memory(p) => (p.boundary, p.region),
+        }
+    }
+
+    /// The requested seams, as welded vertex paths (`Auto` when not given).
+    ///
+    /// # Errors
+    /// A seam vertex out of range (located at the `seams` field).
+    pub fn seams(&self, primitives: &[PrimitiveGeometry], welded: &WeldedMesh) -> Result<SeamsChoice, ConstraintError> {
+        let (given, primitive, fail): (_, usize, Box<dyn Fn(String) -> ConstraintError>) = match self {
+            ConstraintSource::File(l) => (
+                l.file.seams.clone().unwrap_or_default(),
+                primitives.iter().position(|p| p.index == l.file.primitive).unwrap_or(0),
+                Box::new(|m| l.seams_error(m).into()),
+            ),
+            ConstraintSource::Memory(p) => (p.seams.clone(), 0, Box::new(|m| PinError::Seams { message: m }.into())),
+        };
+        let SeamsChoice::Edges(paths) = given else {
+            return Ok(SeamsChoice::Auto);
+        };
+        let map = &welded.vertex_of[primitive];
+        let mut out = Vec::with_capacity(paths.len());
+        for (k, path) in paths.iter().enumerate() {
+            if path.len() < 2 {
+                return Err(fail(format!(
+                    "seams[{k}] has {} vertices: a seam path needs at least 2",
+                    path.len()
+                )));
+            }
+            let mut ids = Vec::with_capacity(path.len());
+            for &v in path {
+                let w = map.get(v as usize).copied().ok_or_else(|| {
+                    fail(format!(
+                        "seams[{k}]: vertex {v} is out of range: the mesh has vertices 0..{}",
+                        map.len()
+                    ))
+                })?;
+                ids.push(w);
+            }
+            out.push(ids);
+        }
+        Ok(SeamsChoice::Edges(out))
+    }
+
+    /// An error about the seams.
+    pub fn seams_error(&self, message: String) -> ConstraintError {
+        match self {
+            ConstraintSource::File(l) => l.seams_error(message).into(),
+            ConstraintSource::Memory(_) => PinError::Seams { message }.into(),
         }
     }
 

@@ -58,6 +58,7 @@ impl LoadedConstraints {
             corners_position: (1, 1),
             asset_position: (1, 1),
             region_position: (1, 1),
+            seams_position: (1, 1),
             file,
         };
         loaded.validate()?;
@@ -98,6 +99,7 @@ impl LoadedConstraints {
             corners_position: scan.corners.unwrap_or((1, 1)),
             asset_position: scan.asset.unwrap_or((1, 1)),
             region_position: scan.region.unwrap_or((1, 1)),
+            seams_position: scan.seams.unwrap_or((1, 1)),
             file,
         };
         loaded.validate()?;
@@ -145,6 +147,18 @@ impl LoadedConstraints {
             line,
             column,
             field: "region".into(),
+            message: message.into(),
+        }
+    }
+
+    /// An error located at the `seams` value.
+    pub fn seams_error(&self, message: impl Into<String>) -> ConstraintFileError {
+        let (line, column) = self.seams_position;
+        ConstraintFileError::Invalid {
+            path: self.path.clone(),
+            line,
+            column,
+            field: "seams".into(),
             message: message.into(),
         }
     }
@@ -243,6 +257,7 @@ struct Positions {
     items: Vec<(usize, usize)>,
     corners: Option<(usize, usize)>,
     region: Option<(usize, usize)>,
+    seams: Option<(usize, usize)>,
 }
 
 /// Locates the parts of constraint-file text the RON parser accepted.
@@ -256,6 +271,7 @@ fn positions(text: &str) -> Positions {
             "asset" => out.asset = here,
             "corners" => out.corners = here,
             "region" => out.region = here,
+            "seams" => out.seams = here,
             "constraints" => {
                 out.constraints = here;
                 if &text[tokens[value.start].span.clone()] == "[" {

@@ -3,7 +3,7 @@
 use crate::io::MeshSelector;
 use crate::options::SolverOptions;
 use crate::param::region::Region;
-use crate::pins::BoundaryChoice;
+use crate::pins::{BoundaryChoice, SeamsChoice};
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
@@ -143,6 +143,12 @@ pub struct ConstraintFile {
     /// chart's own island when it already has UVs, else `Square`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub boundary: Option<BoundaryChoice>,
+    /// Where a chart that must be opened to a disk (closed, or with
+    /// handles) is cut: `Auto` (default: away from the landmarks, behind
+    /// them, short, along creases) or `Edges([[a, b, c, …], …])`, vertex
+    /// paths along mesh edges (ids of the file's `primitive`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seams: Option<SeamsChoice>,
     /// With a free boundary, the rectangle of the texture the chart stays
     /// inside (default: the whole texture, or the chart's island). Giving
     /// one makes the boundary free unless `boundary: Square` says otherwise.

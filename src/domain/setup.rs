@@ -32,6 +32,7 @@ pub fn decide(
     welded: &WeldedMesh,
     chart: &Chart,
     constraints: &[ResolvedConstraint],
+    cut: bool,
 ) -> Result<Domain, Error> {
     let (choice, given) = source.boundary();
     let uvs = welded_uvs(asset, welded);
@@ -45,8 +46,10 @@ pub fn decide(
         (_, Some(region)) => (region, RegionSource::Given),
         (Some(BoundaryChoice::Free), None) => (Region::TEXTURE, RegionSource::Texture),
         (None, None) => match &island {
-            Some(layout) => (island_region(layout, constraints), RegionSource::Island),
-            None => return Ok(Domain::Square),
+            Some(layout) if !cut => (island_region(layout, constraints), RegionSource::Island),
+            // A chart cut open has no shape a square would suit: free in the texture.
+            _ if cut => (Region::TEXTURE, RegionSource::Texture),
+            _ => return Ok(Domain::Square),
         },
     };
     if let Some(problem) = region.problem() {

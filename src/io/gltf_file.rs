@@ -8,6 +8,7 @@
 
 use super::MeshSelector;
 use super::atomic::{self, Staged};
+use super::corners::CornerUvs;
 use super::{AssetError, AssetFormat, Container, SourceAsset, glb};
 use crate::mesh::weld::PrimitiveGeometry;
 use base64::Engine;
@@ -419,7 +420,7 @@ fn push_uv_accessor(json: &mut Value, buffer: usize, offset: usize, uvs: &[[f32;
 /// # Errors
 /// An output of another type than the input; an external buffer of a GLB
 /// that cannot be read again.
-pub fn stage_with_uvs(asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<Staged, AssetError> {
+pub fn stage_with_uvs(asset: &SourceAsset, uvs: &[CornerUvs], out: &Path) -> Result<Staged, AssetError> {
     let werr = |message: String| AssetError::Write {
         path: out.to_path_buf(),
         message,
@@ -463,16 +464,41 @@ fn set_uv_attribute(json: &mut Value, asset: &SourceAsset, prim: usize, accessor
 }
 
 /// Appends the UVs to `blob` (the bytes of buffer `buffer`) with their
-/// accessors, and points the primitives at them.
-fn append_uvs(json: &mut Value, asset: &SourceAsset, uvs: &[Vec<[f32; 2]>], buffer: usize, blob: &mut Vec<u8>) {
-    for (prim, prim_uvs) in asset.primitives.iter().zip(uvs) {
+/// accessors, and points the primitives at them. A primitive whose corners
+/// need more vertices than it has (a seam runs through it) is split first
+/// ([`super::gltf_split`]), read from the `original` document.
+fn append_uvs(
+    json: &mut Value,
+    original: &Value,
+    asset: &SourceAsset,
+    uvs: &[CornerUvs],
+    buffer: usize,
+    blob: &mut Vec<u8>,
+) -> Result<(), String> {
+    let mut buffers: Option<Vec<Vec<u8>>> = None;
+    let skip = format!("TEXCOORD_{}", asset.uv_set);
+    for (prim, corners) in asset.primitives.iter().zip(uvs) {
+        let split = corners.split(&prim.indices);
+        if !split.is_identity() {
+            if buffers.is_none() {
+                let bin = match &asset.container {
+                    Container::Gltf { bin, .. } => bin.as_deref(),
+                    Container::Obj { .. } => None,
+                };
+                buffers = Some(load_buffers(&asset.path, original, bin, &asset.rules).map_err(|e| e.to_string())?);
+            }
+            let data = buffers.as_deref().expect("loaded");
+            let at = (asset.mesh_index, prim.index);
+            super::gltf_split::split_primitive(original, json, data, at, &skip, &split, buffer, blob)?;
+        }
         pad4(blob);
         let offset = blob.len();
-        blob.extend_from_slice(&f32_bytes(prim_uvs));
-        let acc = push_uv_accessor(json, buffer, offset, prim_uvs);
+        blob.extend_from_slice(&f32_bytes(&split.uvs));
+        let acc = push_uv_accessor(json, buffer, offset, &split.uvs);
         set_uv_attribute(json, asset, prim.index, acc);
     }
     pad4(blob);
+    Ok(())
 }
 
 /// Moves every external file buffer of a GLB's JSON into its BIN chunk
@@ -530,13 +556,14 @@ fn stage_glb(
     asset: &SourceAsset,
     mut json: Value,
     bin: Option<&[u8]>,
-    uvs: &[Vec<[f32; 2]>],
+    uvs: &[CornerUvs],
     out: &Path,
 ) -> Result<Staged, AssetError> {
     let werr = |message: String| AssetError::Write {
         path: out.to_path_buf(),
         message,
     };
+    let original = json.clone();
     let buffers = array(&mut json, "buffers");
     let uses_bin = buffers.first().is_some_and(|b| b.get("uri").is_none()) && bin.is_some();
     if !uses_bin {
@@ -556,7 +583,7 @@ fn stage_glb(
     embed_external_buffers(asset, &mut json, &mut blob).map_err(werr)?;
     let (in_dir, out_dir) = (absolute_dir(&asset.path), absolute_dir(out));
     rebase_uris(&mut json, &in_dir, &out_dir);
-    append_uvs(&mut json, asset, uvs, 0, &mut blob);
+    append_uvs(&mut json, &original, asset, uvs, 0, &mut blob).map_err(werr)?;
     json["buffers"][0]["byteLength"] = json!(blob.len());
     let text = serde_json::to_vec(&json).map_err(|e| werr(e.to_string()))?;
     let others = match &asset.container {
@@ -607,11 +634,12 @@ fn content_tag(bytes: &[u8]) -> String {
 /// A .gltf: the UVs in a new buffer `<stem>.uvpin-<content>.bin` beside it,
 /// staged before the .gltf that names it; an earlier output's uvpin buffer
 /// that the new file no longer names is removed after.
-fn stage_gltf(asset: &SourceAsset, mut json: Value, uvs: &[Vec<[f32; 2]>], out: &Path) -> Result<Staged, AssetError> {
+fn stage_gltf(asset: &SourceAsset, mut json: Value, uvs: &[CornerUvs], out: &Path) -> Result<Staged, AssetError> {
     let werr = |message: String| AssetError::Write {
         path: out.to_path_buf(),
         message,
     };
+    let original = json.clone();
     let (in_dir, out_dir) = (absolute_dir(&asset.path), absolute_dir(out));
     let referenced = rebase_uris(&mut json, &in_dir, &out_dir);
     let stem = out
@@ -620,7 +648,7 @@ fn stage_gltf(asset: &SourceAsset, mut json: Value, uvs: &[Vec<[f32; 2]>], out: 
         .unwrap_or_else(|| "out".into());
     let mut blob = Vec::new();
     let buffer = array(&mut json, "buffers").len();
-    append_uvs(&mut json, asset, uvs, buffer, &mut blob);
+    append_uvs(&mut json, &original, asset, uvs, buffer, &mut blob).map_err(werr)?;
     let bin_name = format!("{stem}.uvpin-{}.bin", content_tag(&blob));
     array(&mut json, "buffers").push(json!({ "uri": percent_encode_path(&bin_name), "byteLength": blob.len() }));
     let text = serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?;
@@ -746,8 +774,8 @@ pub fn write_new_document(json: &Value, blob: &[u8], out: &Path) -> Result<(), A
 /// asset, the OBJ `vt` of its one primitive.
 #[derive(Debug, Clone)]
 pub struct StoredUvs {
-    pub gltf: Vec<Vec<[f32; 2]>>,
-    pub obj_vt: Option<Vec<[f32; 2]>>,
+    pub gltf: Vec<CornerUvs>,
+    pub obj_vt: Option<CornerUvs>,
 }
 
 /// The asset with new UVs in whatever form `out` asks for, staged: the same
@@ -758,8 +786,13 @@ pub struct StoredUvs {
 pub fn stage_asset(asset: &SourceAsset, uvs: &StoredUvs, out: &Path) -> Result<Staged, AssetError> {
     let mut staged = Staged::new();
     match (&asset.container, AssetFormat::of(out), &uvs.obj_vt) {
-        (Container::Obj { bytes }, Some(AssetFormat::Obj), Some(vt)) => {
-            staged.add(out, super::obj::with_tex_coords(bytes, vt));
+        (Container::Obj { bytes, faces }, Some(AssetFormat::Obj), Some(vt)) => {
+            let written =
+                super::obj::with_tex_coords(bytes, faces, &vt.corners).map_err(|message| AssetError::Write {
+                    path: out.to_path_buf(),
+                    message,
+                })?;
+            staged.add(out, written);
         }
         (Container::Obj { .. }, Some(AssetFormat::Glb | AssetFormat::Gltf), _) => {
             let prim = &asset.primitives[0];
@@ -768,7 +801,10 @@ pub fn stage_asset(asset: &SourceAsset, uvs: &StoredUvs, out: &Path) -> Result<S
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default();
-            let (json, blob) = new_document(&prim.positions, &prim.indices, Some(&uvs.gltf[0]), &name);
+            let split = uvs.gltf[0].split(&prim.indices);
+            let mut positions = prim.positions.clone();
+            positions.extend(split.copies.iter().map(|&c| prim.positions[c as usize]));
+            let (json, blob) = new_document(&positions, &split.indices, Some(&split.uvs), &name);
             staged.add(out, encode_new_document(&json, &blob, out)?);
         }
         (Container::Gltf { .. }, _, _) => return stage_with_uvs(asset, &uvs.gltf, out),

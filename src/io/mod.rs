@@ -2,9 +2,11 @@
 //! and OBJ, and writing a UV set back with nothing else changed.
 
 pub mod atomic;
+pub mod corners;
 pub mod folder;
 pub mod glb;
 pub mod gltf_file;
+pub mod gltf_split;
 pub mod obj;
 pub mod paths;
 pub mod read;
@@ -114,6 +116,8 @@ pub enum Container {
         /// The file as read: lines uvpin does not change are written back
         /// byte for byte (encoding, line endings, a byte-order mark).
         bytes: Vec<u8>,
+        /// How its faces became the primitive's triangles.
+        faces: std::sync::Arc<obj::ObjFaces>,
     },
 }
 
@@ -185,15 +189,26 @@ pub fn load_asset(
                     message: format!("an OBJ file holds one mesh (0); mesh {i} was asked for"),
                 });
             }
-            let prim = obj::parse(path, &String::from_utf8_lossy(&bytes), &rules.limits)?;
+            if uv_set > 0 {
+                return Err(AssetError::MeshSelection {
+                    path: path.to_path_buf(),
+                    message: format!(
+                        "an OBJ file holds one UV set (its `vt`, uv_set 0); uv_set {uv_set} was asked for"
+                    ),
+                });
+            }
+            let read = obj::read_mesh(path, &String::from_utf8_lossy(&bytes), &rules.limits, true)?;
             Ok(SourceAsset {
                 path: path.to_path_buf(),
                 format,
                 mesh_index: 0,
                 mesh_name: None,
-                primitives: vec![prim],
+                primitives: vec![read.primitive],
                 uv_set,
-                container: Container::Obj { bytes },
+                container: Container::Obj {
+                    bytes,
+                    faces: std::sync::Arc::new(read.faces),
+                },
                 n_meshes: 1,
                 rules: rules.clone(),
                 decoded_texture: TextureCache::default(),
@@ -218,20 +233,23 @@ pub fn load_obj_with_tex_coords(
             path: path.to_path_buf(),
             source,
         })?;
-    let (prim, vt) = obj::parse_with_tex_coords(path, &String::from_utf8_lossy(&bytes), &rules.limits)?;
+    let read = obj::read_mesh(path, &String::from_utf8_lossy(&bytes), &rules.limits, true)?;
     let asset = SourceAsset {
         path: path.to_path_buf(),
         format: AssetFormat::Obj,
         mesh_index: 0,
         mesh_name: None,
-        primitives: vec![prim],
+        primitives: vec![read.primitive],
         uv_set: 0,
-        container: Container::Obj { bytes },
+        container: Container::Obj {
+            bytes,
+            faces: std::sync::Arc::new(read.faces),
+        },
         n_meshes: 1,
         rules: rules.clone(),
         decoded_texture: TextureCache::default(),
     };
-    Ok((asset, vt))
+    Ok((asset, read.tex_coords))
 }
 
 impl SourceAsset {
