@@ -49,6 +49,10 @@ pub struct PreparedChart {
 pub struct Opening {
     /// The seams it was cut along (`None`: it was a disk).
     pub seam: Option<crate::cut::Seam>,
+    /// Whether the seams were given in the constraint file (else automatic).
+    pub seam_given: bool,
+    /// How many vertices the seam split off.
+    pub seam_copies: usize,
     /// What was split apart to repair it.
     pub repairs: crate::mesh::wedges::Repairs,
     /// Triangles given twice: (welded triangle left out, chart triangle
@@ -283,6 +287,8 @@ fn chart_geometry(
     let auto_cut = solvable.seam.is_some() && matches!(spec, SeamSpec::Auto);
     let opening = Opening {
         seam: solvable.seam,
+        seam_given: matches!(spec, SeamSpec::Edges(_)),
+        seam_copies: solvable.seam_copies,
         repairs: solvable.repairs,
         duplicates: solvable.duplicates,
         key: GeometryKey {

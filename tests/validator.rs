@@ -6,21 +6,9 @@
 mod common;
 use common::*;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn validate(files: &[&Path]) -> Vec<serde_json::Value> {
-    let module = validator_module().expect("the validator (a need of this test)");
-    let o = Command::new("node")
-        .arg(repo().join("tests/helpers/validate.mjs"))
-        .args(files)
-        .env("GLTF_VALIDATOR_MODULE", &module)
-        .output()
-        .expect("node");
-    assert!(o.status.success(), "validator: {}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("validator JSON"))
-        .collect()
+    khronos_validate(files)
 }
 
 fn solve(ron: &Path, out: &Path) {

@@ -18,6 +18,8 @@ pub struct Solvable {
     pub topology: Topology,
     /// Where it was cut open (`None`: it was a disk already).
     pub seam: Option<Seam>,
+    /// How many vertices the seam split off (one per extra side).
+    pub seam_copies: usize,
     /// What was repaired.
     pub repairs: Repairs,
     /// Triangles given twice: (welded triangle left out, chart triangle
@@ -75,6 +77,7 @@ pub fn make_solvable(
             topology: Topology::build(&chart_repaired.mesh)?,
             chart: chart_repaired,
             seam: None,
+            seam_copies: 0,
             repairs: repaired.repairs,
             duplicates,
         }),
@@ -82,6 +85,7 @@ pub fn make_solvable(
             chart: chart_repaired.opened(&opened.wedges),
             topology: opened.topology,
             seam: Some(opened.seam),
+            seam_copies: opened.wedges.n_added(),
             repairs: repaired.repairs,
             duplicates,
         }),

@@ -211,8 +211,32 @@ pub fn build(s: &SolveSummary) -> Report {
             BoundaryMode::Square
         },
         free: free_report(s),
+        seam: seam_report(p),
         warnings: warnings(s),
     }
+}
+
+/// Where the chart was cut, in the asset's vertex ids.
+fn seam_report(p: &PreparedChart) -> Option<crate::report::SeamReport> {
+    let seam = p.opening.seam.as_ref()?;
+    let mut first_id: Vec<Option<u32>> = vec![None; p.welded.mesh.n_vertices()];
+    for map in p.welded.vertex_of.iter().rev() {
+        for (i, &w) in map.iter().enumerate().rev() {
+            first_id[w as usize] = Some(i as u32);
+        }
+    }
+    let id = |local: u32| first_id[p.chart.welded_ids[local as usize] as usize];
+    let area = p.chart.mesh.area();
+    Some(crate::report::SeamReport {
+        source: if p.opening.seam_given { "given" } else { "auto" },
+        n_edges: seam.edges.len(),
+        length: seam.length,
+        relative_length: if area > 0.0 { seam.length / area.sqrt() } else { 0.0 },
+        vertices_split: p.opening.seam_copies,
+        cones: seam.cones.len(),
+        handle_edges: seam.n_handle_edges,
+        edges: seam.edges.iter().map(|e| [id(e[0]), id(e[1])]).collect(),
+    })
 }
 
 /// A free chart's region, start and global injectivity as written.

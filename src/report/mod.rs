@@ -304,8 +304,32 @@ pub struct Report {
     /// A free boundary's region, start and global injectivity.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub free: Option<FreeReport>,
+    /// Where the chart was cut open to a disk (`None`: it was one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seam: Option<SeamReport>,
     /// What the user should know that did not stop the solve.
     pub warnings: Vec<String>,
+}
+
+/// Where a chart was cut open (the report's `seam` section).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SeamReport {
+    /// `auto` or `given` (the constraint file's `seams: Edges`).
+    pub source: &'static str,
+    /// Number of edges cut.
+    pub n_edges: usize,
+    /// 3D length of the seam.
+    pub length: f64,
+    /// The length relative to the square root of the chart's 3D area.
+    pub relative_length: f64,
+    /// Vertices split along it (the files hold one more copy each).
+    pub vertices_split: usize,
+    /// Cone points the seam tree reaches.
+    pub cones: usize,
+    /// Edges that open handles.
+    pub handle_edges: usize,
+    /// The edges, as glTF vertex ids (in the first primitive that has them).
+    pub edges: Vec<[Option<u32>; 2]>,
 }
 
 /// The `boundary_mode` of a report.
@@ -377,6 +401,18 @@ impl Report {
             self.stretch_step1.linf,
             self.stretch_final.linf
         );
+        if let Some(seam) = &self.seam {
+            s += &format!(
+                "  cut open ({} seam): {} edges, length {:.4} ({:.2} × √area), {} vertices split, {} cones, {} edges through handles\n",
+                seam.source,
+                seam.n_edges,
+                seam.length,
+                seam.relative_length,
+                seam.vertices_split,
+                seam.cones,
+                seam.handle_edges
+            );
+        }
         s += &format!(
             "  {} iterations, {} halvings, {:.1} ms\n",
             self.iterations, self.halvings, self.total_ms

@@ -227,6 +227,29 @@ pub fn python_injectivity(path: &Path, uv_set: u32) -> serde_json::Value {
     python_reader(path, &[&uv_set.to_string(), "injectivity"])
 }
 
+/// Every vertex attribute (and morph target attribute, `target<t>:<name>`)
+/// of every primitive, per triangle corner, read back by the independent
+/// Python reader: what a renderer sees at each corner.
+pub fn python_corner_values(path: &Path) -> serde_json::Value {
+    python_reader(path, &["0", "corners"])
+}
+
+/// The Khronos validator's report on each of `files` (one JSON each).
+pub fn khronos_validate(files: &[&Path]) -> Vec<serde_json::Value> {
+    let module = validator_module().expect("the validator (a need of this test)");
+    let o = Command::new("node")
+        .arg(repo().join("tests/helpers/validate.mjs"))
+        .args(files)
+        .env("GLTF_VALIDATOR_MODULE", &module)
+        .output()
+        .expect("node");
+    assert!(o.status.success(), "validator: {}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("validator JSON"))
+        .collect()
+}
+
 /// Address space a hostile-input run of the binary may use (bytes).
 pub const MEMORY_LIMIT: u64 = 1 << 30;
 /// Wall time a hostile-input run may take.

@@ -8,7 +8,9 @@ integer indices), and prints JSON per primitive of every mesh: vertex and
 triangle counts and the orientation of each triangle in TEXCOORD_<UV_SET>:
 `negative` is what a fold-free glTF layout has (front faces counter-clockwise
 as displayed, v down), `positive` is a flipped triangle, `zero` is degenerate.
-With `uvs`, each primitive also lists its texture coordinates. With
+With `uvs`, each primitive also lists its texture coordinates. With `corners`,
+each primitive lists, for every vertex attribute and morph target
+attribute, its values per triangle corner (indices applied). With
 `injectivity`, it prints for the whole mesh (all primitives, vertices welded
 by equal UV within a primitive) how many pairs of UV boundary edges properly
 cross, how many pairs of islands overlap (crossing boundaries, or one inside
@@ -48,6 +50,24 @@ def load(path):
 FMT = {5120: "b", 5121: "B", 5122: "h", 5123: "H", 5125: "I", 5126: "f"}
 NORM = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0}
 NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+
+def corner_values(doc, buffers):
+    """Every attribute's values per triangle corner, per primitive of every mesh."""
+    out = []
+    for mesh in doc.get("meshes", []):
+        for prim in mesh["primitives"]:
+            attrs = prim["attributes"]
+            n = doc["accessors"][attrs["POSITION"]]["count"]
+            idx = [i[0] for i in accessor(doc, buffers, prim["indices"])] if "indices" in prim else list(range(n))
+            named = dict(attrs)
+            for t, target in enumerate(prim.get("targets", [])):
+                named.update({f"target{t}:{k}": v for k, v in target.items()})
+            entry = {}
+            for name, acc in named.items():
+                values = accessor(doc, buffers, acc)
+                entry[name] = [list(values[i]) for i in idx]
+            out.append(entry)
+    return out
 
 def accessor(doc, buffers, index):
     acc = doc["accessors"][index]
@@ -157,6 +177,9 @@ def injectivity(doc, buffers, uv_set):
 def main():
     path, uv_set = sys.argv[1], int(sys.argv[2])
     doc, buffers = load(path)
+    if len(sys.argv) > 3 and sys.argv[3] == "corners":
+        print(json.dumps(corner_values(doc, buffers)))
+        return
     if len(sys.argv) > 3 and sys.argv[3] == "injectivity":
         print(json.dumps(injectivity(doc, buffers, uv_set)))
         return
