@@ -72,7 +72,7 @@ fn photo_landmarks(mesh: &TriMesh, view: DVec3, k: usize, span: f64) -> Vec<(u32
 
 /// Appends `data` as a new view (optionally strided) and accessor; its index.
 fn push(doc: &mut Value, blob: &mut Vec<u8>, data: &[u8], accessor: Value, stride: Option<usize>) -> usize {
-    while blob.len() % 4 != 0 {
+    while !blob.len().is_multiple_of(4) {
         blob.push(0);
     }
     let mut view = json!({ "buffer": 0, "byteOffset": blob.len(), "byteLength": data.len() });
