@@ -401,16 +401,17 @@ fn the_alligators_witnessed_cases_are_reached() {
     }
 }
 
-/// Landmarks whose spline path stalls holding a free outer loop and, on
-/// `tests/data/face-slivers.glb` (the sample face as it was generated
-/// before its mouth hole lost a bridge of slivers down to the chin), ends
-/// further from the targets when run again with the loop free.
+/// Landmarks whose spline path stalls holding a free outer loop (the nose
+/// pulled up between the eyes) and, on `tests/data/face-slivers.glb` (the
+/// sample face as it was generated before its mouth hole lost a bridge of
+/// slivers down to the chin), ends further from the targets when run again
+/// with the loop free.
 const STALLING: &str = "constraints: [
         (vertex: 1227, uv: (0.215, 0.385)),
         (vertex: 1228, uv: (0.405, 0.395)),
         (vertex: 1236, uv: (0.595, 0.395)),
         (vertex: 1237, uv: (0.785, 0.385)),
-        (vertex: 820, uv: (0.500, 0.580)),
+        (vertex: 820, uv: (0.500, 0.300)),
         (vertex: 419, uv: (0.355, 0.730)),
         (vertex: 420, uv: (0.645, 0.730)),
         (vertex: 558, uv: (0.500, 0.695)),
@@ -459,11 +460,12 @@ fn sample_free_on(mesh: &str, name: &str, constraints: Option<&str>, solver: &st
 /// the run that ended closer to the targets is the one kept.
 fn the_loop_is_freed_only_after_a_stall_and_never_loses_ground() {
     // Completion off: the spline path's layout is the result. The run with
-    // the loop free ends further from these targets (7e-2 against 3.6e-2).
+    // the loop free ends further from these targets than the one holding it
+    // (8.8e-2).
     let never = sample_free_on(SLIVERS, "free-never", Some(STALLING), "completion: Never");
     assert_eq!(never["status"], "partial");
     assert_eq!(never["free"]["spline_loop_freed"], "discarded", "{never}");
-    assert!(never["max_residual"].as_f64().unwrap() < 0.04, "{never}");
+    assert!(never["max_residual"].as_f64().unwrap() < 0.1, "{never}");
     // Completion first: no spline path ran, so nothing was run again.
     let always = sample_free_on(SLIVERS, "free-always", Some(STALLING), "completion: Always");
     assert_eq!(always["status"], "reached");

@@ -3,7 +3,10 @@
 //! landmarks, how much it faces the way the landmarks face (the camera of
 //! the photo they come from), and less where it follows a crease, most of
 //! all a concave one (a fold the eye does not see). Edges within the margin
-//! rings of a landmark are barred (a cost no other way exceeds).
+//! rings of a landmark are barred (a cost no other way exceeds), and so is
+//! the landmarks' own region, the surface within their typical spacing of
+//! one: a seam between two landmarks would tear apart what their targets
+//! hold together.
 
 use super::graph::{EdgeGraph, NONE, rings, shortest_paths};
 use crate::mesh::TriMesh;
@@ -27,6 +30,8 @@ pub struct CostRules<'a> {
 pub struct Surroundings {
     /// Rings from the nearest landmark (`u32::MAX` without landmarks).
     pub ring: Vec<u32>,
+    /// Vertices inside the landmarks' region (see the module docs).
+    pub inside: Vec<bool>,
     /// How dear a seam through each vertex is (1 = as cheap as it gets):
     /// near and facing the landmarks costs more.
     pub dearness: Vec<f64>,
@@ -53,6 +58,7 @@ pub fn surroundings(mesh: &TriMesh, graph: &EdgeGraph, rules: &CostRules) -> Sur
     if rules.landmarks.is_empty() {
         return Surroundings {
             ring: vec![u32::MAX; n],
+            inside: vec![false; n],
             dearness: vec![1.0; n],
             facing: None,
         };
@@ -69,7 +75,14 @@ pub fn surroundings(mesh: &TriMesh, graph: &EdgeGraph, rules: &CostRules) -> Sur
         .iter()
         .map(|e| mesh.positions[e[0] as usize].distance(mesh.positions[e[1] as usize]))
         .collect();
-    let geodesic = shortest_paths(graph, &length, rules.landmarks).distance;
+    let paths = shortest_paths(graph, &length, rules.landmarks);
+    let spacing = landmark_spacing(graph, &length, &paths);
+    let inside: Vec<bool> = paths
+        .distance
+        .iter()
+        .map(|&d| spacing.is_some_and(|s| d <= REGION * s))
+        .collect();
+    let geodesic = paths.distance;
     let far = geodesic.iter().copied().filter(|d| d.is_finite()).fold(0.0, f64::max);
     let dearness = (0..n)
         .map(|v| {
@@ -84,9 +97,38 @@ pub fn surroundings(mesh: &TriMesh, graph: &EdgeGraph, rules: &CostRules) -> Sur
         .collect();
     Surroundings {
         ring: rings(graph, rules.landmarks),
+        inside,
         dearness,
         facing,
     }
+}
+
+/// The landmarks' region reaches this far from each, relative to their
+/// typical spacing: past the middle between neighbours (0.5) and the centre
+/// of three (0.58).
+const REGION: f64 = 0.75;
+
+/// The median geodesic distance from a landmark to its nearest neighbour,
+/// read off the landmarks' Voronoi cells (`paths` from all of them): an
+/// edge joining two cells closes a path between their landmarks. `None`
+/// for fewer than two landmarks.
+fn landmark_spacing(graph: &EdgeGraph, length: &[f64], paths: &super::graph::ShortestPaths) -> Option<f64> {
+    let n_sources = paths.nearest.iter().filter(|&&s| s != NONE).max()? + 1;
+    let mut nearest = vec![f64::INFINITY; n_sources as usize];
+    for (e, &[a, b]) in graph.edges.iter().enumerate() {
+        let (sa, sb) = (paths.nearest[a as usize], paths.nearest[b as usize]);
+        if sa != sb && sa != NONE && sb != NONE {
+            let d = paths.distance[a as usize] + length[e] + paths.distance[b as usize];
+            nearest[sa as usize] = nearest[sa as usize].min(d);
+            nearest[sb as usize] = nearest[sb as usize].min(d);
+        }
+    }
+    let mut finite: Vec<f64> = nearest.into_iter().filter(|d| d.is_finite()).collect();
+    if finite.is_empty() {
+        return None;
+    }
+    finite.sort_by(f64::total_cmp);
+    Some(finite[finite.len() / 2])
 }
 
 /// The unsigned dihedral angle at edge `e` (0 flat, π folded flat back) and
@@ -126,7 +168,9 @@ pub fn edge_costs(mesh: &TriMesh, graph: &EdgeGraph, around: &Surroundings, rule
             let sharp = (angle / std::f64::consts::FRAC_PI_4).min(1.0);
             let crease = 1.0 - if concave { 0.6 } else { 0.3 } * sharp;
             let dear = 0.5 * (around.dearness[a as usize] + around.dearness[b as usize]);
-            let barred = [a, b].iter().any(|&v| around.ring[v as usize] <= rules.margin_rings);
+            let barred = [a, b]
+                .iter()
+                .any(|&v| around.ring[v as usize] <= rules.margin_rings || around.inside[v as usize]);
             length * crease * dear * if barred { BARRED } else { 1.0 }
         })
         .collect()

@@ -110,6 +110,9 @@ pub struct ShortestPaths {
     pub distance: Vec<f64>,
     /// The edge each vertex is reached by (`NONE` at sources and unreached).
     pub parent: Vec<u32>,
+    /// Which source (its position in the sources given) each vertex is
+    /// nearest to (`NONE` unreached): the sources' Voronoi cells.
+    pub nearest: Vec<u32>,
 }
 
 #[derive(PartialEq)]
@@ -135,8 +138,12 @@ pub fn shortest_paths(graph: &EdgeGraph, cost: &[f64], sources: &[u32]) -> Short
     let n = graph.n_vertices();
     let mut distance = vec![f64::INFINITY; n];
     let mut parent = vec![NONE; n];
+    let mut nearest = vec![NONE; n];
     let mut heap = BinaryHeap::new();
-    for &s in sources {
+    for (k, &s) in sources.iter().enumerate() {
+        if distance[s as usize] > 0.0 {
+            nearest[s as usize] = k as u32;
+        }
         distance[s as usize] = 0.0;
         heap.push(Queued(0.0, s));
     }
@@ -149,11 +156,16 @@ pub fn shortest_paths(graph: &EdgeGraph, cost: &[f64], sources: &[u32]) -> Short
             if nd < distance[w as usize] {
                 distance[w as usize] = nd;
                 parent[w as usize] = e;
+                nearest[w as usize] = nearest[v as usize];
                 heap.push(Queued(nd, w));
             }
         }
     }
-    ShortestPaths { distance, parent }
+    ShortestPaths {
+        distance,
+        parent,
+        nearest,
+    }
 }
 
 impl ShortestPaths {

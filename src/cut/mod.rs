@@ -219,7 +219,8 @@ fn plan(mesh: &TriMesh, graph: &EdgeGraph, landmarks: &[u32], unseamable: &[[u32
 /// margin, or on a mesh too small to leave anything outside it, only the
 /// landmarks themselves.
 fn margin(around: &cost::Surroundings, rules: &SeamRules) -> u32 {
-    let outside = around.ring.iter().any(|&r| r > rules.margin_rings && r != u32::MAX);
+    let outside = (0..around.ring.len())
+        .any(|v| around.ring[v] > rules.margin_rings && around.ring[v] != u32::MAX && !around.inside[v]);
     if outside || around.facing.is_none() {
         rules.margin_rings
     } else {
@@ -231,7 +232,7 @@ fn margin(around: &cost::Surroundings, rules: &SeamRules) -> u32 {
 /// behind the landmarks), or without landmarks one end of a long path.
 fn root(mesh: &TriMesh, graph: &EdgeGraph, around: &cost::Surroundings, rules: &SeamRules) -> u32 {
     let m = margin(around, rules);
-    let allowed = |v: usize| around.ring[v] > m;
+    let allowed = |v: usize| around.ring[v] > m && !around.inside[v];
     if around.facing.is_some() {
         let best = (0..mesh.n_vertices())
             .filter(|&v| allowed(v))

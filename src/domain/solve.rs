@@ -133,11 +133,25 @@ pub struct FreeSolve {
     pub start_ms: f64,
 }
 
-/// Newton steps at most that relax a free start before the spline path.
-const RELAX_STEPS: u32 = 3;
+/// Newton steps at most that relax a free start before the spline path:
+/// a conformal start is near its shape already; step 1's square (the
+/// conformal layout folded: a chart cut open along a seam tree, a long
+/// thin one) is far from it.
+const fn relax_steps(kind: StartKind) -> u32 {
+    match kind {
+        StartKind::StepOne => 100,
+        _ => 3,
+    }
+}
 
-/// Relaxing stops once a step gains less than this (relative).
-const RELAX_GAIN: f64 = 0.05;
+/// Relaxing stops once a step gains less than this (relative): soon for a
+/// conformal start, late for step 1's, whose energy first falls slowly.
+const fn relax_gain(kind: StartKind) -> f64 {
+    match kind {
+        StartKind::StepOne => 0.002,
+        _ => 0.05,
+    }
+}
 
 /// A free chart's start ([`choose_start`]) with its scaffold's fixed points
 /// appended, and its room.
@@ -200,7 +214,7 @@ fn open_free(
 }
 
 /// Relaxes a free start toward its own low-distortion shape (symmetric
-/// Dirichlet, nothing held, [`RELAX_STEPS`] Newton steps at most), then fits
+/// Dirichlet, nothing held, [`relax_steps`] Newton steps at most), then fits
 /// it to the targets again: the spline path then only has to bend it a
 /// little, and the fit's scale is the one the targets ask for. `None` if no
 /// step gained or the refit does not fit the room.
@@ -215,16 +229,16 @@ fn relax(
 ) -> Option<(ChosenStart, u32)> {
     let mut context = NewtonContext::free(filled, pattern.clone(), layout, domain.clone(), rest_area);
     let mut steps = 0;
-    while steps < RELAX_STEPS {
+    while steps < relax_steps(kind) {
         let request = crate::complete::context::StepRequest {
             reference: None,
             soft: None,
             held: None,
-            tolerance: RELAX_GAIN,
+            tolerance: relax_gain(kind),
         };
         let step = context.step(layout, request);
         steps += u32::from(step.alpha > 0.0);
-        if step.converged || step.alpha == 0.0 || step.energy_after > (1.0 - RELAX_GAIN) * step.energy_before {
+        if step.converged || step.alpha == 0.0 || step.energy_after > (1.0 - relax_gain(kind)) * step.energy_before {
             break;
         }
     }
