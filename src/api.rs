@@ -90,15 +90,20 @@ impl From<SolverOptions> for Options {
     }
 }
 
-/// A solved in-memory mesh: the report and one UV per vertex of the mesh
-/// (glTF texture coordinates, f32 as a file would store them; vertices
-/// outside the solved chart get (0, 0)).
+/// A solved in-memory mesh: the report and its texture coordinates (glTF
+/// convention, f32 as a file would store them), per vertex and per face
+/// corner. A vertex on a seam has one UV per side: `corner_uvs` has them
+/// all, `uvs` the first corner's. Every triangle has UVs (pieces without
+/// pins are unwrapped and packed around the pinned chart); when the
+/// layout is refused (status error) both are zeros and empty.
 #[derive(Debug, Clone)]
 pub struct MeshSolution {
     /// What was reached, how far, and the layout's stretch.
     pub report: Report,
     /// One texture coordinate per vertex of the mesh.
     pub uvs: Vec<[f32; 2]>,
+    /// One texture coordinate per corner of each triangle, in triangle order.
+    pub corner_uvs: Vec<[f32; 2]>,
 }
 
 /// Reads a constraint file and the asset it names, within `input`;
@@ -217,10 +222,22 @@ fn solve_memory(asset: SourceAsset, pins: &Pins, options: &Options) -> Result<Me
     let source = ConstraintSource::Memory(Arc::new(pins.clone()));
     let mut session = ChartSession::open(source, Arc::new(asset), 0.0)?;
     let solved = session.solve(&options.solver)?;
-    let mut uvs = session.uvs(solved.solver.layout());
+    let (report, corners) = session.final_uvs(&solved.solver, &solved.report);
+    let asset = session.asset();
+    let prim = &asset.primitives[0];
+    let (uvs, corner_uvs) = match corners {
+        Some(mut c) => {
+            let c = c.swap_remove(0);
+            let mut per_vertex = c.split(&prim.indices).uvs;
+            per_vertex.truncate(prim.positions.len());
+            (per_vertex, c.corners)
+        }
+        None => (vec![[0.0; 2]; prim.positions.len()], Vec::new()),
+    };
     Ok(MeshSolution {
-        report: solved.report,
-        uvs: uvs.swap_remove(0),
+        report,
+        uvs,
+        corner_uvs,
     })
 }
 

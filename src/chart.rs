@@ -3,6 +3,7 @@
 
 use crate::constraints::ConstraintSource;
 use crate::cut::prepare::make_solvable;
+use crate::cut::separate::Budget;
 use crate::cut::{SeamRules, SeamSpec};
 use crate::domain::Domain;
 use crate::error::Error;
@@ -13,6 +14,7 @@ use crate::mesh::topology::Topology;
 use crate::mesh::weld::{Chart, WeldedMesh, weld};
 use crate::param::bar_net::{FilledChart, fill_holes};
 use crate::param::boundary::{BoundaryMap, TrapCandidates};
+use crate::param::region::Region;
 use crate::param::{uv_to_xy, xy_to_uv};
 use crate::pins::ResolvedConstraint;
 use crate::rbf::stepping::{StepProblem, pick_anchors};
@@ -58,9 +60,31 @@ pub struct Opening {
     /// Triangles given twice: (welded triangle left out, chart triangle
     /// whose UVs it takes).
     pub duplicates: Vec<(u32, u32)>,
+    /// The other pieces the chart fell into when repaired, or was split
+    /// into for being too large for its targets: laid out apart.
+    pub rest: Vec<Arc<Chart>>,
+    /// Where the landmarks' chart was cut from the rest of a chart too
+    /// large for its targets (welded pairs).
+    pub separation: Vec<[u32; 2]>,
     /// What the geometry was made for: the seams asked for and, for a
     /// chart that was cut automatically, its landmarks (welded ids, sorted).
     key: GeometryKey,
+}
+
+impl Opening {
+    /// How a chart laid out without landmarks was made solvable.
+    pub fn without_landmarks(solvable: &crate::cut::prepare::Solvable) -> Opening {
+        Opening {
+            seam: solvable.seam.clone(),
+            seam_given: false,
+            seam_copies: solvable.seam_copies,
+            repairs: solvable.repairs.clone(),
+            duplicates: solvable.duplicates.clone(),
+            rest: Vec::new(),
+            separation: Vec::new(),
+            key: GeometryKey::default(),
+        }
+    }
 }
 
 /// What a chart's geometry depends on beyond the chart itself.
@@ -68,6 +92,9 @@ pub struct Opening {
 struct GeometryKey {
     seams: crate::pins::SeamsChoice,
     landmarks: Option<Vec<u32>>,
+    /// The targets' scale, in steps of a quarter octave, when the chart
+    /// could be split for being too large for them.
+    scale_step: Option<i32>,
 }
 
 /// Welds the asset's mesh, resolves the constraints, picks the chart that
@@ -105,7 +132,8 @@ fn prepare_on(
     let chart_id = choose_chart(&constraints, &welded, source, asset)?;
     let seams = source.seams(&asset.primitives, &welded)?;
     let landmarks: Vec<u32> = constraints.iter().map(|c| c.welded).collect();
-    let reusable = previous.filter(|p| p.chart.id == chart_id && p.opening.key.fits(&seams, &landmarks));
+    let budget = separation_budget(source, asset, &welded, chart_id, &constraints);
+    let reusable = previous.filter(|p| p.chart.id == chart_id && p.opening.key.fits(&seams, &landmarks, budget));
     let geometry = match reusable {
         Some(p) => (
             p.chart.clone(),
@@ -114,7 +142,7 @@ fn prepare_on(
             p.filled.clone(),
             p.opening.clone(),
         ),
-        None => chart_geometry(&welded, chart_id, asset, source, &seams, &landmarks)?,
+        None => chart_geometry(&welded, chart_id, asset, source, (&seams, &landmarks, budget))?,
     };
     let (chart, topology, traps, filled, opening) = geometry;
     let constraint_vertices = constraints
@@ -122,10 +150,11 @@ fn prepare_on(
         .map(|c| chart.local_of(c.welded).expect("constraint in the chart"))
         .collect();
     let corners = welded_corners.map(|w| local_corners(w, &chart, source)).transpose()?;
-    let mut warnings: Vec<String> = missing_uv_warning(asset, &welded, chart_id).into_iter().collect();
+    let mut warnings: Vec<String> = Vec::new();
     warnings.extend(repair_warnings(&opening));
-    let cut = opening.seam.is_some();
-    let domain = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints, cut)?;
+    let cut = opening.seam.is_some() || !opening.separation.is_empty();
+    let rest_share = rest_share(asset, &welded, &chart, &opening);
+    let domain = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints, (cut, rest_share))?;
     if corners.is_some() && matches!(domain, Domain::Free(_)) {
         warnings.push("corners are ignored: the boundary is free".into());
     }
@@ -148,9 +177,48 @@ impl GeometryKey {
     /// Whether geometry made for this key serves `seams` and `landmarks`
     /// (welded ids): the same seams asked for and, if the chart was cut
     /// automatically, the same landmark vertices.
-    fn fits(&self, seams: &crate::pins::SeamsChoice, landmarks: &[u32]) -> bool {
-        self.seams == *seams && self.landmarks.as_ref().is_none_or(|l| *l == sorted(landmarks))
+    fn fits(&self, seams: &crate::pins::SeamsChoice, landmarks: &[u32], budget: Option<Budget>) -> bool {
+        self.seams == *seams
+            && self.landmarks.as_ref().is_none_or(|l| *l == sorted(landmarks))
+            && self.scale_step.is_none_or(|s| Some(s) == budget.map(scale_step))
     }
+}
+
+fn scale_step(budget: Budget) -> i32 {
+    (budget.scale.log2() * 4.0).round() as i32
+}
+
+/// The scale the targets ask for and the room they leave, when the chart
+/// is laid out anew (it has no UVs) and freely: a chart far too large for
+/// its targets at that scale is split ([`crate::cut::separate`]).
+fn separation_budget(
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+    welded: &WeldedMesh,
+    chart_id: u32,
+    constraints: &[ResolvedConstraint],
+) -> Option<Budget> {
+    let (choice, region) = source.boundary();
+    let has_uvs = asset.primitives.iter().zip(&welded.vertex_of).any(|(p, map)| {
+        p.uvs.is_some()
+            && map
+                .iter()
+                .any(|&w| welded.chart_of_vertex[w as usize] == Some(chart_id))
+    });
+    if choice == Some(crate::pins::BoundaryChoice::Square) || has_uvs || constraints.len() < 2 {
+        return None;
+    }
+    let (mut uv, mut xyz) = (0.0, 0.0);
+    for (i, a) in constraints.iter().enumerate() {
+        for b in &constraints[i + 1..] {
+            uv += a.target_uv.distance(b.target_uv);
+            xyz += welded.mesh.positions[a.welded as usize].distance(welded.mesh.positions[b.welded as usize]);
+        }
+    }
+    let scale = uv / xyz;
+    let r = region.unwrap_or(Region::TEXTURE);
+    let room = (r.max.x - r.min.x) * (r.max.y - r.min.y);
+    (scale.is_finite() && scale > 0.0).then_some(Budget { scale, room })
 }
 
 fn sorted(ids: &[u32]) -> Vec<u32> {
@@ -158,6 +226,30 @@ fn sorted(ids: &[u32]) -> Vec<u32> {
     v.sort_unstable();
     v.dedup();
     v
+}
+
+/// The share of the surface laid out beside the solved chart: the pieces
+/// its repair or split handed back, and every other chart without UVs.
+fn rest_share(asset: &SourceAsset, welded: &WeldedMesh, chart: &Chart, opening: &Opening) -> f64 {
+    let mut has_uv = vec![false; welded.mesh.n_vertices()];
+    for (prim, map) in asset.primitives.iter().zip(&welded.vertex_of) {
+        if prim.uvs.is_some() {
+            map.iter().for_each(|&w| has_uv[w as usize] = true);
+        }
+    }
+    let others: f64 = welded
+        .mesh
+        .triangles
+        .iter()
+        .filter(|t| {
+            let c = welded.chart_of_vertex[t[0] as usize];
+            c != Some(chart.id) && t.iter().any(|&v| !has_uv[v as usize])
+        })
+        .map(|t| crate::mesh::triangle_area_3d(&welded.mesh, *t))
+        .sum();
+    let rest = others + opening.rest.iter().map(|c| c.mesh.area()).sum::<f64>();
+    let total = rest + chart.mesh.area();
+    if total > 0.0 { rest / total } else { 0.0 }
 }
 
 /// What the report says about repairs.
@@ -254,38 +346,39 @@ fn chart_geometry(
     chart_id: u32,
     asset: &SourceAsset,
     source: &ConstraintSource,
-    seams: &crate::pins::SeamsChoice,
-    landmarks: &[u32],
+    (seams, landmarks, budget): (&crate::pins::SeamsChoice, &[u32], Option<Budget>),
 ) -> Result<ChartGeometry, Error> {
     let chart = welded.chart(chart_id);
-    let local = |w: &u32| chart.local_of(*w);
     let spec = match seams {
         crate::pins::SeamsChoice::Auto => SeamSpec::Auto,
         crate::pins::SeamsChoice::Edges(paths) => {
-            let mut local_paths = Vec::with_capacity(paths.len());
-            for (k, path) in paths.iter().enumerate() {
-                let ids: Option<Vec<u32>> = path.iter().map(local).collect();
-                local_paths.push(
-                    ids.ok_or_else(|| source.seams_error(format!("seams[{k}] leaves the solved chart {chart_id}")))?,
-                );
+            if let Some(k) = paths
+                .iter()
+                .position(|p| p.iter().any(|&w| chart.local_of(w).is_none()))
+            {
+                return Err(source
+                    .seams_error(format!("seams[{k}] leaves the solved chart {chart_id}"))
+                    .into());
             }
-            SeamSpec::Edges(local_paths)
+            SeamSpec::Edges(paths.clone())
         }
     };
-    let landmark_ids: Vec<u32> = landmarks.iter().filter_map(local).collect();
-    let diagonals = polygon_diagonals(asset, welded, &chart);
-    let solvable = make_solvable(&chart, &spec, &landmark_ids, &diagonals, &SeamRules::DEFAULT).map_err(|source| {
-        Error::Topology {
-            path: asset.path.clone(),
-            mesh: asset.mesh_index,
-            chart: chart_id,
-            n_vertices: chart.mesh.n_vertices(),
-            n_triangles: chart.mesh.n_triangles(),
-            source,
-        }
-    })?;
-    let auto_cut = solvable.seam.is_some() && matches!(spec, SeamSpec::Auto);
+    let diagonals = polygon_diagonals(asset, welded);
+    let solvable =
+        make_solvable(&chart, &spec, landmarks, &diagonals, budget, &SeamRules::DEFAULT).map_err(|source| {
+            Error::Topology {
+                path: asset.path.clone(),
+                mesh: asset.mesh_index,
+                chart: chart_id,
+                n_vertices: chart.mesh.n_vertices(),
+                n_triangles: chart.mesh.n_triangles(),
+                source,
+            }
+        })?;
+    let auto_cut = (solvable.seam.is_some() || !solvable.separation.is_empty()) && matches!(spec, SeamSpec::Auto);
     let opening = Opening {
+        rest: solvable.rest.into_iter().map(Arc::new).collect(),
+        separation: solvable.separation,
         seam: solvable.seam,
         seam_given: matches!(spec, SeamSpec::Edges(_)),
         seam_copies: solvable.seam_copies,
@@ -294,6 +387,7 @@ fn chart_geometry(
         key: GeometryKey {
             seams: seams.clone(),
             landmarks: auto_cut.then(|| sorted(landmarks)),
+            scale_step: budget.filter(|_| solvable.scale_weighed).map(scale_step),
         },
     };
     let (chart, topology) = (solvable.chart, solvable.topology);
@@ -308,24 +402,18 @@ fn chart_geometry(
     ))
 }
 
-/// The edges an OBJ's triangulation added inside its polygons, as
-/// chart-local pairs: a seam along one would split a polygon's corner.
-fn polygon_diagonals(asset: &SourceAsset, welded: &WeldedMesh, chart: &Chart) -> Vec<[u32; 2]> {
+/// The edges an OBJ's triangulation added inside its polygons, as welded
+/// pairs: a seam along one would split a polygon's corner.
+pub fn polygon_diagonals(asset: &SourceAsset, welded: &WeldedMesh) -> Vec<[u32; 2]> {
     let crate::io::Container::Obj { faces, .. } = &asset.container else {
         return Vec::new();
     };
     let map = &welded.vertex_of[0];
-    let mut out: Vec<[u32; 2]> = faces
+    faces
         .diagonals
         .iter()
-        .filter_map(|d| {
-            let (a, b) = (chart.local_of(map[d[0] as usize])?, chart.local_of(map[d[1] as usize])?);
-            Some([a.min(b), a.max(b)])
-        })
-        .collect();
-    out.sort_unstable();
-    out.dedup();
-    out
+        .map(|d| [map[d[0] as usize], map[d[1] as usize]])
+        .collect()
 }
 
 /// The corners (welded ids) as chart-local ids.
@@ -341,27 +429,6 @@ fn local_corners(welded: [u32; 4], chart: &Chart, source: &ConstraintSource) -> 
         })?;
     }
     Ok(local)
-}
-
-/// A warning when vertices outside the solved chart have no UVs to keep.
-fn missing_uv_warning(asset: &SourceAsset, welded: &WeldedMesh, chart_id: u32) -> Option<String> {
-    let without_uvs: usize = asset
-        .primitives
-        .iter()
-        .zip(&welded.vertex_of)
-        .filter(|(p, _)| p.uvs.is_none())
-        .map(|(_, map)| {
-            map.iter()
-                .filter(|w| welded.chart_of_vertex[**w as usize] != Some(chart_id))
-                .count()
-        })
-        .sum();
-    (without_uvs > 0).then(|| {
-        format!(
-            "{without_uvs} vertices outside the solved chart had no TEXCOORD_{} and are written as (0, 0)",
-            asset.uv_set
-        )
-    })
 }
 
 impl PreparedChart {
@@ -474,25 +541,47 @@ const OBJ: Storage = Storage {
     vt: true,
 };
 
+/// A laid-out chart: its triangles' corners take their UVs from `layout`.
+#[derive(Debug, Clone, Copy)]
+pub struct Part<'a> {
+    pub chart: &'a Chart,
+    /// Layout coordinates of the chart's vertices (at least its real ones).
+    pub layout: &'a [DVec2],
+    /// Triangles given twice: (welded triangle, chart triangle it copies).
+    pub duplicates: &'a [(u32, u32)],
+}
+
+impl PreparedChart {
+    /// The solved chart with `layout` as a [`Part`].
+    pub fn part<'a>(&'a self, layout: &'a [DVec2]) -> Part<'a> {
+        Part {
+            chart: &self.chart,
+            layout,
+            duplicates: &self.opening.duplicates,
+        }
+    }
+}
+
 /// Final UVs per face corner of every primitive (glTF texture coordinates,
-/// f32): the solved chart's from `layout` (a vertex on a seam has one per
-/// side), every other corner's as it was (or (0, 0) without UVs).
-pub fn assemble_corner_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> Vec<CornerUvs> {
-    assemble(asset, prepared, layout, GLTF)
+/// f32): the laid-out `parts`' from their layouts (a vertex on a seam has
+/// one per side), every other corner's as it was (or (0, 0) without UVs).
+pub fn assemble_corner_uvs(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part]) -> Vec<CornerUvs> {
+    assemble(asset, welded, parts, GLTF)
 }
 
 /// As [`assemble_corner_uvs`] in OBJ's `vt` convention (f32, v up) for
-/// the single OBJ primitive; corners outside the chart get (0, 1), glTF's
+/// the single OBJ primitive; corners outside the parts get (0, 1), glTF's
 /// (0, 0).
-pub fn assemble_obj_corners(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> CornerUvs {
-    assemble(asset, prepared, layout, OBJ).swap_remove(0)
+pub fn assemble_obj_corners(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part]) -> CornerUvs {
+    assemble(asset, welded, parts, OBJ).swap_remove(0)
 }
 
-/// Final UVs per vertex of every primitive: as [`assemble_corner_uvs`],
-/// a vertex on a seam with its first corner's UV (the library's and the
-/// editor's per-vertex view; files get every side).
+/// Final UVs per vertex of every primitive with `layout` on the solved
+/// chart: as [`assemble_corner_uvs`], a vertex on a seam with its first
+/// corner's UV (the library's and the editor's per-vertex view; files get
+/// every side).
 pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2]) -> PrimitiveUvs {
-    assemble_corner_uvs(asset, prepared, layout)
+    assemble_corner_uvs(asset, &prepared.welded, &[prepared.part(layout)])
         .iter()
         .zip(&asset.primitives)
         .map(|(c, prim)| {
@@ -503,21 +592,21 @@ pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVe
         .collect()
 }
 
-fn assemble(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2], how: Storage) -> Vec<CornerUvs> {
-    let chart = &prepared.chart;
-    // An OBJ atlas's corners outside the chart keep their `vt` bits as read.
+fn assemble(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part], how: Storage) -> Vec<CornerUvs> {
+    // An OBJ atlas's corners outside the parts keep their `vt` bits as read.
     let raw_vt = match &asset.container {
         crate::io::Container::Obj { faces, .. } if how.vt => faces.vt.as_deref(),
         _ => None,
     };
-    let welded = &prepared.welded;
-    // Welded triangle → the chart triangle that gives its corners.
-    let mut chart_triangle = vec![u32::MAX; welded.mesh.n_triangles()];
-    for (k, &w) in chart.triangle_ids.iter().enumerate() {
-        chart_triangle[w as usize] = k as u32;
-    }
-    for &(w, k) in &prepared.opening.duplicates {
-        chart_triangle[w as usize] = k;
+    // Welded triangle → (part, the part's triangle that gives its corners).
+    let mut from = vec![(u32::MAX, u32::MAX); welded.mesh.n_triangles()];
+    for (p, part) in parts.iter().enumerate() {
+        for (k, &w) in part.chart.triangle_ids.iter().enumerate() {
+            from[w as usize] = (p as u32, k as u32);
+        }
+        for &(w, k) in part.duplicates {
+            from[w as usize] = (p as u32, k);
+        }
     }
     let mut first_triangle = 0usize;
     asset
@@ -532,26 +621,30 @@ fn assemble(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVec2], how
             };
             let mut corners = Vec::with_capacity(prim.indices.len());
             for (j, t) in prim.indices.chunks_exact(3).enumerate() {
-                let k = chart_triangle[first_triangle + j];
+                let (p, k) = from[first_triangle + j];
                 for &v in t {
-                    corners.push(if k == u32::MAX {
+                    corners.push(if p == u32::MAX {
                         old(v)
                     } else {
-                        let tri = chart.mesh.triangles[k as usize];
+                        let part = &parts[p as usize];
+                        let tri = part.chart.mesh.triangles[k as usize];
                         let w = map[v as usize];
                         let c = tri
                             .iter()
-                            .find(|&&c| chart.welded_ids[c as usize] == w)
+                            .find(|&&c| part.chart.welded_ids[c as usize] == w)
                             .expect("corner of its triangle");
-                        (how.store)(layout[*c as usize])
+                        (how.store)(part.layout[*c as usize])
                     });
                 }
             }
             first_triangle += prim.indices.len() / 3;
             let unused = (0..prim.positions.len() as u32)
-                .map(|v| match chart.local_of(map[v as usize]) {
-                    Some(local) => (how.store)(layout[local as usize]),
-                    None => old(v),
+                .map(|v| {
+                    let w = map[v as usize];
+                    parts
+                        .iter()
+                        .find_map(|part| part.chart.local_of(w).map(|l| (how.store)(part.layout[l as usize])))
+                        .unwrap_or_else(|| old(v))
                 })
                 .collect();
             CornerUvs { corners, unused }

@@ -59,6 +59,9 @@ pub struct Finished<'a> {
     pub layout: &'a [DVec2],
     /// The guard that accepted it (named when a folded layout is refused).
     pub guard: Guard,
+    /// The other charts that need UVs, laid out on their own, to be packed
+    /// around this one (none in an atlas that keeps its other charts).
+    pub rest: Option<&'a crate::atlas::Rest>,
 }
 
 /// Checks the layout as stored, then writes every output `outputs` names
@@ -69,7 +72,7 @@ pub fn export(finished: &Finished, report: &Report, outputs: &Outputs) -> Report
     let mut report = report.clone();
     let (asset, prepared, layout) = (finished.asset, finished.prepared, finished.layout);
     let model = outputs.model.as_deref();
-    let mut staged = stage_chart(asset, prepared, layout, &mut report, model, finished.guard);
+    let mut staged = stage_chart(finished, &mut report, model);
     staged = staged.writing(outputs.writing.clone());
     report.times.export_ms += t0.elapsed().as_secs_f64() * 1e3;
     report.total_ms = report.times.total_ms();
@@ -100,20 +103,56 @@ pub fn refuse(report: &mut Report, message: String) {
     report.output = None;
 }
 
-/// Checks `layout` (the solved chart's, filled) as it will be stored and, if
-/// it keeps every triangle positive, stages `asset` with it as `output` (if
-/// given), naming the output in `report`. Otherwise `report` gets status
-/// `Error` and the reason, and nothing is staged. `guard` names the guard
-/// that accepted the layout, for the message about a folded one (only the
+/// Checks the finished layout (the solved chart's, filled) as it will be
+/// stored and, if it keeps every triangle positive, packs the other charts
+/// that need UVs around it and stages the asset with them all as `output`
+/// (if given), naming the output in `report`. Otherwise `report` gets
+/// status `Error` and the reason, and nothing is staged. The guard that
+/// accepted the layout is named in the message about a folded one (only the
 /// paper's pointwise guard lets folds through).
-pub fn stage_chart(
-    asset: &SourceAsset,
-    prepared: &PreparedChart,
-    layout: &[DVec2],
-    report: &mut Report,
-    output: Option<&Path>,
-    guard: Guard,
-) -> Staged {
+pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Path>) -> Staged {
+    let Some(placed) = checked(finished, report) else {
+        return Staged::new();
+    };
+    let Some(out) = output else {
+        return Staged::new();
+    };
+    let (asset, prepared) = (finished.asset, finished.prepared);
+    let parts = placed.parts(prepared, finished.layout);
+    let uvs = StoredUvs {
+        gltf: chart::assemble_corner_uvs(asset, &prepared.welded, &parts),
+        obj_vt: (asset.format == crate::io::AssetFormat::Obj)
+            .then(|| chart::assemble_obj_corners(asset, &prepared.welded, &parts)),
+    };
+    match crate::io::gltf_file::stage_asset(asset, &uvs, out) {
+        Ok(staged) => {
+            report.output = Some(out.display().to_string());
+            staged
+        }
+        Err(e) => {
+            refuse(report, e.to_string());
+            Staged::new()
+        }
+    }
+}
+
+/// The final texture coordinates per face corner of every primitive, as a
+/// file stores them (glTF convention), after the checks [`stage_chart`]
+/// makes; `None` (and `report` an error) when they refuse the layout.
+pub fn final_uvs(finished: &Finished, report: &mut Report) -> Option<Vec<crate::io::corners::CornerUvs>> {
+    let placed = checked(finished, report)?;
+    let parts = placed.parts(finished.prepared, finished.layout);
+    Some(chart::assemble_corner_uvs(
+        finished.asset,
+        &finished.prepared.welded,
+        &parts,
+    ))
+}
+
+/// The layout checked as stored, and the other charts packed around it;
+/// `None` (the report refused) when a check fails.
+fn checked(finished: &Finished, report: &mut Report) -> Option<crate::atlas::PlacedRest> {
+    let (prepared, layout, guard) = (finished.prepared, finished.layout, finished.guard);
     let triangles = &prepared.filled.mesh.triangles;
     let written = report.orientation;
     if !crate::guard::all_positive(layout, triangles) {
@@ -124,7 +163,7 @@ pub fn stage_chart(
                 written.flipped, written.zero_area
             ),
         );
-        return Staged::new();
+        return None;
     }
     if !written.is_clean() {
         refuse(
@@ -138,33 +177,66 @@ pub fn stage_chart(
                 crate::guard::smallest_area(layout, triangles)
             ),
         );
-        return Staged::new();
+        return None;
     }
     if let Some(violation) = overlap(prepared, layout) {
         refuse(
             report,
             format!("the free layout is not one-to-one inside its region as stored ({violation}); nothing written"),
         );
-        return Staged::new();
+        return None;
     }
-    let Some(out) = output else {
-        return Staged::new();
+    place_rest(finished, report)
+        .map_err(|message| refuse(report, message))
+        .ok()
+}
+
+/// The other charts packed around the solved one (layout coordinates),
+/// each checked as stored; what the report says of them.
+///
+/// # Errors
+/// No room for them, or a chart too small to keep its triangles once
+/// stored as f32.
+fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::PlacedRest, String> {
+    let Some(rest) = finished.rest.filter(|r| !r.charts.is_empty()) else {
+        return Ok(crate::atlas::PlacedRest::default());
     };
-    let uvs = StoredUvs {
-        gltf: chart::assemble_corner_uvs(asset, prepared, layout),
-        obj_vt: (asset.format == crate::io::AssetFormat::Obj)
-            .then(|| chart::assemble_obj_corners(asset, prepared, layout)),
-    };
-    match crate::io::gltf_file::stage_asset(asset, &uvs, out) {
-        Ok(staged) => {
-            report.output = Some(out.display().to_string());
-            staged
-        }
-        Err(e) => {
-            refuse(report, e.to_string());
-            Staged::new()
+    let prepared = finished.prepared;
+    let f = &prepared.filled;
+    let mut occupied: Vec<[DVec2; 3]> = f.mesh.triangles[..f.n_real_triangles]
+        .iter()
+        .map(|t| t.map(|v| finished.layout[v as usize]))
+        .collect();
+    if let Some(setup) = prepared.domain.free() {
+        let o = &setup.obstacles;
+        occupied.extend(o.triangles.iter().map(|t| t.map(|v| o.layout[v as usize])));
+    }
+    let placed = crate::atlas::place(rest, &occupied, &crate::pack::PackRules::DEFAULT)
+        .map_err(|e| format!("{e}; nothing written"))?;
+    for (chart, _, layout) in &placed.charts {
+        let stored: Vec<[f32; 2]> = layout.iter().map(|&p| crate::guard::stored_uv(p)).collect();
+        let counts = crate::guard::count_stored_orientations(&stored, &chart.mesh.triangles, crate::guard::VAxis::Down);
+        if !counts.is_clean() {
+            return Err(format!(
+                "{} charts without landmarks do not fit the texture at a size that keeps their triangles once stored as f32 \
+                 ({} would be flipped or flat); nothing written",
+                rest.charts.len(),
+                counts.flipped + counts.zero_area
+            ));
         }
     }
+    report.rest = Some(crate::report::RestReport {
+        charts: rest.charts.len(),
+        triangles: rest.charts.iter().map(|u| u.chart.mesh.n_triangles()).sum(),
+        triangle_by_triangle: rest
+            .charts
+            .iter()
+            .filter(|u| u.soup)
+            .map(|u| u.chart.mesh.n_triangles())
+            .sum(),
+        scale: placed.scale,
+    });
+    Ok(placed)
 }
 
 /// For a free chart: why its layout, as glTF and OBJ store it, is not

@@ -36,6 +36,7 @@
 //! edits of [`edit::text`]).
 
 pub mod api;
+pub mod atlas;
 pub mod chart;
 pub mod check;
 #[cfg(feature = "cli")]
@@ -59,6 +60,7 @@ pub mod io;
 pub mod mesh;
 pub mod metrics;
 pub mod options;
+pub mod pack;
 pub mod param;
 pub mod pins;
 #[cfg(feature = "pictures")]

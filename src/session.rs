@@ -59,6 +59,9 @@ pub struct ChartSession {
     /// Counts every change of what a solver would start from, so a running
     /// solver of an older revision is known to be stale.
     revision: u64,
+    /// The other charts that need UVs, unwrapped on first export: depends
+    /// on the geometry only (the packing around the chart is done anew).
+    rest: Arc<std::sync::OnceLock<Arc<crate::atlas::Rest>>>,
 }
 
 /// What a [`ChartSession::retarget`] kept of the session's earlier work.
@@ -124,7 +127,26 @@ impl ChartSession {
             last_layout: None,
             times,
             revision: 0,
+            rest: Arc::default(),
         })
+    }
+
+    /// A session on a chart already prepared (a piece laid out without
+    /// landmarks beside the solved chart, [`crate::atlas`]).
+    pub fn from_prepared(source: ConstraintSource, asset: Arc<SourceAsset>, prepared: PreparedChart) -> Self {
+        ChartSession {
+            asset,
+            source,
+            prepared,
+            boundary: None,
+            bar_net: None,
+            step_one: None,
+            pattern: None,
+            last_layout: None,
+            times: StageTimes::default(),
+            revision: 0,
+            rest: Arc::default(),
+        }
     }
 
     /// New constraints on the same asset: resolved again, keeping what
@@ -147,6 +169,7 @@ impl ChartSession {
         }
         if kept == Kept::Weld {
             (self.bar_net, self.pattern) = (None, None);
+            self.rest = Arc::default();
         }
         self.source = source;
         self.prepared = prepared;
@@ -301,13 +324,7 @@ impl ChartSession {
     /// in one commit ([`export::export`]); the final report. Pictures
     /// without a background are drawn over the constraint file's `image:`.
     pub fn export(&self, solver: &ChartSolver, report: &Report, outputs: &Outputs) -> Report {
-        let finished = export::Finished {
-            asset: &self.asset,
-            prepared: &self.prepared,
-            outer_loop: self.boundary.as_ref().map_or(&[], |b| &b.loop_vertices),
-            layout: solver.layout(),
-            guard: solver.options().guard,
-        };
+        let finished = self.finished(solver);
         #[cfg(feature = "pictures")]
         if outputs.pictures.any() && outputs.pictures.background.is_none() {
             let mut outputs = outputs.clone();
@@ -315,6 +332,41 @@ impl ChartSession {
             return export::export(&finished, report, &outputs);
         }
         export::export(&finished, report, outputs)
+    }
+
+    /// `solver`'s layout, finished: the other charts that need UVs
+    /// unwrapped (once per session) for packing around it.
+    fn finished<'a>(&'a self, solver: &'a ChartSolver) -> export::Finished<'a> {
+        let rest = self.rest.get_or_init(|| {
+            let charts = crate::atlas::rest_charts(&self.asset, &self.prepared);
+            Arc::new(crate::atlas::unwrap_all(
+                &self.asset,
+                &self.prepared,
+                charts,
+                solver.options(),
+            ))
+        });
+        export::Finished {
+            asset: &self.asset,
+            prepared: &self.prepared,
+            outer_loop: self.boundary.as_ref().map_or(&[], |b| &b.loop_vertices),
+            layout: solver.layout(),
+            guard: solver.options().guard,
+            rest: Some(rest),
+        }
+    }
+
+    /// The final UVs per face corner of every primitive, as a file would
+    /// store them, with the checks and packing of [`Self::export`]: the
+    /// final report, and the UVs unless it refused the layout.
+    pub fn final_uvs(
+        &self,
+        solver: &ChartSolver,
+        report: &Report,
+    ) -> (Report, Option<Vec<crate::io::corners::CornerUvs>>) {
+        let mut report = report.clone();
+        let uvs = export::final_uvs(&self.finished(solver), &mut report);
+        (report, uvs)
     }
 
     /// The final UVs per primitive of the asset with `layout` on this chart.

@@ -22,7 +22,7 @@ use uvpin::testing::{Rng, random_disk, smooth_warp, swirl};
 /// layout; any fold-free layout with the same boundary is as good a base for
 /// the warp witness.
 fn step1(mesh: &TriMesh) -> (Vec<DVec2>, Vec<u32>) {
-    let uvpin::MeshSolution { report, uvs } =
+    let uvpin::MeshSolution { report, uvs, .. } =
         uvpin::solve_mesh(mesh, &uvpin::Pins::new(&[]), &SolverOptions::DEFAULT.into()).expect("no-constraint solve");
     assert!(report.orientation.is_clean());
     let written: Vec<DVec2> = uvs
@@ -56,7 +56,7 @@ fn pick(rng: &mut Rng, interior: &[u32], k: usize) -> Vec<u32> {
 }
 
 fn solve(name: &str, mesh: &TriMesh, constraints: &[(u32, DVec2)]) -> Report {
-    let uvpin::MeshSolution { report, uvs } =
+    let uvpin::MeshSolution { report, uvs, .. } =
         uvpin::solve_mesh(mesh, &uvpin::Pins::new(constraints), &SolverOptions::DEFAULT.into())
             .unwrap_or_else(|e| panic!("{name}: {e}"));
     assert!(report.orientation.is_clean(), "{name}: {:?}", report.orientation);
@@ -303,7 +303,7 @@ fn large_charts_are_polished_only_after_a_distorting_completion() {
                     polish_max_vertices: max,
                     ..SolverOptions::DEFAULT
                 };
-                let uvpin::MeshSolution { report: r, uvs } =
+                let uvpin::MeshSolution { report: r, uvs, .. } =
                     uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&constraints), &options.into()).unwrap();
                 assert_reached(&name, &r);
                 assert!(

@@ -32,7 +32,7 @@ fn random_disks_and_random_constraints_never_fold() {
         let n = 8 + rng.below(14);
         let holes = rng.below(4);
         let mesh = random_disk(&mut rng, n, holes);
-        let uvpin::MeshSolution { report: step1, uvs } =
+        let uvpin::MeshSolution { report: step1, uvs, .. } =
             uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&[]), &SolverOptions::DEFAULT.into()).expect("step 1");
         assert_eq!(step1.status, Status::Reached);
         assert!(step1.orientation.is_clean(), "case {case}: step 1 folds");
@@ -57,7 +57,7 @@ fn random_disks_and_random_constraints_never_fold() {
             };
             constraints.push((v, target));
         }
-        let uvpin::MeshSolution { report, uvs } =
+        let uvpin::MeshSolution { report, uvs, .. } =
             uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&constraints), &SolverOptions::DEFAULT.into())
                 .unwrap_or_else(|e| panic!("case {case}: {e}"));
         // The report counts virtual hole triangles too; check the real ones independently.

@@ -12,6 +12,7 @@ pub mod cost;
 pub mod graph;
 pub mod handles;
 pub mod prepare;
+pub mod separate;
 
 use crate::mesh::TriMesh;
 use crate::mesh::topology::{Topology, TopologyError};
@@ -41,6 +42,11 @@ pub struct SeamRules {
     /// off the seams, divided by how dear a seam there is, exceeds this
     /// (1: about 7× in area where a seam is cheap). Default 1.
     pub cone_threshold: f64,
+    /// Whether a disk is cut out to cone points wherever its flattening
+    /// would crush it, not only when it is nearly closed (default false:
+    /// a landmarked patch keeps its shape; charts laid out without
+    /// landmarks set it).
+    pub spread_disks: bool,
 }
 
 impl SeamRules {
@@ -49,6 +55,7 @@ impl SeamRules {
         margin_rings: 3,
         max_cones: 16,
         cone_threshold: 1.0,
+        spread_disks: false,
     };
 }
 
@@ -78,6 +85,10 @@ pub enum CutError {
     NotAnEdge { path: usize, step: usize, a: u32, b: u32 },
     #[error("seams[{path}] runs through landmark vertex {vertex}: a landmark must not lie on a seam")]
     ThroughLandmark { path: usize, vertex: u32 },
+    #[error(
+        "seams[{path}] leaves the piece of the chart that is solved (the chart falls apart where it is not a surface)"
+    )]
+    OffPiece { path: usize },
     #[error("seams[{path}] runs along edge ({a}, {b}) inside a polygon of the file: a polygon keeps one UV per corner")]
     InsidePolygon { path: usize, a: u32, b: u32 },
     #[error("the seams leave the chart {left}: add seams that open it (or `seams: Auto`)")]
@@ -110,7 +121,14 @@ pub fn open(
     let graph = EdgeGraph::new(mesh);
     let seam = match spec {
         SeamSpec::Auto => match Topology::build(mesh) {
-            Ok(_) => return Ok(None),
+            Ok(t) if !rules.spread_disks && !nearly_closed(mesh, &t) => return Ok(None),
+            Ok(_) => {
+                let seam = plan(mesh, &graph, landmarks, unseamable, rules);
+                if seam.edges.is_empty() {
+                    return Ok(None);
+                }
+                seam
+            }
             Err(_) => plan(mesh, &graph, landmarks, unseamable, rules),
         },
         SeamSpec::Edges(paths) => given(mesh, &graph, paths, landmarks, unseamable)?,
@@ -122,6 +140,19 @@ pub fn open(
         Err(e) => Err(CutError::NotOpened { left: describe(&e) }),
     }
 }
+
+/// A disk whose boundary is short for its area (a bust open only at the
+/// neck, a body open at a small hole): flattened as it is, it would be
+/// crushed, so it is cut like a closed surface, from its boundary out to
+/// cone points. A flat disk's boundary is 3.5 times the square root of its
+/// area, a hemisphere's 2.5.
+pub fn nearly_closed(mesh: &TriMesh, topology: &Topology) -> bool {
+    let boundary: f64 = topology.loop_lengths.iter().sum();
+    boundary < NEARLY_CLOSED * mesh.area().sqrt()
+}
+
+/// See [`nearly_closed`].
+const NEARLY_CLOSED: f64 = 1.5;
 
 fn describe(e: &TopologyError) -> String {
     match e {
@@ -190,17 +221,22 @@ fn plan(mesh: &TriMesh, graph: &EdgeGraph, landmarks: &[u32], unseamable: &[[u32
     let root = root(mesh, graph, &around, rules);
     let handle_edges = handles::handle_cuts(mesh, graph, &cost, root);
     let boundary = graph.boundary_vertices();
-    if !boundary.is_empty() {
-        // An open surface needs its handles cut, nothing more.
+    let closed = boundary.is_empty();
+    let spread = Topology::build(mesh).is_ok_and(|t| rules.spread_disks || nearly_closed(mesh, &t));
+    if !closed && !spread {
+        // An open surface with room to lie flat needs its handles cut, nothing more.
         let edges = handle_edges.iter().map(|&e| graph.edges[e as usize]).collect();
         return finish(mesh, edges, Vec::new(), handle_edges.len());
     }
     let mut fixed = vec![false; mesh.n_vertices()];
-    fixed[root as usize] = true;
+    if closed {
+        fixed[root as usize] = true;
+    }
+    boundary.iter().for_each(|&v| fixed[v as usize] = true);
     for &e in &handle_edges {
         graph.edges[e as usize].iter().for_each(|&v| fixed[v as usize] = true);
     }
-    let cones = place_cones(mesh, graph, &fixed, &around, rules, handle_edges.is_empty());
+    let cones = place_cones(mesh, graph, &fixed, &around, rules, closed && handle_edges.is_empty());
     let mut edges: Vec<[u32; 2]> = handle_edges.iter().map(|&e| graph.edges[e as usize]).collect();
     let mut tree: Vec<u32> = (0..mesh.n_vertices() as u32).filter(|&v| fixed[v as usize]).collect();
     for &c in &cones {
@@ -210,7 +246,7 @@ fn plan(mesh: &TriMesh, graph: &EdgeGraph, landmarks: &[u32], unseamable: &[[u32
             tree.extend(graph.edges[e as usize]);
         }
     }
-    let mut all_cones = vec![root];
+    let mut all_cones = if closed { vec![root] } else { Vec::new() };
     all_cones.extend(&cones);
     finish(mesh, edges, all_cones, handle_edges.len())
 }

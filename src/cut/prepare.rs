@@ -3,6 +3,7 @@
 //! disagreeing windings repaired by splitting vertices ([`split_wedges`]),
 //! and the result opened to a disk along seams ([`super::open`]).
 
+use super::separate::{Budget, separate};
 use super::{CutError, Seam, SeamRules, SeamSpec};
 use crate::mesh::topology::{Topology, TopologyError, triangle_components};
 use crate::mesh::wedges::{Repairs, split_wedges};
@@ -25,6 +26,17 @@ pub struct Solvable {
     /// Triangles given twice: (welded triangle left out, chart triangle
     /// whose UVs it takes).
     pub duplicates: Vec<(u32, u32)>,
+    /// The other pieces the chart fell into when repaired (it touched them
+    /// only at a fin, a pinch or an edge wound both ways), repaired but
+    /// neither cut nor solved: they need layouts of their own. And the
+    /// rest of a chart too large for its targets ([`super::separate`]).
+    pub rest: Vec<Chart>,
+    /// Where the landmarks' chart was cut from the rest, welded pairs
+    /// (empty when it fitted).
+    pub separation: Vec<[u32; 2]>,
+    /// Whether the targets' scale was weighed (the chart had to be cut
+    /// open): then a new scale may split it differently.
+    pub scale_weighed: bool,
 }
 
 /// Why a chart cannot be made solvable.
@@ -40,56 +52,155 @@ pub enum SolvableError {
     )]
     DoubleSided { t0: u32, t1: u32 },
     #[error(
-        "the chart falls into {n_pieces} pieces once split where it is not a surface ({where_}); lay out each piece as its own \
-         chart, or mend the mesh there"
+        "the chart falls into {n_pieces} pieces once split where it is not a surface ({where_}), and the landmarks are on more \
+         than one of them (welded vertices {a} and {b}): put them on one piece, or mend the mesh there"
     )]
-    Pieces { n_pieces: usize, where_: String },
+    Pieces {
+        n_pieces: usize,
+        where_: String,
+        a: u32,
+        b: u32,
+    },
 }
 
 /// `chart` repaired and opened along the seams `spec` asks for, keeping
-/// them off `landmarks` (chart-local vertices) and off the `unseamable`
-/// edges (chart-local pairs `(min, max)`, sorted: polygon diagonals).
+/// them off `landmarks` and off the `unseamable` edges (polygon diagonals);
+/// seams, landmarks and edges as welded ids. When the repair splits the chart into pieces, the
+/// one holding the landmarks (or the largest) is solved; the others are
+/// handed back in [`Solvable::rest`].
 ///
 /// # Errors
-/// A double-sided face, a chart that falls apart when repaired, bad given
-/// seams, or a chart still not a disk.
+/// A double-sided face, landmarks on several pieces, bad given seams, or a
+/// chart still not a disk.
 pub fn make_solvable(
     chart: &Chart,
     spec: &SeamSpec,
     landmarks: &[u32],
     unseamable: &[[u32; 2]],
+    budget: Option<Budget>,
     rules: &SeamRules,
 ) -> Result<Solvable, SolvableError> {
     let (single, duplicates) = without_duplicates(chart)?;
     let repaired = split_wedges(&single.mesh, &|_| false);
-    let (n_pieces, _) = triangle_components(&repaired.mesh);
-    if n_pieces > 1 {
-        return Err(SolvableError::Pieces {
-            n_pieces,
-            where_: describe_repairs(&repaired.repairs),
-        });
+    let whole = single.opened(&repaired);
+    let (mut main, mut rest) = main_piece(&whole, landmarks, &repaired.repairs)?;
+    let mut separation = Vec::new();
+    // Only a chart that must be cut open can be too large for its targets:
+    // a disk lies flat at any scale.
+    let must_open = Topology::build(&main.mesh).map_or(true, |t| super::nearly_closed(&main.mesh, &t));
+    let scale_weighed = must_open && budget.is_some() && matches!(spec, SeamSpec::Auto);
+    if let (SeamSpec::Auto, Some(budget), true) = (spec, budget, must_open) {
+        let local_landmarks: Vec<u32> = landmarks.iter().filter_map(|w| main.local_of(*w)).collect();
+        let local_barred = local_pairs(&main, unseamable);
+        if let Some(split) = separate(&main, &local_landmarks, budget, &local_barred) {
+            separation = split
+                .edges
+                .iter()
+                .map(|e| e.map(|v| main.welded_ids[v as usize]))
+                .collect();
+            main = split.main;
+            rest.extend(split.rest);
+        }
     }
-    let chart_repaired = single.opened(&repaired);
-    // A vertex keeps its chart-local id through the repair: landmarks and
-    // unseamable edges still name the same vertices.
-    match super::open(&chart_repaired.mesh, spec, landmarks, unseamable, rules)? {
+    let local = |w: &u32| main.local_of(*w);
+    let landmark_ids: Vec<u32> = landmarks.iter().filter_map(local).collect();
+    let barred = local_pairs(&main, unseamable);
+    let spec = match spec {
+        SeamSpec::Auto => SeamSpec::Auto,
+        SeamSpec::Edges(paths) => SeamSpec::Edges(
+            paths
+                .iter()
+                .enumerate()
+                .map(|(k, p)| {
+                    p.iter()
+                        .map(local)
+                        .collect::<Option<Vec<u32>>>()
+                        .ok_or(CutError::OffPiece { path: k })
+                })
+                .collect::<Result<_, _>>()?,
+        ),
+    };
+    let (repairs, duplicates) = (repaired.repairs, duplicates);
+    match super::open(&main.mesh, &spec, &landmark_ids, &barred, rules)? {
         None => Ok(Solvable {
-            topology: Topology::build(&chart_repaired.mesh)?,
-            chart: chart_repaired,
+            topology: Topology::build(&main.mesh)?,
+            chart: main,
             seam: None,
             seam_copies: 0,
-            repairs: repaired.repairs,
+            repairs,
             duplicates,
+            rest,
+            separation,
+            scale_weighed,
         }),
         Some(opened) => Ok(Solvable {
-            chart: chart_repaired.opened(&opened.wedges),
+            chart: main.opened(&opened.wedges),
             topology: opened.topology,
             seam: Some(opened.seam),
             seam_copies: opened.wedges.n_added(),
-            repairs: repaired.repairs,
+            repairs,
             duplicates,
+            rest,
+            separation,
+            scale_weighed,
         }),
     }
+}
+
+/// Welded vertex pairs as `chart`'s local `(min, max)` pairs, sorted (pairs
+/// not in the chart left out).
+fn local_pairs(chart: &Chart, pairs: &[[u32; 2]]) -> Vec<[u32; 2]> {
+    let mut out: Vec<[u32; 2]> = pairs
+        .iter()
+        .filter_map(|[a, b]| Some((chart.local_of(*a)?, chart.local_of(*b)?)))
+        .map(|(a, b)| [a.min(b), a.max(b)])
+        .collect();
+    out.sort_unstable();
+    out
+}
+
+/// The piece of `whole` that holds every landmark (welded ids), or the one
+/// with the most triangles, and the other pieces.
+///
+/// # Errors
+/// Landmarks on two pieces.
+fn main_piece(whole: &Chart, landmarks: &[u32], repairs: &Repairs) -> Result<(Chart, Vec<Chart>), SolvableError> {
+    let (n_pieces, piece_of) = triangle_components(&whole.mesh);
+    if n_pieces == 1 {
+        return Ok((whole.clone(), Vec::new()));
+    }
+    let mut piece_of_vertex = vec![u32::MAX; whole.mesh.n_vertices()];
+    let mut size = vec![0usize; n_pieces];
+    for (t, tri) in whole.mesh.triangles.iter().enumerate() {
+        size[piece_of[t] as usize] += 1;
+        tri.iter().for_each(|&v| piece_of_vertex[v as usize] = piece_of[t]);
+    }
+    let holding: Vec<(u32, u32)> = landmarks
+        .iter()
+        .filter_map(|&w| whole.local_of(w).map(|l| (w, piece_of_vertex[l as usize])))
+        .collect();
+    if let Some(&(b, _)) = holding.iter().find(|(_, p)| *p != holding[0].1) {
+        return Err(SolvableError::Pieces {
+            n_pieces,
+            where_: describe_repairs(repairs),
+            a: holding[0].0,
+            b,
+        });
+    }
+    let main = holding.first().map_or_else(
+        || {
+            (0..n_pieces)
+                .max_by_key(|&p| (size[p], std::cmp::Reverse(p)))
+                .expect("pieces") as u32
+        },
+        |h| h.1,
+    );
+    let charts = (0..n_pieces as u32)
+        .map(|p| whole.piece(&piece_of.iter().map(|&q| q == p).collect::<Vec<bool>>()))
+        .collect::<Vec<Chart>>();
+    let mut rest = charts;
+    let main_chart = rest.remove(main as usize);
+    Ok((main_chart, rest))
 }
 
 /// The first repair of each kind, for a message.

@@ -32,7 +32,7 @@ pub fn decide(
     welded: &WeldedMesh,
     chart: &Chart,
     constraints: &[ResolvedConstraint],
-    cut: bool,
+    (cut, rest_share): (bool, f64),
 ) -> Result<Domain, Error> {
     let (choice, given) = source.boundary();
     let uvs = welded_uvs(asset, welded);
@@ -44,11 +44,13 @@ pub fn decide(
     let (region, source_kind) = match (choice, given) {
         (Some(BoundaryChoice::Square), _) => return Ok(Domain::Square),
         (_, Some(region)) => (region, RegionSource::Given),
-        (Some(BoundaryChoice::Free), None) => (Region::TEXTURE, RegionSource::Texture),
+        (Some(BoundaryChoice::Free), None) => (leave_room(constraints, rest_share), RegionSource::Texture),
         (None, None) => match &island {
             Some(layout) if !cut => (island_region(layout, constraints), RegionSource::Island),
-            // A chart cut open has no shape a square would suit: free in the texture.
-            _ if cut => (Region::TEXTURE, RegionSource::Texture),
+            // A chart cut open has no shape a square would suit, and one
+            // that shares the texture with charts laid out beside it
+            // cannot fill it: free in the texture.
+            _ if cut || rest_share > 0.0 => (leave_room(constraints, rest_share), RegionSource::Texture),
             _ => return Ok(Domain::Square),
         },
     };
@@ -77,6 +79,41 @@ pub fn decide(
         obstacles: Arc::new(obstacles),
         island,
     })))
+}
+
+/// The texture less a strip along one side for the charts packed beside
+/// this one, as wide as their share of the surface (at most half), on the
+/// side the targets leave most room on; the whole texture without them.
+fn leave_room(constraints: &[ResolvedConstraint], share: f64) -> Region {
+    if share <= 0.0 {
+        return Region::TEXTURE;
+    }
+    let margin = 0.02;
+    let (lo, hi) = constraints
+        .iter()
+        .fold((DVec2::splat(1.0), DVec2::splat(0.0)), |(lo, hi), c| {
+            (lo.min(c.target_uv), hi.max(c.target_uv))
+        });
+    // Room past the targets on each side: left, top, right, bottom.
+    let gaps = [lo.x, lo.y, 1.0 - hi.x, 1.0 - hi.y].map(|g| (g - margin).max(0.0));
+    let (side, gap) = gaps
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(k, &g)| (k, g))
+        .expect("four sides");
+    let width = share.clamp(0.05, 0.5).min(gap);
+    if width < 0.03 {
+        return Region::TEXTURE;
+    }
+    let mut r = Region::TEXTURE;
+    match side {
+        0 => r.min.x = width,
+        1 => r.min.y = width,
+        2 => r.max.x = 1.0 - width,
+        _ => r.max.y = 1.0 - width,
+    }
+    r
 }
 
 /// Each welded vertex's stored UV (glTF convention), if its primitive has them.

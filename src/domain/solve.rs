@@ -195,7 +195,8 @@ fn open_free(
     layout.extend_from_slice(scaffold.fixed_points());
     let domain = FreeDomain::new(room, scaffold, offset);
     let (mut rest_area, mut shrink, mut relax_steps) = (rest_area, shrink, 0);
-    if matches!(kind, StartKind::Conformal | StartKind::StepOne) && problem.targets.len() >= 2 {
+    let far_from_shape = kind == StartKind::StepOne || (kind == StartKind::Conformal && problem.targets.len() >= 2);
+    if far_from_shape {
         let relaxed = relax(filled, system.pattern(), &mut layout, &domain, rest_area, problem, kind);
         if let Some((refit, steps)) = relaxed {
             layout[..refit.layout.len()].copy_from_slice(&refit.layout);

@@ -2,9 +2,10 @@
 //! least-squares conformal layout (Lévy et al. 2002) through the targets
 //! (the constrained vertices held on them) when it is one-to-one inside its
 //! room, which reaches them at once; else the least-squares conformal layout
-//! if it is injective, else step 1's, moved by the similarity that best
-//! fits its constrained vertices to their targets and shrunk until it fits
-//! its room.
+//! if it is injective, moved by the similarity that best fits its
+//! constrained vertices to their targets and gathered in or shrunk until it
+//! fits its room; else step 1's where it lies, to be relaxed toward the
+//! chart's shape before it is fitted so.
 
 use crate::complete::energy::RestTriangle;
 use crate::complete::newton::NewtonSystem;
@@ -85,15 +86,24 @@ pub fn choose_start(
         return Some(start);
     }
     let mut conformal = step1.to_vec();
-    let kind = if conformal_layout(&mut conformal, &shape, rest, system, room.boundary_vertices())
-        && room.embeds(&conformal)
-    {
-        StartKind::Conformal
-    } else {
-        conformal.copy_from_slice(step1);
-        StartKind::StepOne
-    };
-    fit_into_room(room, &shape, &conformal, problem, kind, Fit::ToTargets)
+    let conformal_fits =
+        conformal_layout(&mut conformal, &shape, rest, system, room.boundary_vertices()) && room.embeds(&conformal);
+    // Else step 1's square, far from the chart's shape: it is relaxed where
+    // it is first, then fitted to the targets (`domain::solve`).
+    conformal_fits
+        .then(|| fit_into_room(room, &shape, &conformal, problem, StartKind::Conformal, Fit::ToTargets))
+        .flatten()
+        .or_else(|| {
+            fit_into_room(
+                room,
+                &shape,
+                &roomy(room, step1),
+                problem,
+                StartKind::StepOne,
+                Fit::InPlace,
+            )
+        })
+        .or_else(|| fit_into_room(room, &shape, step1, problem, StartKind::StepOne, Fit::ToTargets))
 }
 
 /// The least-squares conformal layout with every constrained vertex held on
@@ -251,6 +261,16 @@ pub fn fit_into_room(
             anchors.push((0.5 * (blo + bhi), at));
         }
     }
+    if fit != Fit::InPlace
+        && let Some(start) = gathered(room, &placed, problem, triangles)
+    {
+        return Some(ChosenStart {
+            layout: start,
+            kind,
+            rest_area,
+            shrink: 1.0,
+        });
+    }
     for &shrink in &SHRINKS {
         let near = targets_centre.map_or(Vec::new(), |c| {
             vec![(c, c), (c, c + least_move_inside((blo, bhi), c, shrink, (lo, hi)))]
@@ -260,8 +280,15 @@ pub fn fit_into_room(
             if (bhi - blo).length() * shrink < MIN_SPAN * (hi - lo).length() {
                 return None;
             }
-            // The room first: it looks at the boundary only.
-            if room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles) {
+            // The room first: it looks at the boundary only. Step 1 where it
+            // lies is relaxed before anything is stored: double precision
+            // is enough (its thinnest triangles may be too thin for f32).
+            let fits = if kind == StartKind::StepOne && fit == Fit::InPlace {
+                inside_region(room, &layout) && room.embeds(&layout) && guard::all_positive(&layout, triangles)
+            } else {
+                room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles)
+            };
+            if fits {
                 return Some(ChosenStart {
                     layout,
                     kind,
@@ -272,6 +299,65 @@ pub fn fit_into_room(
         }
     }
     None
+}
+
+/// Step 1's square drawn in to [`FIRST_FILL`] of the region about its
+/// centre: room for its boundary to move while it relaxes.
+fn roomy(room: &Room, step1: &[DVec2]) -> Vec<DVec2> {
+    let (lo, hi) = room.setup().region.layout_box();
+    let (blo, bhi) = bounds(step1);
+    let k = FIRST_FILL * ((hi - lo) / (bhi - blo).max(DVec2::splat(1e-300))).min_element();
+    let (from, to) = (0.5 * (blo + bhi), 0.5 * (lo + hi));
+    step1.iter().map(|&p| to + (p - from) * k).collect()
+}
+
+/// Whether every point of `layout` lies strictly inside the room's region
+/// and no other island is in it (double precision).
+fn inside_region(room: &Room, layout: &[DVec2]) -> bool {
+    let (lo, hi) = room.setup().region.layout_box();
+    room.setup().obstacles.is_empty() && layout.iter().all(|p| p.cmpgt(lo).all() && p.cmplt(hi).all())
+}
+
+/// A start fitted to the targets that is larger than its region, gathered
+/// in: every point within the targets' reach of their centre stays (the
+/// constrained vertices on or near their targets, at the scale the targets
+/// ask for), and the rest is drawn in radially, ever less as it lies
+/// farther out, to end inside the region. A radial map that grows with the
+/// radius keeps every small triangle's orientation; the layout is checked
+/// as stored and in its room all the same. `None` when it needs no
+/// gathering, has too few targets, or is not admitted.
+fn gathered(room: &Room, placed: &[DVec2], problem: &StepProblem, triangles: &[[u32; 3]]) -> Option<Vec<DVec2>> {
+    if problem.targets.len() < 2 || room.admits(placed).is_ok() {
+        return None;
+    }
+    let (lo, hi) = room.setup().region.layout_box();
+    let centre = problem.targets.iter().sum::<DVec2>() / problem.targets.len() as f64;
+    let inner = problem.targets.iter().map(|t| t.distance(centre)).fold(0.0, f64::max) * 1.05;
+    let room_left = (centre - lo).min(hi - centre).min_element() * (1.0 - 2.0 * INSIDE_MARGIN);
+    let outer = problem
+        .constraint_vertices
+        .iter()
+        .map(|&v| placed[v as usize].distance(centre))
+        .fold(inner, f64::max)
+        .max(inner);
+    if room_left <= outer * 1.001 {
+        return None;
+    }
+    // φ(r) = r up to `outer`, then outer + w (1 − e^{−(r − outer)/w}) < room_left.
+    let w = room_left - outer;
+    let layout: Vec<DVec2> = placed
+        .iter()
+        .map(|&p| {
+            let d = p - centre;
+            let r = d.length();
+            if r <= outer {
+                p
+            } else {
+                centre + d * ((outer + w * (1.0 - (-(r - outer) / w).exp())) / r)
+            }
+        })
+        .collect();
+    (guard::all_positive_as_stored(&layout, triangles) && room.admits(&layout).is_ok()).then_some(layout)
 }
 
 /// The layout area the targets ask for: the chart's 3D area scaled by the

@@ -73,6 +73,37 @@ impl Chart {
         }
     }
 
+    /// The piece of this chart made of the triangles `keep` marks, its
+    /// vertices renumbered in order (those no kept triangle uses dropped);
+    /// a welded vertex's local id is its first vertex in the piece.
+    pub fn piece(&self, keep: &[bool]) -> Chart {
+        let mut new_id = vec![u32::MAX; self.mesh.n_vertices()];
+        let (mut positions, mut welded_ids) = (Vec::new(), Vec::new());
+        let (mut triangles, mut triangle_ids) = (Vec::new(), Vec::new());
+        for (k, t) in self.mesh.triangles.iter().enumerate().filter(|(k, _)| keep[*k]) {
+            triangles.push(t.map(|v| {
+                if new_id[v as usize] == u32::MAX {
+                    new_id[v as usize] = positions.len() as u32;
+                    positions.push(self.mesh.positions[v as usize]);
+                    welded_ids.push(self.welded_ids[v as usize]);
+                }
+                new_id[v as usize]
+            }));
+            triangle_ids.push(self.triangle_ids[k]);
+        }
+        let mut local_of = vec![None; self.local_of.len()];
+        for (l, &w) in welded_ids.iter().enumerate().rev() {
+            local_of[w as usize] = Some(l as u32);
+        }
+        Chart {
+            id: self.id,
+            mesh: TriMesh { positions, triangles },
+            welded_ids,
+            triangle_ids,
+            local_of,
+        }
+    }
+
     /// This chart with only the triangles `keep` marks (same vertices).
     pub fn with_triangles(&self, keep: &[bool]) -> Chart {
         let pick = |k: &usize| keep[*k];

@@ -212,13 +212,19 @@ pub fn build(s: &SolveSummary) -> Report {
         },
         free: free_report(s),
         seam: seam_report(p),
+        rest: None,
         warnings: warnings(s),
     }
 }
 
 /// Where the chart was cut, in the asset's vertex ids.
 fn seam_report(p: &PreparedChart) -> Option<crate::report::SeamReport> {
-    let seam = p.opening.seam.as_ref()?;
+    let none = crate::cut::Seam::default();
+    let seam = match (&p.opening.seam, p.opening.separation.is_empty()) {
+        (Some(seam), _) => seam,
+        (None, false) => &none,
+        (None, true) => return None,
+    };
     let mut first_id: Vec<Option<u32>> = vec![None; p.welded.mesh.n_vertices()];
     for map in p.welded.vertex_of.iter().rev() {
         for (i, &w) in map.iter().enumerate().rev() {
@@ -235,6 +241,7 @@ fn seam_report(p: &PreparedChart) -> Option<crate::report::SeamReport> {
         vertices_split: p.opening.seam_copies,
         cones: seam.cones.len(),
         handle_edges: seam.n_handle_edges,
+        separation_edges: p.opening.separation.len(),
         edges: seam.edges.iter().map(|e| [id(e[0]), id(e[1])]).collect(),
     })
 }

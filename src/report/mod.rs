@@ -307,8 +307,25 @@ pub struct Report {
     /// Where the chart was cut open to a disk (`None`: it was one).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seam: Option<SeamReport>,
+    /// The other charts given UVs beside the solved one (`None`: none needed them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rest: Option<RestReport>,
     /// What the user should know that did not stop the solve.
     pub warnings: Vec<String>,
+}
+
+/// The charts laid out without landmarks and packed around the solved one
+/// (the report's `rest` section).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RestReport {
+    /// How many charts.
+    pub charts: usize,
+    /// Their triangles.
+    pub triangles: usize,
+    /// Triangles of charts that could not be made disks, laid out one by one.
+    pub triangle_by_triangle: usize,
+    /// Their common scale: texture units per mesh unit.
+    pub scale: f64,
 }
 
 /// Where a chart was cut open (the report's `seam` section).
@@ -328,6 +345,9 @@ pub struct SeamReport {
     pub cones: usize,
     /// Edges that open handles.
     pub handle_edges: usize,
+    /// Edges where the landmarks' chart was cut from the rest of a chart
+    /// too large for its targets (the rest is laid out apart).
+    pub separation_edges: usize,
     /// The edges, as glTF vertex ids (in the first primitive that has them).
     pub edges: Vec<[Option<u32>; 2]>,
 }

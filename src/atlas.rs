@@ -1,0 +1,250 @@
+//! Every triangle gets UVs: in a new UV set, the charts a solve does not
+//! lay out with landmarks (the asset's other pieces, and pieces the solved
+//! chart fell into when repaired) are unwrapped on their own, free and cut
+//! as needed, and packed around the landmarked chart into the texture's
+//! free space at one texel density, apart by the padding ([`crate::pack`]).
+//! A piece that cannot be made a disk is laid out triangle by triangle,
+//! each flat at its own 3D shape.
+
+use crate::chart::{Opening, PreparedChart};
+use crate::constraints::ConstraintSource;
+use crate::cut::prepare::make_solvable;
+use crate::cut::{SeamRules, SeamSpec};
+use crate::domain::Domain;
+use crate::free::{FreeSetup, Obstacles, RegionSource};
+use crate::io::SourceAsset;
+use crate::mesh::weld::Chart;
+use crate::options::SolverOptions;
+use crate::pack::{PackError, PackRules, Placement, Shape};
+use crate::param::region::Region;
+use crate::pins::{BoundaryChoice, Pins};
+use crate::session::ChartSession;
+use glam::DVec2;
+use std::sync::Arc;
+
+/// A chart laid out on its own: its layout at its 3D scale.
+#[derive(Debug, Clone)]
+pub struct Unwrapped {
+    /// The chart as laid out (vertices split where it was cut or repaired).
+    pub chart: Arc<Chart>,
+    /// Triangles given twice: (welded triangle left out, chart triangle).
+    pub duplicates: Vec<(u32, u32)>,
+    /// Its layout (layout coordinates), one mesh unit one layout unit.
+    pub shape: Shape,
+    /// Whether it was laid out triangle by triangle.
+    pub soup: bool,
+}
+
+/// The charts of a solve beside the landmarked one, unwrapped.
+#[derive(Debug, Clone, Default)]
+pub struct Rest {
+    pub charts: Vec<Unwrapped>,
+}
+
+/// A chart placed: the chart, its repeated triangles (welded triangle,
+/// chart triangle) and its final layout (layout coordinates).
+pub type PlacedChart = (Arc<Chart>, Vec<(u32, u32)>, Vec<DVec2>);
+
+/// The rest placed: each chart's final layout.
+#[derive(Debug, Clone, Default)]
+pub struct PlacedRest {
+    pub charts: Vec<PlacedChart>,
+    /// The one scale of every packed chart (layout units per mesh unit).
+    pub scale: f64,
+}
+
+impl PlacedRest {
+    /// The solved chart with `layout` and these charts, as parts to assemble.
+    pub fn parts<'a>(&'a self, prepared: &'a PreparedChart, layout: &'a [DVec2]) -> Vec<crate::chart::Part<'a>> {
+        let mut parts = vec![prepared.part(layout)];
+        parts.extend(
+            self.charts
+                .iter()
+                .map(|(chart, duplicates, layout)| crate::chart::Part {
+                    chart,
+                    layout,
+                    duplicates,
+                }),
+        );
+        parts
+    }
+}
+
+/// Whether each welded vertex has a stored UV in the asset's set.
+fn has_uv(asset: &SourceAsset, prepared: &PreparedChart) -> Vec<bool> {
+    let mut out = vec![false; prepared.welded.mesh.n_vertices()];
+    for (prim, map) in asset.primitives.iter().zip(&prepared.welded.vertex_of) {
+        if prim.uvs.is_some() {
+            map.iter().for_each(|&w| out[w as usize] = true);
+        }
+    }
+    out
+}
+
+/// The charts that need a layout beside `prepared`'s: its repair's other
+/// pieces, and every other welded chart with a vertex that has no UV.
+pub fn rest_charts(asset: &SourceAsset, prepared: &PreparedChart) -> Vec<Arc<Chart>> {
+    let welded = &prepared.welded;
+    let uv = has_uv(asset, prepared);
+    let mut missing = vec![false; welded.n_charts];
+    for (v, c) in welded.chart_of_vertex.iter().enumerate() {
+        if let Some(c) = c
+            && !uv[v]
+        {
+            missing[*c as usize] = true;
+        }
+    }
+    let mut out = prepared.opening.rest.clone();
+    out.extend(
+        (0..welded.n_charts as u32)
+            .filter(|&c| c != prepared.chart.id && missing[c as usize])
+            .map(|c| Arc::new(welded.chart(c))),
+    );
+    out
+}
+
+/// Unwraps every chart of `charts` (and the pieces their repairs split off).
+pub fn unwrap_all(
+    asset: &Arc<SourceAsset>,
+    prepared: &PreparedChart,
+    charts: Vec<Arc<Chart>>,
+    options: &SolverOptions,
+) -> Rest {
+    let diagonals = crate::chart::polygon_diagonals(asset, &prepared.welded);
+    let mut queue = charts;
+    let mut out = Vec::new();
+    while let Some(chart) = queue.pop() {
+        let rules = SeamRules {
+            spread_disks: true,
+            ..SeamRules::DEFAULT
+        };
+        match make_solvable(&chart, &SeamSpec::Auto, &[], &diagonals, None, &rules) {
+            Ok(solvable) => {
+                queue.extend(solvable.rest.iter().cloned().map(Arc::new));
+                let opening = Opening::without_landmarks(&solvable);
+                let unwrapped = free_layout(asset, prepared, solvable.chart, solvable.topology, opening, options);
+                out.push(unwrapped.unwrap_or_else(|chart| soup(&chart)));
+            }
+            Err(_) => out.push(soup(&chart)),
+        }
+    }
+    Rest { charts: out }
+}
+
+/// The free, unconstrained layout of a solvable chart, at its 3D scale;
+/// the chart back when it cannot be laid out one-to-one.
+fn free_layout(
+    asset: &Arc<SourceAsset>,
+    prepared: &PreparedChart,
+    chart: Chart,
+    topology: crate::mesh::topology::Topology,
+    opening: Opening,
+    options: &SolverOptions,
+) -> Result<Unwrapped, Box<Chart>> {
+    let traps = crate::param::boundary::TrapCandidates::find(&chart.mesh, &topology);
+    let filled = crate::param::bar_net::fill_holes(&chart.mesh, &topology);
+    let duplicates = opening.duplicates.clone();
+    let setup = FreeSetup {
+        region: Region::TEXTURE,
+        source: RegionSource::Texture,
+        obstacles: Arc::new(Obstacles::default()),
+        island: None,
+    };
+    let chart = Arc::new(chart);
+    let piece = PreparedChart {
+        welded: prepared.welded.clone(),
+        chart: chart.clone(),
+        topology: Arc::new(topology),
+        traps: Arc::new(traps),
+        filled: Arc::new(filled),
+        constraints: Vec::new(),
+        constraint_vertices: Vec::new(),
+        corners: None,
+        domain: Domain::Free(Arc::new(setup)),
+        warnings: Vec::new(),
+        opening: Arc::new(opening),
+    };
+    let source = ConstraintSource::Memory(Arc::new(Pins::new(&[]).with_boundary(BoundaryChoice::Free)));
+    let mut session = ChartSession::from_prepared(source, asset.clone(), piece);
+    let solved = session.solve(options).map_err(|_| Box::new((*chart).clone()))?;
+    let clean = solved.report.orientation.is_clean() && solved.report.free.as_ref().is_some_and(|f| f.crossings == 0);
+    if !clean {
+        return Err(Box::new((*chart).clone()));
+    }
+    let n = chart.mesh.n_vertices();
+    let layout = &solved.solver.layout()[..n];
+    Ok(Unwrapped {
+        shape: at_mesh_scale(&chart, layout),
+        chart,
+        duplicates,
+        soup: false,
+    })
+}
+
+/// `layout` of `chart` scaled so its area is the chart's 3D area.
+fn at_mesh_scale(chart: &Chart, layout: &[DVec2]) -> Shape {
+    let area_2d: f64 = chart
+        .mesh
+        .triangles
+        .iter()
+        .map(|t| 0.5 * crate::guard::orientation(layout[t[0] as usize], layout[t[1] as usize], layout[t[2] as usize]))
+        .sum();
+    let k = (chart.mesh.area() / area_2d.max(1e-300)).sqrt();
+    Shape {
+        points: layout.iter().map(|&p| p * k).collect(),
+        triangles: chart.mesh.triangles.clone(),
+    }
+}
+
+/// `chart` laid out triangle by triangle: every corner its own vertex,
+/// each triangle flat at its 3D shape, side by side along a row.
+fn soup(chart: &Chart) -> Unwrapped {
+    let wedges = crate::mesh::wedges::split_wedges(&chart.mesh, &|_| true);
+    let opened = chart.opened(&wedges);
+    let mut points = vec![DVec2::ZERO; opened.mesh.n_vertices()];
+    let mut x = 0.0;
+    for t in &opened.mesh.triangles {
+        let [a, b, c] = t.map(|v| opened.mesh.positions[v as usize]);
+        let (ab, ac) = (b - a, c - a);
+        let len = ab.length().max(1e-12);
+        let along = ac.dot(ab) / len;
+        let up = (ac - ab * (along / len)).length().max(1e-9 * len);
+        points[t[0] as usize] = DVec2::new(x, 0.0);
+        points[t[1] as usize] = DVec2::new(x + len, 0.0);
+        points[t[2] as usize] = DVec2::new(x + along, up);
+        x += len.max(along) + len * 0.1;
+    }
+    Unwrapped {
+        shape: Shape {
+            points,
+            triangles: opened.mesh.triangles.clone(),
+        },
+        chart: Arc::new(opened),
+        duplicates: Vec::new(),
+        soup: true,
+    }
+}
+
+/// Packs `rest` around the `occupied` triangles (layout coordinates) into
+/// the texture.
+///
+/// # Errors
+/// No room left.
+pub fn place(rest: &Rest, occupied: &[[DVec2; 3]], rules: &PackRules) -> Result<PlacedRest, PackError> {
+    let shapes: Vec<Shape> = rest.charts.iter().map(|u| u.shape.clone()).collect();
+    let placements: Vec<Placement> = crate::pack::pack(occupied, Region::TEXTURE.layout_box(), &shapes, rules)?;
+    let scale = placements.first().map_or(0.0, |p| p.scale);
+    let charts = rest
+        .charts
+        .iter()
+        .zip(&placements)
+        .map(|(u, p)| {
+            (
+                u.chart.clone(),
+                u.duplicates.clone(),
+                u.shape.points.iter().map(|&q| p.apply(q)).collect(),
+            )
+        })
+        .collect();
+    Ok(PlacedRest { charts, scale })
+}
