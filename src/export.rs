@@ -70,7 +70,6 @@ pub struct Finished<'a> {
 pub fn export(finished: &Finished, report: &Report, outputs: &Outputs) -> Report {
     let t0 = Instant::now();
     let mut report = report.clone();
-    let (asset, prepared, layout) = (finished.asset, finished.prepared, finished.layout);
     let model = outputs.model.as_deref();
     let mut staged = stage_chart(finished, &mut report, model);
     staged = staged.writing(outputs.writing.clone());
@@ -83,6 +82,7 @@ pub fn export(finished: &Finished, report: &Report, outputs: &Outputs) -> Report
     #[cfg(feature = "pictures")]
     {
         let pictures = &outputs.pictures;
+        let (asset, prepared, layout) = (finished.asset, finished.prepared, finished.layout);
         match crate::preview::render_chart(asset, prepared, finished.outer_loop, layout, &report, pictures) {
             Ok(pictures) => pictures.into_iter().for_each(|(path, png)| staged.add(path, png)),
             Err(e) => report.warnings.push(format!("preview: {e}")),
