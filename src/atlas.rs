@@ -163,6 +163,7 @@ fn free_layout(
         domain: Domain::Free(Arc::new(setup)),
         warnings: Vec::new(),
         opening: Arc::new(opening),
+        secondary: Vec::new(),
     };
     let source = ConstraintSource::Memory(Arc::new(Pins::new(&[]).with_boundary(BoundaryChoice::Free)));
     let mut session = ChartSession::from_prepared(source, asset.clone(), piece);

@@ -43,6 +43,22 @@ pub struct PreparedChart {
     pub warnings: Vec<String>,
     /// How the chart was made solvable: seams, repairs, repeated triangles.
     pub opening: Arc<Opening>,
+    /// The other charts holding constraints, in the order they are solved
+    /// after this one (each in its own island, clear of the others).
+    pub secondary: Vec<u32>,
+}
+
+/// Which chart to prepare, and what this solve has laid out around it.
+#[derive(Debug, Clone, Default)]
+pub struct Pick {
+    /// The chart (default: the one holding the most constraints, or the
+    /// largest without any); only its constraints are solved with it.
+    pub chart: Option<u32>,
+    /// Triangles this solve has laid out already (layout coordinates):
+    /// obstacles of a free chart.
+    pub placed: Arc<Vec<[DVec2; 3]>>,
+    /// Charts whose stored UVs this solve replaces: not obstacles.
+    pub replaced: Vec<u32>,
 }
 
 /// What was done to a chart so it could be solved: where it was cut open
@@ -105,7 +121,21 @@ struct GeometryKey {
 /// constraints in several charts, corners outside the chart, topology
 /// errors of the chart (closed, non-manifold, not a disk).
 pub fn prepare(source: &ConstraintSource, asset: &SourceAsset) -> Result<PreparedChart, Error> {
-    prepare_on(source, asset, Arc::new(weld(&asset.primitives)), None)
+    prepare_on(source, asset, Arc::new(weld(&asset.primitives)), None, &Pick::default())
+}
+
+/// Chart `pick.chart` of the same weld, prepared with its own constraints
+/// and `pick`'s obstacles (a secondary chart of a solve, [`PreparedChart::secondary`]).
+///
+/// # Errors
+/// As [`prepare`].
+pub fn prepare_pick(
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+    welded: Arc<WeldedMesh>,
+    pick: &Pick,
+) -> Result<PreparedChart, Error> {
+    prepare_on(source, asset, welded, None, pick)
 }
 
 impl PreparedChart {
@@ -118,7 +148,7 @@ impl PreparedChart {
     /// # Errors
     /// As [`prepare`].
     pub fn retargeted(&self, source: &ConstraintSource, asset: &SourceAsset) -> Result<PreparedChart, Error> {
-        prepare_on(source, asset, self.welded.clone(), Some(self))
+        prepare_on(source, asset, self.welded.clone(), Some(self), &Pick::default())
     }
 }
 
@@ -127,9 +157,14 @@ fn prepare_on(
     asset: &SourceAsset,
     welded: Arc<WeldedMesh>,
     previous: Option<&PreparedChart>,
+    pick: &Pick,
 ) -> Result<PreparedChart, Error> {
-    let (constraints, welded_corners) = source.resolve(&asset.primitives, &welded)?;
-    let chart_id = choose_chart(&constraints, &welded, source, asset)?;
+    let (all_constraints, welded_corners) = source.resolve(&asset.primitives, &welded)?;
+    let (chart_id, secondary) = choose_chart(&all_constraints, &welded, asset, pick)?;
+    let constraints: Vec<ResolvedConstraint> = all_constraints
+        .into_iter()
+        .filter(|c| welded.chart_of_vertex[c.welded as usize] == Some(chart_id))
+        .collect();
     let seams = source.seams(&asset.primitives, &welded)?;
     let landmarks: Vec<u32> = constraints.iter().map(|c| c.welded).collect();
     let budget = separation_budget(source, asset, &welded, chart_id, &constraints);
@@ -154,7 +189,7 @@ fn prepare_on(
     warnings.extend(repair_warnings(&opening));
     let cut = opening.seam.is_some() || !opening.separation.is_empty();
     let rest_share = rest_share(asset, &welded, &chart, &opening);
-    let domain = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints, (cut, rest_share))?;
+    let domain = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints, (cut, rest_share), pick)?;
     if corners.is_some() && matches!(domain, Domain::Free(_)) {
         warnings.push("corners are ignored: the boundary is free".into());
     }
@@ -170,6 +205,7 @@ fn prepare_on(
         domain,
         warnings,
         opening,
+        secondary,
     })
 }
 
@@ -291,44 +327,44 @@ fn repair_warnings(opening: &Opening) -> Vec<String> {
     out
 }
 
-/// The chart holding every constraint, or the largest chart without any.
+/// The chart `pick` names, or the one holding the most constraints (the
+/// first met on a tie), or the largest without any; and the other charts
+/// holding constraints, in the order their first constraint comes.
 fn choose_chart(
     constraints: &[ResolvedConstraint],
     welded: &WeldedMesh,
-    source: &ConstraintSource,
     asset: &SourceAsset,
-) -> Result<u32, Error> {
+    pick: &Pick,
+) -> Result<(u32, Vec<u32>), Error> {
     let chart_of =
         |c: &ResolvedConstraint| welded.chart_of_vertex[c.welded as usize].expect("resolved vertices are used");
-    let Some(first) = constraints.first() else {
-        let sizes = welded.chart_sizes();
-        let largest = (0..sizes.len()).max_by_key(|&c| (sizes[c].1, std::cmp::Reverse(c)));
-        return largest.map(|c| c as u32).ok_or_else(|| {
-            Error::Asset(crate::io::AssetError::MeshSelection {
-                path: asset.path.clone(),
-                message: "the mesh has no triangles".into(),
-            })
-        });
-    };
-    let id = chart_of(first);
-    match constraints.iter().find(|c| chart_of(c) != id) {
-        None => Ok(id),
-        Some(other) => Err(source.error_at(
-            other.index,
-            "vertex",
-            format!(
-                "vertex {} is in chart {} but constraints[{}] (vertex {}) is in chart {id}: all constraints must be in one chart \
-                 (the mesh has {} charts: connected pieces after welding equal positions{})",
-                other.vertex,
-                chart_of(other),
-                first.index,
-                first.vertex,
-                welded.n_charts,
-                if asset.primitives.iter().any(|p| p.uvs.is_some()) { " and UVs" } else { "" }
-            ),
-        )
-        .into()),
+    let mut holding: Vec<(u32, usize)> = Vec::new();
+    for c in constraints {
+        match holding.iter_mut().find(|(id, _)| *id == chart_of(c)) {
+            Some(entry) => entry.1 += 1,
+            None => holding.push((chart_of(c), 1)),
+        }
     }
+    let main = match (pick.chart, holding.iter().max_by_key(|(_, n)| *n)) {
+        (Some(id), _) => id,
+        (None, Some(&(id, n))) => holding.iter().find(|(_, m)| *m == n).map_or(id, |h| h.0),
+        (None, None) => {
+            let sizes = welded.chart_sizes();
+            let largest = (0..sizes.len()).max_by_key(|&c| (sizes[c].1, std::cmp::Reverse(c)));
+            return largest.map(|c| (c as u32, Vec::new())).ok_or_else(|| {
+                Error::Asset(crate::io::AssetError::MeshSelection {
+                    path: asset.path.clone(),
+                    message: "the mesh has no triangles".into(),
+                })
+            });
+        }
+    };
+    let secondary = if pick.chart.is_some() {
+        Vec::new()
+    } else {
+        holding.iter().map(|h| h.0).filter(|&id| id != main).collect()
+    };
+    Ok((main, secondary))
 }
 
 /// Chart `chart_id` of `welded` made solvable (repaired, cut open where it

@@ -62,6 +62,18 @@ pub struct Finished<'a> {
     /// The other charts that need UVs, laid out on their own, to be packed
     /// around this one (none in an atlas that keeps its other charts).
     pub rest: Option<&'a crate::atlas::Rest>,
+    /// The other charts holding constraints, solved after this one, each
+    /// clear of those before it.
+    pub secondary: &'a [Secondary],
+}
+
+/// A chart with constraints of its own, solved after the main one.
+#[derive(Debug, Clone)]
+pub struct Secondary {
+    /// The chart.
+    pub prepared: PreparedChart,
+    /// Its final layout (filled chart).
+    pub layout: Vec<DVec2>,
 }
 
 /// Checks the layout as stored, then writes every output `outputs` names
@@ -118,7 +130,8 @@ pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Pat
         return Staged::new();
     };
     let (asset, prepared) = (finished.asset, finished.prepared);
-    let parts = placed.parts(prepared, finished.layout);
+    let mut parts = placed.parts(prepared, finished.layout);
+    parts.extend(finished.secondary.iter().map(|s| s.prepared.part(&s.layout)));
     let uvs = StoredUvs {
         gltf: chart::assemble_corner_uvs(asset, &prepared.welded, &parts),
         obj_vt: (asset.format == crate::io::AssetFormat::Obj)
@@ -207,6 +220,14 @@ fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::
         .iter()
         .map(|t| t.map(|v| finished.layout[v as usize]))
         .collect();
+    for s in finished.secondary {
+        let g = &s.prepared.filled;
+        occupied.extend(
+            g.mesh.triangles[..g.n_real_triangles]
+                .iter()
+                .map(|t| t.map(|v| s.layout[v as usize])),
+        );
+    }
     if let Some(setup) = prepared.domain.free() {
         let o = &setup.obstacles;
         occupied.extend(o.triangles.iter().map(|t| t.map(|v| o.layout[v as usize])));

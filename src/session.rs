@@ -62,6 +62,9 @@ pub struct ChartSession {
     /// The other charts that need UVs, unwrapped on first export: depends
     /// on the geometry only (the packing around the chart is done anew).
     rest: Arc<std::sync::OnceLock<Arc<crate::atlas::Rest>>>,
+    /// The other charts holding constraints, solved by the last
+    /// [`Self::report`] around its layout, for [`Self::export`].
+    secondary: Arc<Vec<export::Secondary>>,
 }
 
 /// What a [`ChartSession::retarget`] kept of the session's earlier work.
@@ -128,6 +131,7 @@ impl ChartSession {
             times,
             revision: 0,
             rest: Arc::default(),
+            secondary: Arc::default(),
         })
     }
 
@@ -146,6 +150,7 @@ impl ChartSession {
             times: StageTimes::default(),
             revision: 0,
             rest: Arc::default(),
+            secondary: Arc::default(),
         }
     }
 
@@ -272,7 +277,7 @@ impl ChartSession {
     pub fn report(&mut self, solver: &ChartSolver) -> Report {
         let boundary = self.boundary.as_deref().expect("a started solver mapped the boundary");
         let step_one = self.step_one.as_deref().expect("a started solver solved step 1");
-        let report = report::build(&report::SolveSummary {
+        let mut report = report::build(&report::SolveSummary {
             constraint_file: self.source.name(),
             asset: &self.asset,
             prepared: &self.prepared,
@@ -284,7 +289,54 @@ impl ChartSession {
         if self.on_square() {
             self.last_layout = Some(Arc::new(solver.layout().to_vec()));
         }
+        if !self.prepared.secondary.is_empty() {
+            let (secondary, reports, failures) = self.solve_secondary(solver);
+            report.add_charts(reports, failures);
+            self.secondary = Arc::new(secondary);
+        }
         report
+    }
+
+    /// The other charts holding constraints, each solved free with its own
+    /// constraints, clear of this chart's layout in `solver` and of those
+    /// solved before it; their reports, and why any could not be solved.
+    fn solve_secondary(&self, solver: &ChartSolver) -> (Vec<export::Secondary>, Vec<Report>, Vec<String>) {
+        let triangles_of = |p: &PreparedChart, layout: &[DVec2]| -> Vec<[DVec2; 3]> {
+            let f = &p.filled;
+            f.mesh.triangles[..f.n_real_triangles]
+                .iter()
+                .map(|t| t.map(|v| layout[v as usize]))
+                .collect()
+        };
+        let mut placed = triangles_of(&self.prepared, solver.layout());
+        let mut replaced = vec![self.prepared.chart.id];
+        replaced.extend(&self.prepared.secondary);
+        let (mut solved, mut reports, mut failures) = (Vec::new(), Vec::new(), Vec::new());
+        for &id in &self.prepared.secondary {
+            let pick = chart::Pick {
+                chart: Some(id),
+                placed: Arc::new(placed.clone()),
+                replaced: replaced.clone(),
+            };
+            let outcome =
+                chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick).and_then(|p| {
+                    let mut session = ChartSession::from_prepared(self.source.clone(), self.asset.clone(), p);
+                    let solution = session.solve(solver.options())?;
+                    Ok((session.prepared, solution))
+                });
+            match outcome {
+                Ok((prepared, solution)) => {
+                    placed.extend(triangles_of(&prepared, solution.solver.layout()));
+                    reports.push(solution.report);
+                    solved.push(export::Secondary {
+                        layout: solution.solver.layout().to_vec(),
+                        prepared,
+                    });
+                }
+                Err(e) => failures.push(format!("chart {id}: {e}")),
+            }
+        }
+        (solved, reports, failures)
     }
 
     /// Solves the current constraints from start to end.
@@ -353,6 +405,7 @@ impl ChartSession {
             layout: solver.layout(),
             guard: solver.options().guard,
             rest: Some(rest),
+            secondary: &self.secondary,
         }
     }
 

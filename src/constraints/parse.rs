@@ -15,7 +15,7 @@ impl LoadedConstraints {
     /// # Errors
     /// Unreadable file; RON syntax errors and unknown or missing fields (with
     /// line:column); a constraint with both or neither of `vertex`/`near` or
-    /// `uv`/`px`; `px` without `image_size`; a target outside the unit square;
+    /// `uv`/`px`; `px` without `image_size`; a target that is not a finite point;
     /// one vertex given two different targets.
     pub fn load(path: &Path) -> Result<Self, ConstraintFileError> {
         Self::load_within(path, &SolverOptions::DEFAULT, &crate::io::InputRules::default())
@@ -233,14 +233,11 @@ impl LoadedConstraints {
             }
             let field = if c.uv.is_some() { "uv" } else { "px" };
             let t = self.target_uv(c);
-            if !(t.is_finite() && t.x >= 0.0 && t.x <= 1.0 && t.y >= 0.0 && t.y <= 1.0) {
+            if !t.is_finite() {
                 return Err(self.error_at(
                     i,
                     field,
-                    format!(
-                        "target ({}, {}) in texture coordinates is outside the unit square [0, 1] × [0, 1]",
-                        t.x, t.y
-                    ),
+                    format!("target ({}, {}) in texture coordinates is not a finite point", t.x, t.y),
                 ));
             }
         }

@@ -33,6 +33,7 @@ pub fn decide(
     chart: &Chart,
     constraints: &[ResolvedConstraint],
     (cut, rest_share): (bool, f64),
+    pick: &crate::chart::Pick,
 ) -> Result<Domain, Error> {
     let (choice, given) = source.boundary();
     let uvs = welded_uvs(asset, welded);
@@ -41,8 +42,25 @@ pub fn decide(
         .iter()
         .map(|&w| uvs[w as usize].map(|[u, v]| DVec2::new(u as f64, 1.0 - v as f64)))
         .collect();
+    let on_square = || {
+        for c in constraints {
+            let t = c.target_uv;
+            if !(t.x >= 0.0 && t.x <= 1.0 && t.y >= 0.0 && t.y <= 1.0) {
+                return Err(source.error_at(
+                    c.index,
+                    source.target_field(c.index),
+                    format!(
+                        "target ({}, {}) in texture coordinates is outside the unit square [0, 1] × [0, 1], where the \
+                         square boundary lays the chart out",
+                        t.x, t.y
+                    ),
+                ));
+            }
+        }
+        Ok(Domain::Square)
+    };
     let (region, source_kind) = match (choice, given) {
-        (Some(BoundaryChoice::Square), _) => return Ok(Domain::Square),
+        (Some(BoundaryChoice::Square), _) => return Ok(on_square()?),
         (_, Some(region)) => (region, RegionSource::Given),
         (Some(BoundaryChoice::Free), None) => (leave_room(constraints, rest_share), RegionSource::Texture),
         (None, None) => match &island {
@@ -51,7 +69,7 @@ pub fn decide(
             // that shares the texture with charts laid out beside it
             // cannot fill it: free in the texture.
             _ if cut || rest_share > 0.0 => (leave_room(constraints, rest_share), RegionSource::Texture),
-            _ => return Ok(Domain::Square),
+            _ => return Ok(on_square()?),
         },
     };
     if let Some(problem) = region.problem() {
@@ -72,7 +90,7 @@ pub fn decide(
             .into());
         }
     }
-    let obstacles = other_islands(welded, chart.id, &uvs, region);
+    let obstacles = other_islands(welded, chart.id, &uvs, region, pick);
     Ok(Domain::Free(Arc::new(FreeSetup {
         region,
         source: source_kind,
@@ -149,17 +167,33 @@ fn island_region(layout: &[DVec2], constraints: &[ResolvedConstraint]) -> Region
     region
 }
 
-/// Every other chart's triangles that have UVs, near `region`.
-fn other_islands(welded: &WeldedMesh, chart: u32, uvs: &[Option<[f32; 2]>], region: Region) -> Obstacles {
-    let stored: Vec<[f32; 2]> = uvs.iter().map(|u| u.unwrap_or([0.0, 0.0])).collect();
-    let triangles: Vec<[u32; 3]> = welded
+/// Every other chart's triangles that have UVs (but those `pick` says this
+/// solve replaces), and the triangles it has laid out already, near
+/// `region`.
+fn other_islands(
+    welded: &WeldedMesh,
+    chart: u32,
+    uvs: &[Option<[f32; 2]>],
+    region: Region,
+    pick: &crate::chart::Pick,
+) -> Obstacles {
+    let mut stored: Vec<[f32; 2]> = uvs.iter().map(|u| u.unwrap_or([0.0, 0.0])).collect();
+    let mut triangles: Vec<[u32; 3]> = welded
         .mesh
         .triangles
         .iter()
         .filter(|t| {
-            welded.chart_of_vertex[t[0] as usize] != Some(chart) && t.iter().all(|&v| uvs[v as usize].is_some())
+            let c = welded.chart_of_vertex[t[0] as usize];
+            c != Some(chart)
+                && !c.is_some_and(|c| pick.replaced.contains(&c))
+                && t.iter().all(|&v| uvs[v as usize].is_some())
         })
         .copied()
         .collect();
+    for t in pick.placed.iter() {
+        let first = stored.len() as u32;
+        stored.extend(t.iter().map(|&p| crate::guard::stored_uv(p)));
+        triangles.push([first, first + 1, first + 2]);
+    }
     Obstacles::new(&stored, &triangles, region)
 }

@@ -213,6 +213,7 @@ pub fn build(s: &SolveSummary) -> Report {
         free: free_report(s),
         seam: seam_report(p),
         rest: None,
+        charts: Vec::new(),
         warnings: warnings(s),
     }
 }

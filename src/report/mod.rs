@@ -310,6 +310,11 @@ pub struct Report {
     /// The other charts given UVs beside the solved one (`None`: none needed them).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rest: Option<RestReport>,
+    /// The other charts holding constraints, each solved after this one in
+    /// its own island: one report each (`status`, `max_residual` above
+    /// cover them all).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub charts: Vec<Report>,
     /// What the user should know that did not stop the solve.
     pub warnings: Vec<String>,
 }
@@ -393,6 +398,34 @@ pub struct FreeReport {
 }
 
 impl Report {
+    /// Adds the reports of the other charts solved with this one (and why
+    /// any could not be): the status is the worst of all, the residuals
+    /// the largest and mean over every constraint.
+    pub fn add_charts(&mut self, charts: Vec<Report>, failures: Vec<String>) {
+        let rank = |s: Status| match s {
+            Status::Reached => 0,
+            Status::Partial => 1,
+            Status::Error => 2,
+        };
+        let mut n = self.constraints.len() as f64;
+        let mut sum = self.mean_residual * n;
+        for c in &charts {
+            if rank(c.status) > rank(self.status) {
+                self.status = c.status;
+                self.message = c.message.as_ref().map(|m| format!("chart {}: {m}", c.counts.chart));
+            }
+            self.max_residual = self.max_residual.max(c.max_residual);
+            sum += c.mean_residual * c.constraints.len() as f64;
+            n += c.constraints.len() as f64;
+        }
+        self.mean_residual = if n > 0.0 { sum / n } else { 0.0 };
+        if let Some(f) = failures.first() {
+            self.status = Status::Error;
+            self.message = Some(f.clone());
+        }
+        self.charts = charts;
+    }
+
     /// A short human summary (a few lines).
     pub fn summary(&self) -> String {
         let mut s = format!(
@@ -421,6 +454,17 @@ impl Report {
             self.stretch_step1.linf,
             self.stretch_final.linf
         );
+        for c in &self.charts {
+            s += &format!(
+                "  and chart {}: {} of {} constraints reached (max residual {:.3e}); stretch L2 {:.4}, L∞ {:.4}\n",
+                c.counts.chart,
+                c.constraints.iter().filter(|k| k.reached).count(),
+                c.constraints.len(),
+                c.max_residual,
+                c.stretch_final.l2,
+                c.stretch_final.linf
+            );
+        }
         if let Some(seam) = &self.seam {
             s += &format!(
                 "  cut open ({} seam): {} edges, length {:.4} ({:.2} × √area), {} vertices split, {} cones, {} edges through handles\n",

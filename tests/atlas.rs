@@ -1,0 +1,267 @@
+//! Atlases as real assets have them: landmarks on several charts of one
+//! atlas, a new UV set laid out beside an atlas, and an OBJ atlas (its
+//! `vt`, polygons) whose other charts keep their texture coordinates bit
+//! for bit. Read back by the independent reader, and the Khronos validator.
+
+mod common;
+use common::*;
+use serde_json::Value;
+use std::path::Path;
+use uvpin::mesh::topology::Topology;
+use uvpin::mesh::weld::weld;
+
+/// Interior vertices of welded chart `chart` of `asset` (primitive 0 ids),
+/// `k` of them spread out, with targets that a fold-free layout reaches:
+/// their UVs drawn 3 % toward the chart's centre (the island shrunk about
+/// it is such a layout, inside the old one).
+fn shrunk_island_targets(asset: &uvpin::io::SourceAsset, chart: u32, k: usize) -> Vec<(u32, f64, f64)> {
+    let welded = weld(&asset.primitives);
+    let c = welded.chart(chart);
+    let topology = Topology::build(&c.mesh).expect("a disk chart");
+    let uvs = asset.primitives[0].uvs.as_ref().expect("an atlas");
+    let first: Vec<u32> = c
+        .welded_ids
+        .iter()
+        .map(|&w| welded.vertex_of[0].iter().position(|&x| x == w).unwrap() as u32)
+        .collect();
+    let on_boundary: Vec<bool> = (0..c.mesh.n_vertices() as u32)
+        .map(|v| topology.loops.iter().flatten().any(|&b| b == v))
+        .collect();
+    let interior: Vec<u32> = (0..c.mesh.n_vertices() as u32)
+        .filter(|&v| !on_boundary[v as usize])
+        .collect();
+    let centre = first.iter().fold([0.0, 0.0], |s, &v| {
+        let uv = uvs[v as usize];
+        [s[0] + uv[0] as f64, s[1] + uv[1] as f64]
+    });
+    let centre = [centre[0] / first.len() as f64, centre[1] / first.len() as f64];
+    (0..k)
+        .map(|i| {
+            let v = first[interior[i * interior.len() / k] as usize];
+            let uv = uvs[v as usize];
+            let t = |x: f32, c: f64| c + 0.97 * (x as f64 - c);
+            (v, t(uv[0], centre[0]), t(uv[1], centre[1]))
+        })
+        .collect()
+}
+
+fn assert_one_to_one_and_valid(out: &Path, uv_set: u32) {
+    for prim in python_uv_orientation(out, uv_set).as_array().unwrap() {
+        assert_eq!(
+            (prim["positive"].as_u64(), prim["zero"].as_u64()),
+            (Some(0), Some(0)),
+            "{prim}"
+        );
+    }
+    let inj = python_injectivity(out, uv_set);
+    assert_eq!(
+        (inj["crossings"].as_u64(), inj["overlapping_pairs"].as_u64()),
+        (Some(0), Some(0)),
+        "{inj}"
+    );
+    let v = &khronos_validate(&[out])[0];
+    assert_eq!(v["errors"], 0, "{v}");
+}
+
+/// The welded charts of `asset` that `corners` (per corner of primitive 0)
+/// belong to, per corner.
+fn chart_per_corner(asset: &uvpin::io::SourceAsset) -> Vec<u32> {
+    let welded = weld(&asset.primitives);
+    asset.primitives[0]
+        .indices
+        .iter()
+        .map(|&v| welded.chart_of_vertex[welded.vertex_of[0][v as usize] as usize].unwrap())
+        .collect()
+}
+
+fn landmarks_on_two_charts_of_an_atlas_are_solved_each_in_its_island() {
+    let duck = shared_mesh("Duck.glb");
+    let asset = uvpin::io::load_asset(&duck, None, 0, &Default::default()).unwrap();
+    let sizes = weld(&asset.primitives).chart_sizes();
+    let mut by_size: Vec<u32> = (0..sizes.len() as u32).collect();
+    by_size.sort_by_key(|&c| std::cmp::Reverse(sizes[c as usize].1));
+    let (a, b) = (by_size[0], by_size[1]);
+    let mut landmarks = shrunk_island_targets(&asset, a, 6);
+    landmarks.extend(shrunk_island_targets(&asset, b, 4));
+    let tmp = TempDir::new("atlas-two-charts");
+    let ron = tmp.path("duck.uvpin.ron");
+    write_constraints(&ron, &duck, &landmarks, "");
+    let out = tmp.path("duck.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stderr(&o), report["explain"]);
+    assert_eq!(report["status"], "reached");
+    assert!(report["max_residual"].as_f64().unwrap() < 1e-9);
+    assert_eq!(
+        report["charts"].as_array().map(Vec::len),
+        Some(1),
+        "one section for the second chart"
+    );
+    let solved: Vec<u64> = [
+        report["counts"]["chart"].as_u64().unwrap(),
+        report["charts"][0]["counts"]["chart"].as_u64().unwrap(),
+    ]
+    .to_vec();
+    assert!(
+        solved.contains(&(a as u64)) && solved.contains(&(b as u64)),
+        "{solved:?}"
+    );
+    // The Duck's own atlas folds these two charts (each half of the body
+    // mirrored onto the other) and overlaps mirrored pairs of the others:
+    // the two solved charts come out fold-free and clear of the rest.
+    let charts = chart_per_corner(&asset);
+    let orientation = python_uv_orientation(&out, 0)[0]["orientation"]
+        .as_array()
+        .unwrap()
+        .clone();
+    for (t, o) in orientation.iter().enumerate() {
+        if [a, b].contains(&charts[3 * t]) {
+            assert_eq!(o, -1, "triangle {t} of a solved chart");
+        }
+    }
+    let checked = uvpin(&["check", out.to_str().unwrap(), "--json"]);
+    let checked: Value = serde_json::from_slice(&checked.stdout).unwrap();
+    for c in checked["charts"].as_array().unwrap() {
+        let id = c["chart"].as_u64().unwrap() as u32;
+        if [a, b].contains(&id) {
+            assert_eq!(
+                (c["flipped"].as_u64(), c["crossings"].as_u64()),
+                (Some(0), Some(0)),
+                "{c}"
+            );
+            assert_eq!(c["overlaps"], serde_json::json!([]), "{c}");
+        }
+    }
+    let v = &khronos_validate(&[&out])[0];
+    assert_eq!(v["errors"], 0, "{v}");
+    // Every other chart keeps its UVs bit for bit, at every corner.
+    let (before, after) = (python_corner_values(&duck), python_corner_values(&out));
+    let (uv_in, uv_out) = (
+        before[0]["TEXCOORD_0"].as_array().unwrap(),
+        after[0]["TEXCOORD_0"].as_array().unwrap(),
+    );
+    for (k, &c) in charts.iter().enumerate() {
+        if c != a && c != b {
+            assert_eq!(uv_in[k], uv_out[k], "corner {k} of chart {c}");
+        }
+    }
+}
+
+fn a_new_uv_set_beside_an_atlas_lays_out_the_welded_mesh() {
+    let duck = shared_mesh("Duck.glb");
+    let asset = uvpin::io::load_asset(&duck, None, 1, &Default::default()).unwrap();
+    // The duck welded by position alone: a closed surface. Landmarks on
+    // its side, as a photo from the left places them.
+    let welded = weld(&asset.primitives);
+    let landmarks: Vec<(u32, f64, f64)> = [(0.3, 0.4), (0.6, 0.35), (0.45, 0.6), (0.7, 0.65)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(u, v))| {
+            let p = &asset.primitives[0].positions;
+            // Vertices spread along the body's length, on its +z side.
+            let x = -40.0 + 30.0 * i as f32;
+            let v_id = (0..p.len())
+                .filter(|&j| p[j][2] > 20.0)
+                .min_by(|&m, &n| (p[m][0] - x).abs().total_cmp(&(p[n][0] - x).abs()))
+                .unwrap();
+            let _ = &welded;
+            (v_id as u32, u, v)
+        })
+        .collect();
+    let tmp = TempDir::new("atlas-new-set");
+    let ron = tmp.path("duck.uvpin.ron");
+    write_constraints(&ron, &duck, &landmarks, "    uv_set: 1,\n");
+    let out = tmp.path("duck.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stderr(&o), report["explain"]);
+    assert_eq!(report["status"], "reached");
+    assert_one_to_one_and_valid(&out, 1);
+    let (before, after) = (python_corner_values(&duck), python_corner_values(&out));
+    for (attribute, values) in before[0].as_object().unwrap() {
+        assert_eq!(&after[0][attribute], values, "{attribute} per corner, set 0 untouched");
+    }
+}
+
+/// Per face corner of an OBJ file: its `v` index and its `vt` as stored
+/// (f32 bits of u and v), faces in order, with their corner counts.
+fn obj_corners(path: &Path) -> Vec<Vec<(usize, [u32; 2])>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let (mut n_v, mut vt, mut faces) = (0usize, Vec::<[u32; 2]>::new(), Vec::new());
+    for line in text.lines() {
+        let mut parts = line.split_whitespace();
+        match parts.next() {
+            Some("v") => n_v += 1,
+            Some("vt") => vt.push([0, 1].map(|_| parts.next().unwrap().parse::<f32>().unwrap().to_bits())),
+            Some("f") => faces.push(
+                parts
+                    .map(|c| {
+                        let mut f = c.split('/');
+                        let v: usize = f.next().unwrap().parse().unwrap();
+                        let t: usize = f.next().unwrap().parse().unwrap();
+                        (v - 1, vt[t - 1])
+                    })
+                    .collect(),
+            ),
+            _ => {}
+        }
+    }
+    let _ = n_v;
+    faces
+}
+
+fn an_obj_atlas_keeps_its_other_charts_bit_for_bit_and_its_polygons() {
+    let beast = shared_mesh("beast.obj");
+    let asset = uvpin::io::load_asset(&beast, None, 0, &Default::default()).unwrap();
+    // The largest chart the asset's own atlas lays out cleanly (some of its
+    // charts fold or overlap others, and leave no room to move in).
+    let checked = uvpin(&["check", beast.to_str().unwrap(), "--json"]);
+    let checked: Value = serde_json::from_slice(&checked.stdout).unwrap();
+    let clean = checked["charts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["flipped"] == 0 && c["zero_area"] == 0 && c["overlaps"] == serde_json::json!([]))
+        .max_by_key(|c| c["triangles"].as_u64())
+        .expect("a clean chart");
+    let chart = clean["chart"].as_u64().unwrap() as u32;
+    let landmarks = shrunk_island_targets(&asset, chart, 8);
+    let tmp = TempDir::new("atlas-obj");
+    let ron = tmp.path("beast.uvpin.ron");
+    write_constraints(&ron, &beast, &landmarks, "");
+    let out = tmp.path("beast.obj");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stderr(&o), report["explain"]);
+    assert_eq!(report["status"], "reached");
+    let (before, after) = (obj_corners(&beast), obj_corners(&out));
+    assert_eq!(before.len(), after.len(), "the same faces");
+    let (mut kept, mut moved) = (0, 0);
+    for (f, (b, a)) in before.iter().zip(&after).enumerate() {
+        assert_eq!(b.len(), a.len(), "face {f} keeps its corners");
+        assert!(b.iter().zip(a).all(|(x, y)| x.0 == y.0), "face {f} keeps its v");
+        if b == a {
+            kept += 1;
+        } else {
+            moved += 1;
+        }
+    }
+    assert!(moved > 0 && kept > 0, "{moved} faces moved, {kept} kept");
+}
+
+fn main() -> std::process::ExitCode {
+    run_cases(&[
+        (
+            "landmarks_on_two_charts_of_an_atlas_are_solved_each_in_its_island",
+            &[Needs::SharedMeshes, Needs::Validator],
+            landmarks_on_two_charts_of_an_atlas_are_solved_each_in_its_island,
+        ),
+        (
+            "a_new_uv_set_beside_an_atlas_lays_out_the_welded_mesh",
+            &[Needs::SharedMeshes, Needs::Validator],
+            a_new_uv_set_beside_an_atlas_lays_out_the_welded_mesh,
+        ),
+        (
+            "an_obj_atlas_keeps_its_other_charts_bit_for_bit_and_its_polygons",
+            &[Needs::SharedMeshes],
+            an_obj_atlas_keeps_its_other_charts_bit_for_bit_and_its_polygons,
+        ),
+    ])
+}
