@@ -5,7 +5,7 @@
 //! package (`uvpin/__init__.py`) shapes them into its `Result` and dicts.
 
 use numpy::ndarray::{Array2, ArrayView2};
-use numpy::{IntoPyArray, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -159,8 +159,9 @@ fn pins_of(
     Ok(pins)
 }
 
-/// Solves an in-memory mesh; returns the UVs (n, 2), or None when nothing
-/// could be laid out, and the report as JSON.
+/// Solves an in-memory mesh; returns the UVs per vertex (n, 2) and per
+/// face corner (m, 3, 2), or None when nothing could be laid out, and the
+/// report as JSON.
 #[pyfunction]
 #[pyo3(signature = (vertices, faces, pin_ids, pin_targets, uvs=None, boundary="auto", region=None, corners=None, options=None))]
 #[allow(clippy::too_many_arguments)]
@@ -175,7 +176,7 @@ fn solve_mesh<'py>(
     region: Option<[f64; 4]>,
     corners: Option<[i64; 4]>,
     options: Option<&str>,
-) -> PyResult<(Option<Bound<'py, PyArray2<f64>>>, String)> {
+) -> PyResult<(Option<Bound<'py, PyArray2<f64>>>, Option<Bound<'py, PyArray3<f64>>>, String)> {
     let mesh = mesh_of(&vertices, &faces)?;
     let n = mesh.n_vertices();
     let pins = pins_of(&pin_ids, &pin_targets, n, boundary, region, corners)?;
@@ -188,13 +189,20 @@ fn solve_mesh<'py>(
         })
         .map_err(uvpin_error)?;
     let report = serde_json::to_string(&solved.report).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-    let layout = (solved.report.status != uvpin::Status::Error).then(|| {
+    let laid_out = solved.report.status != uvpin::Status::Error;
+    let layout = laid_out.then(|| {
         let flat: Vec<f64> = solved.uvs.iter().flat_map(|uv| [uv[0] as f64, uv[1] as f64]).collect();
         Array2::from_shape_vec((n, 2), flat)
             .expect("one uv per vertex")
             .into_pyarray(py)
     });
-    Ok((layout, report))
+    let corners = (laid_out && solved.corner_uvs.len() == 3 * mesh.n_triangles()).then(|| {
+        let flat: Vec<f64> = solved.corner_uvs.iter().flat_map(|uv| [uv[0] as f64, uv[1] as f64]).collect();
+        numpy::ndarray::Array3::from_shape_vec((mesh.n_triangles(), 3, 2), flat)
+            .expect("one uv per corner")
+            .into_pyarray(py)
+    });
+    Ok((layout, corners, report))
 }
 
 /// Solves a constraint file and writes `output` and `report` (all or none);

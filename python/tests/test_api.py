@@ -15,7 +15,10 @@ TOLERANCE = 1e-6
 
 
 def assert_clean(vertices, faces, uv):
-    """Fold-free and one-to-one, as uvpin's own check reads the UVs."""
+    """Fold-free and one-to-one, as uvpin's own check reads the UVs (per
+    vertex, or per face corner: each corner its own vertex)."""
+    if uv.ndim == 3:
+        vertices, faces, uv = vertices[faces].reshape(-1, 3), np.arange(3 * len(faces)).reshape(-1, 3), uv.reshape(-1, 2)
     checked = uvpin.check(vertices, faces, uv)
     assert checked["clean"], checked
     assert all(c["flipped"] == 0 and c["zero_area"] == 0 for c in checked["charts"])
@@ -85,12 +88,19 @@ def test_shared_meshes_reach_targets_of_a_warped_fold_free_layout(name):
     mesh = uvpin.read_mesh(shared_mesh(name))
     free = uvpin.solve(mesh.vertices, mesh.faces, {}, boundary="free")
     assert free.status == "reached"
-    # Targets: the free layout under a gentle smooth warp (a fold-free witness).
+    # Targets: the free layout under a gentle smooth warp (a fold-free
+    # witness), at vertices off any seam (one UV each).
+    corners = free.corner_uv.reshape(-1, 2)
+    flat = mesh.faces.reshape(-1)
+    per_vertex = np.full((len(mesh.vertices), 2), np.nan)
+    per_vertex[flat] = corners
+    on_seam = np.zeros(len(mesh.vertices), dtype=bool)
+    on_seam[flat[np.any(per_vertex[flat] != corners, axis=1)]] = True
     rng = np.random.default_rng(len(name))
-    used = np.unique(mesh.faces)
+    used = np.setdiff1d(np.unique(mesh.faces), np.flatnonzero(on_seam))
     picks = rng.choice(used, size=12, replace=False)
-    centre = free.uv[used].mean(axis=0)
-    warped = centre + (free.uv[picks] - centre) * 0.9 + 0.02 * np.sin(3 * free.uv[picks][:, ::-1])
+    centre = per_vertex[used].mean(axis=0)
+    warped = centre + (per_vertex[picks] - centre) * 0.9 + 0.02 * np.sin(3 * per_vertex[picks][:, ::-1])
     result = uvpin.solve(mesh.vertices, mesh.faces, (picks, np.clip(warped, 0, 1)), boundary="free")
     assert result.status in ("reached", "partial")
     if result.status == "reached":
@@ -185,3 +195,37 @@ def test_the_gil_is_released_while_a_solve_runs():
     assert result["r"].status == "reached"
     # A solve holding the GIL would leave this thread a handful of switches.
     assert ticks > 10_000, ticks
+
+
+def test_a_closed_mesh_is_cut_open_and_its_uvs_come_per_corner():
+    # A closed octahedron-like sphere: latitude rings and two poles.
+    n_lat, n_lon = 10, 16
+    verts = [[0.0, 0.0, 1.0]]
+    for i in range(1, n_lat):
+        t = np.pi * i / n_lat
+        for j in range(n_lon):
+            p = 2 * np.pi * j / n_lon
+            verts.append([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])
+    verts.append([0.0, 0.0, -1.0])
+    ring = lambda i, j: 1 + (i - 1) * n_lon + j % n_lon  # noqa: E731
+    faces = [[0, ring(1, j), ring(1, j + 1)] for j in range(n_lon)]
+    faces += [[ring(n_lat - 1, j), len(verts) - 1, ring(n_lat - 1, j + 1)] for j in range(n_lon)]
+    for i in range(1, n_lat - 1):
+        for j in range(n_lon):
+            a, b, c, d = ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j)
+            faces += [[a, d, c], [a, c, b]]
+    v, f = np.array(verts), np.array(faces)
+    front = [i for i in range(len(v)) if v[i, 1] < -0.6][:6]
+    pins = {i: (0.5 + 0.3 * v[i, 0], 0.5 - 0.3 * v[i, 2]) for i in front}
+    result = uvpin.solve(v, f, pins)
+    assert result.status == "reached", result.report.get("message")
+    assert result.uv.shape == (len(f), 3, 2), "a seam: UVs per corner"
+    assert result.report["seam"]["n_edges"] > 0
+    assert result.corner_uv.shape == (len(f), 3, 2)
+    for fi, tri in enumerate(f):
+        for k, vertex in enumerate(tri):
+            if vertex in pins:
+                assert tuple(result.corner_uv[fi, k]) == pytest.approx(pins[vertex], abs=1e-6)
+    a, b, c = (result.corner_uv[:, k, :] for k in range(3))
+    cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    assert np.all(cross < 0), "every triangle keeps its orientation (v down)"

@@ -43,8 +43,11 @@ _BOUNDARIES = ("auto", "square", "free")
 class Result:
     """A solved mesh.
 
-    ``uv``: (n, 2) float64 texture coordinates, one per vertex of the input
+    ``uv``: (n, 2) float64 texture coordinates, one per vertex of the input,
+    or, when the mesh was cut open along seams (a closed mesh, a vertex with
+    one UV per side of a seam), (m, 3, 2): one per corner of each face
     (``None`` when the status is ``"error"``: nothing could be laid out).
+    ``corner_uv``: (m, 3, 2) per face corner, always (or ``None``).
     ``status``: ``"reached"`` (every pin on its target), ``"partial"``
     (fold-free, some pins short: see ``report["constraints"]``) or ``"error"``.
     ``report``: the JSON report as a dict (as ``uvpin solve --report``).
@@ -55,6 +58,7 @@ class Result:
     status: str
     report: dict[str, Any] = field(repr=False)
     residuals: np.ndarray = field(repr=False)
+    corner_uv: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def reached(self) -> bool:
@@ -148,12 +152,14 @@ def solve(
         if len(corners) != 4:
             raise InputError(f"corners must be 4 vertex ids, not {len(corners)}")
     opts = None if options is None else json.dumps(dict(options))
-    uv, report_json = _native.solve_mesh(v, f, ids, targets, u, boundary, region, corners, opts)
+    uv, corner_uv, report_json = _native.solve_mesh(v, f, ids, targets, u, boundary, region, corners, opts)
     report = json.loads(report_json)
+    if uv is not None and corner_uv is not None and not np.array_equal(uv[f], corner_uv):
+        uv = corner_uv
     residuals = np.full(len(ids), np.nan)
     for c in report.get("constraints", []):
         residuals[c["index"]] = c["residual"]
-    return Result(uv=uv, status=report["status"], report=report, residuals=residuals)
+    return Result(uv=uv, status=report["status"], report=report, residuals=residuals, corner_uv=corner_uv)
 
 
 def solve_file(
