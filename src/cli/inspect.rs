@@ -34,6 +34,71 @@ pub fn run(asset: &Path, request: &InspectRequest, json: bool) -> Result<u8, cra
     Ok(0)
 }
 
+/// `uvpin inspect --seams`: where the constraint file's solve would cut its
+/// asset open, printed (and drawn to `preview`).
+///
+/// # Errors
+/// The constraint file's or asset's errors, a chart that cannot be opened,
+/// a picture that cannot be written.
+pub fn seams(constraints: &Path, preview: Option<&Path>, json: bool) -> Result<(), crate::Error> {
+    let (loaded, asset) = crate::api::load(
+        constraints,
+        &crate::options::SolverOptions::DEFAULT,
+        &Default::default(),
+    )?;
+    let source = crate::constraints::ConstraintSource::File(std::sync::Arc::new(loaded));
+    let session = crate::session::ChartSession::open(source, std::sync::Arc::new(asset), 0.0)?;
+    let p = session.prepared();
+    let cut = crate::report::seam_of(p);
+    let rest = crate::atlas::rest_charts(session.asset(), p);
+    if json {
+        let value = serde_json::json!({ "chart": p.chart.id, "seam": cut, "laid_out_apart": rest.len(), "secondary": p.secondary });
+        super::print_out(&serde_json::to_string_pretty(&value).expect("serialises"));
+    } else {
+        let mut out = format!("{}: chart {}\n", constraints.display(), p.chart.id);
+        match &cut {
+            None => out += "  a disk already: no seam\n",
+            Some(s) => {
+                writeln!(out, "  {} seam: {} edges, length {:.4} ({:.2} × √area), {} cones, {} edges through handles, {} edges around the landmarks' chart", s.source, s.n_edges, s.length, s.relative_length, s.cones, s.handle_edges, s.separation_edges).expect("string");
+                let edges: Vec<String> = s.edges.iter().map(|e| format!("{}-{}", id(e[0]), id(e[1]))).collect();
+                writeln!(out, "  edges (vertex ids): {}", edges.join(" ")).expect("string");
+            }
+        }
+        writeln!(
+            out,
+            "  {} other charts laid out apart and packed; {} other charts with landmarks",
+            rest.len(),
+            p.secondary.len()
+        )
+        .expect("string");
+        super::print_out(out.trim_end());
+    }
+    if let Some(path) = preview {
+        let title = format!(
+            "{}: where uvpin cuts",
+            constraints
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        );
+        let image = crate::preview::draw_seams(p, &title, 640);
+        let png = crate::preview::render::encode_png(&image).map_err(|e| crate::Error::Internal(e.to_string()))?;
+        let mut staged = crate::io::atomic::Staged::new();
+        staged.add(path, png);
+        staged.commit().map_err(|e| {
+            crate::Error::Asset(crate::io::AssetError::Write {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })
+        })?;
+    }
+    Ok(())
+}
+
+fn id(v: Option<u32>) -> String {
+    v.map_or_else(|| "?".into(), |v| v.to_string())
+}
+
 fn text(i: &Inspection) -> String {
     let mut out = format!("{}\n", i.asset);
     for m in &i.meshes {

@@ -129,6 +129,13 @@ pub enum Command {
         /// UV set to report (TEXCOORD_N).
         #[arg(long, default_value_t = 0)]
         uv_set: u32,
+        /// Where this constraint file's solve would cut the mesh open (its
+        /// landmarks, `seams` and boundary; the file's asset is this one).
+        #[arg(long, value_name = "FILE.uvpin.ron")]
+        seams: Option<PathBuf>,
+        /// With --seams: draw the cut, from the front and from behind (PNG).
+        #[arg(long, value_name = "PNG", requires = "seams")]
+        preview: Option<PathBuf>,
         /// Print JSON.
         #[arg(long)]
         json: bool,
@@ -246,12 +253,22 @@ pub fn main() -> ExitCode {
         Command::Watch(args) => watch(args),
         Command::Edit(args) => edit::run(args),
         Command::Inspect {
+            seams: Some(constraints),
+            preview,
+            json,
+            ..
+        } => match inspect::seams(&constraints, preview.as_deref(), json) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => fail(&e),
+        },
+        Command::Inspect {
             asset,
             near,
             boundary,
             mesh,
             uv_set,
             json,
+            ..
         } => {
             let request = crate::inspect::InspectRequest {
                 mesh: mesh.as_deref().map(check::mesh_selector),

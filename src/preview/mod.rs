@@ -132,6 +132,8 @@ pub fn render_chart(
             uvs: &uvs[..filled.n_real_vertices],
             texture: texture.as_deref(),
             marks: &marks,
+            lines: &[],
+            view: None,
         };
         let image = render::render_captioned(&scene, size, &caption);
         let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
@@ -139,6 +141,65 @@ pub fn render_chart(
     }
     Ok(out)
 }
+
+/// Where `prepared`'s chart is cut open, drawn from the front (facing the
+/// landmarks) and from behind, side by side: the seams in red over the
+/// grey mesh, the landmarks numbered. `size` is each view's side.
+pub fn draw_seams(prepared: &crate::chart::PreparedChart, title: &str, size: u32) -> RgbaImageOut {
+    let size = size.clamp(64, MAX_SIZE / 2);
+    let mesh = &prepared.chart.mesh;
+    let mut lines: Vec<[u32; 2]> = prepared.opening.seam.as_ref().map_or(Vec::new(), |s| s.edges.clone());
+    lines.extend(
+        prepared
+            .opening
+            .separation
+            .iter()
+            .filter_map(|e| Some([prepared.chart.local_of(e[0])?, prepared.chart.local_of(e[1])?])),
+    );
+    let normals = crate::cut::cost::vertex_normals(mesh);
+    let facing = prepared
+        .constraint_vertices
+        .iter()
+        .map(|&v| normals[v as usize])
+        .sum::<glam::DVec3>()
+        .try_normalize()
+        .unwrap_or(glam::DVec3::NEG_Z);
+    let grey = vec![DVec2::splat(0.25); mesh.n_vertices()];
+    let marks: Vec<render::RenderMark> = prepared
+        .constraints
+        .iter()
+        .zip(&prepared.constraint_vertices)
+        .map(|(c, &vertex)| render::RenderMark {
+            vertex,
+            number: c.index + 1,
+            reached: true,
+        })
+        .collect();
+    let caption = caption::Caption {
+        lines: vec![
+            title.to_string(),
+            format!("front (landmarks) | back; {} seam edges in red", lines.len()),
+        ],
+    };
+    let mut out = image::RgbaImage::from_pixel(2 * size, size, image::Rgba([255, 255, 255, 255]));
+    for (k, forward) in [-facing, facing].into_iter().enumerate() {
+        let scene = render::RenderScene {
+            positions: &mesh.positions,
+            triangles: &mesh.triangles,
+            uvs: &grey,
+            texture: None,
+            marks: &marks,
+            lines: &lines,
+            view: Some(forward),
+        };
+        let panel = render::render_captioned(&scene, size, &caption);
+        image::imageops::overlay(&mut out, &panel, i64::from(k as u32 * size), 0);
+    }
+    out
+}
+
+/// A picture, in memory.
+pub type RgbaImageOut = image::RgbaImage;
 
 /// The image under the pictures: `pictures.background` when it can be read
 /// (and its file name, for the title), else the material's texture.

@@ -31,6 +31,12 @@ pub struct RenderScene<'a> {
     pub uvs: &'a [DVec2],
     pub texture: Option<&'a RgbaImage>,
     pub marks: &'a [RenderMark],
+    /// Edges drawn over the mesh where they are in view (seams), as
+    /// vertex pairs.
+    pub lines: &'a [[u32; 2]],
+    /// The direction the view looks along (default: against the mesh's
+    /// mean normal).
+    pub view: Option<DVec3>,
 }
 
 /// Renders `triangles` of `positions` with texture coordinates `uvs` (glTF,
@@ -48,6 +54,8 @@ pub fn render_mesh(
         uvs,
         texture,
         marks: &[],
+        lines: &[],
+        view: None,
     };
     rasterise(&scene, size, (0.0, 0.0)).0
 }
@@ -117,7 +125,10 @@ fn rasterise(scene: &RenderScene, size: u32, bands: (f64, f64)) -> (RgbaImage, V
     if triangles.is_empty() || size == 0 {
         return (image, Vec::new());
     }
-    let (right, up, forward) = view_basis(positions, triangles);
+    let (right, up, forward) = match scene.view {
+        Some(v) => basis_along(v),
+        None => view_basis(positions, triangles),
+    };
     let project = |p: DVec3| DVec3::new(p.dot(right), p.dot(up), p.dot(forward));
     let projected: Vec<DVec3> = positions.iter().map(|&p| project(p)).collect();
     let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
@@ -148,6 +159,10 @@ fn rasterise(scene: &RenderScene, size: u32, bands: (f64, f64)) -> (RgbaImage, V
         fill_triangle(&mut image, &mut depth, scene, *t, corners, forward);
     }
     let tolerance = 1e-3 * (hi - lo).length().max(1e-12) + 2.0 / scale;
+    for line in scene.lines {
+        let [a, b] = line.map(|v| screen(projected[v as usize]));
+        draw_line(&mut image, &depth, a, b, tolerance);
+    }
     let marks = scene
         .marks
         .iter()
@@ -217,6 +232,37 @@ fn fill_triangle(
             image.put_pixel(x, y, Rgba([shaded[0], shaded[1], shaded[2], 255]));
         }
     }
+}
+
+/// A seam's colour.
+const LINE_COLOUR: Rgba<u8> = Rgba([220, 20, 60, 255]);
+
+/// Draws the segment `a`–`b` (screen x, y, depth) three pixels wide where
+/// it is not behind the mesh.
+fn draw_line(image: &mut RgbaImage, depth: &[f64], a: DVec3, b: DVec3, tolerance: f64) {
+    let size = image.width() as i64;
+    let steps = ((b - a).truncate().length().ceil() as usize).max(1);
+    for k in 0..=steps {
+        let p = a.lerp(b, k as f64 / steps as f64);
+        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (-1, 0), (0, -1)] {
+            let (x, y) = (p.x.floor() as i64 + dx, p.y.floor() as i64 + dy);
+            if x < 0 || y < 0 || x >= size || y >= size {
+                continue;
+            }
+            if p.z <= depth[(y * size + x) as usize] + tolerance {
+                image.put_pixel(x as u32, y as u32, LINE_COLOUR);
+            }
+        }
+    }
+}
+
+/// The view looking along `forward`: right, up and forward unit vectors,
+/// up from the world's +Y (or +Z when looking nearly along Y).
+fn basis_along(forward: DVec3) -> (DVec3, DVec3, DVec3) {
+    let forward = forward.normalize_or(DVec3::NEG_Z);
+    let world_up = if forward.y.abs() > 0.9 { DVec3::Z } else { DVec3::Y };
+    let right = forward.cross(world_up).normalize();
+    (right, right.cross(forward).normalize(), forward)
 }
 
 /// The view: right, up and forward (into the screen) unit vectors. Forward

@@ -211,7 +211,7 @@ pub fn build(s: &SolveSummary) -> Report {
             BoundaryMode::Square
         },
         free: free_report(s),
-        seam: seam_report(p),
+        seam: seam_of(p),
         rest: None,
         charts: Vec::new(),
         warnings: warnings(s),
@@ -219,7 +219,7 @@ pub fn build(s: &SolveSummary) -> Report {
 }
 
 /// Where the chart was cut, in the asset's vertex ids.
-fn seam_report(p: &PreparedChart) -> Option<crate::report::SeamReport> {
+pub fn seam_of(p: &PreparedChart) -> Option<crate::report::SeamReport> {
     let none = crate::cut::Seam::default();
     let seam = match (&p.opening.seam, p.opening.separation.is_empty()) {
         (Some(seam), _) => seam,

@@ -7,8 +7,8 @@ mod build;
 mod explain;
 mod summary;
 
-pub use build::build;
 pub(crate) use build::vertex_namer;
+pub use build::{build, seam_of};
 pub use summary::SolveSummary;
 
 use crate::guard::OrientationCounts;
