@@ -176,7 +176,11 @@ fn solve_mesh<'py>(
     region: Option<[f64; 4]>,
     corners: Option<[i64; 4]>,
     options: Option<&str>,
-) -> PyResult<(Option<Bound<'py, PyArray2<f64>>>, Option<Bound<'py, PyArray3<f64>>>, String)> {
+) -> PyResult<(
+    Option<Bound<'py, PyArray2<f64>>>,
+    Option<Bound<'py, PyArray3<f64>>>,
+    String,
+)> {
     let mesh = mesh_of(&vertices, &faces)?;
     let n = mesh.n_vertices();
     let pins = pins_of(&pin_ids, &pin_targets, n, boundary, region, corners)?;
@@ -197,7 +201,11 @@ fn solve_mesh<'py>(
             .into_pyarray(py)
     });
     let corners = (laid_out && solved.corner_uvs.len() == 3 * mesh.n_triangles()).then(|| {
-        let flat: Vec<f64> = solved.corner_uvs.iter().flat_map(|uv| [uv[0] as f64, uv[1] as f64]).collect();
+        let flat: Vec<f64> = solved
+            .corner_uvs
+            .iter()
+            .flat_map(|uv| [uv[0] as f64, uv[1] as f64])
+            .collect();
         numpy::ndarray::Array3::from_shape_vec((mesh.n_triangles(), 3, 2), flat)
             .expect("one uv per corner")
             .into_pyarray(py)
