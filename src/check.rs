@@ -134,6 +134,19 @@ pub fn check_file(
     Ok(check_welded(&stored, &welded, uv_set, residuals, tolerance))
 }
 
+/// Checks an in-memory mesh's texture coordinates, one per vertex (glTF
+/// convention, v down) as [`check_stored`] does a file's.
+pub fn check_mesh(mesh: &crate::mesh::TriMesh, uvs: &[[f32; 2]]) -> CheckReport {
+    let mut asset = crate::io::SourceAsset::from_mesh(mesh);
+    asset.primitives[0].uvs = Some(uvs.to_vec());
+    let stored = StoredAsset {
+        asset,
+        uvs: vec![uvs.to_vec()],
+        axis: crate::guard::VAxis::Down,
+    };
+    check_stored(&stored, 0)
+}
+
 /// Checks UVs held in memory (no constraints): the charts and the atlas.
 pub fn check_stored(stored: &StoredAsset, uv_set: u32) -> CheckReport {
     let welded = weld(&stored.asset.primitives);

@@ -225,7 +225,15 @@ fn solve_closed(name: &str, mesh: &TriMesh, k: usize, span: f64) -> Value {
     let out = tmp.path("out.glb");
     // Where it would cut, printed and drawn before any solve.
     let preview = tmp.path("seams.png");
-    let shown = uvpin(&["inspect", asset.to_str().unwrap(), "--seams", ron.to_str().unwrap(), "--preview", preview.to_str().unwrap(), "--json"]);
+    let shown = uvpin(&[
+        "inspect",
+        asset.to_str().unwrap(),
+        "--seams",
+        ron.to_str().unwrap(),
+        "--preview",
+        preview.to_str().unwrap(),
+        "--json",
+    ]);
     assert_eq!(shown.status.code(), Some(0), "{name}: {}", stderr(&shown));
     let shown: Value = serde_json::from_slice(&shown.stdout).unwrap();
     assert!(shown["seam"].is_object(), "{name}: {shown}");
@@ -233,7 +241,10 @@ fn solve_closed(name: &str, mesh: &TriMesh, k: usize, span: f64) -> Value {
     assert!(png.starts_with(b"\x89PNG"), "{name}: a picture");
     let (o, report) = solve_json(&ron, &out);
     assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
-    assert_eq!(report["seam"]["n_edges"], shown["seam"]["n_edges"], "{name}: the solve cuts where inspect said");
+    assert_eq!(
+        report["seam"]["n_edges"], shown["seam"]["n_edges"],
+        "{name}: the solve cuts where inspect said"
+    );
     assert_eq!(report["status"], "reached", "{name}");
     assert!(
         report["max_residual"].as_f64().unwrap() < 1e-9,

@@ -129,3 +129,89 @@ fn fewer_than_three_constraints_are_handled() {
         assert_eq!(report.status, Status::Reached, "{k} constraints: {:?}", report.message);
     }
 }
+
+/// A random closed surface: a bumpy sphere, a bumpy torus or a holed
+/// plate of genus 1 or 2, at a random resolution.
+fn random_closed(rng: &mut Rng) -> uvpin::mesh::TriMesh {
+    let mut mesh = match rng.below(4) {
+        0 | 1 => uvpin::testing::uv_sphere(6 + rng.below(10), 8 + rng.below(14)),
+        2 => uvpin::testing::torus(12 + rng.below(16), 6 + rng.below(8), 1.0, rng.range(0.2, 0.5)),
+        _ => uvpin::testing::holed_plate(6 + rng.below(6), 1 + rng.below(2)),
+    };
+    let (a, b, c) = (rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), rng.range(1.0, 4.0));
+    for p in &mut mesh.positions {
+        let bump = 1.0 + a * (c * p.x).sin() + b * (c * p.y).cos() * p.z;
+        *p *= bump.max(0.3);
+    }
+    mesh
+}
+
+/// Every triangle of `corner_uvs` (per triangle corner, glTF (u, v))
+/// keeps its orientation, and the layout is one-to-one: uvpin's check of
+/// the triangles exploded into corners (each its own vertex).
+fn assert_fold_free_and_one_to_one(name: &str, mesh: &uvpin::mesh::TriMesh, corner_uvs: &[[f32; 2]]) {
+    let exploded = uvpin::mesh::TriMesh {
+        positions: mesh
+            .triangles
+            .iter()
+            .flatten()
+            .map(|&v| mesh.positions[v as usize])
+            .collect(),
+        triangles: (0..mesh.n_triangles() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect(),
+    };
+    let counts = uvpin::guard::count_uv_orientations(corner_uvs, &exploded.triangles);
+    assert!(counts.is_clean(), "{name}: {counts:?}");
+    let checked = uvpin::check::check_mesh(&exploded, corner_uvs);
+    assert!(checked.atlas.injective, "{name}: {:?}", checked.atlas);
+}
+
+#[test]
+fn random_closed_meshes_and_random_landmarks_never_write_a_fold_or_an_overlap() {
+    let cases: u64 = std::env::var("UVPIN_PROPERTY_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(40);
+    let (mut reached, mut partial, mut refused) = (0, 0, 0);
+    for case in 0..cases {
+        let mut rng = Rng::new(9_000 + case);
+        let mesh = random_closed(&mut rng);
+        let k = 1 + rng.below(8);
+        let mut pins = Vec::new();
+        while pins.len() < k {
+            let v = rng.below(mesh.n_vertices()) as u32;
+            if pins.iter().all(|(w, _)| *w != v) {
+                pins.push((v, DVec2::new(rng.range(0.1, 0.9), rng.range(0.1, 0.9))));
+            }
+        }
+        let name = format!("case {case} ({} vertices, {k} pins)", mesh.n_vertices());
+        let solved = match uvpin::solve_mesh(&mesh, &uvpin::Pins::new(&pins), &SolverOptions::DEFAULT.into()) {
+            Ok(s) => s,
+            // Bad input is refused by name; nothing to check.
+            Err(_) => {
+                refused += 1;
+                continue;
+            }
+        };
+        match solved.report.status {
+            Status::Reached => reached += 1,
+            Status::Partial => partial += 1,
+            Status::Error => {
+                refused += 1;
+                continue;
+            }
+        }
+        assert_eq!(
+            solved.corner_uvs.len(),
+            3 * mesh.n_triangles(),
+            "{name}: every triangle has UVs"
+        );
+        assert_fold_free_and_one_to_one(&name, &mesh, &solved.corner_uvs);
+    }
+    eprintln!("{cases} closed cases: {reached} reached, {partial} partial, {refused} refused");
+    assert!(
+        reached + partial >= cases as usize * 3 / 4,
+        "most random cases give a layout"
+    );
+}

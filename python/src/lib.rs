@@ -262,14 +262,7 @@ fn check_mesh<'py>(
 ) -> PyResult<String> {
     let mesh = mesh_of(&vertices, &faces)?;
     let uvs = uvs_of(&uvs, mesh.n_vertices())?;
-    let mut asset = uvpin::io::SourceAsset::from_mesh(&mesh);
-    asset.primitives[0].uvs = Some(uvs.clone());
-    let stored = uvpin::check::StoredAsset {
-        asset,
-        uvs: vec![uvs],
-        axis: uvpin::guard::VAxis::Down,
-    };
-    let checked = py.detach(|| uvpin::check::check_stored(&stored, 0));
+    let checked = py.detach(|| uvpin::check::check_mesh(&mesh, &uvs));
     serde_json::to_string(&checked).map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
