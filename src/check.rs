@@ -137,12 +137,12 @@ pub fn check_file(
 /// Checks an in-memory mesh's texture coordinates, one per vertex (glTF
 /// convention, v down) as [`check_stored`] does a file's.
 pub fn check_mesh(mesh: &crate::mesh::TriMesh, uvs: &[[f32; 2]]) -> CheckReport {
-    let mut asset = crate::io::SourceAsset::from_mesh(mesh);
+    let mut asset = SourceAsset::from_mesh(mesh);
     asset.primitives[0].uvs = Some(uvs.to_vec());
     let stored = StoredAsset {
         asset,
         uvs: vec![uvs.to_vec()],
-        axis: crate::guard::VAxis::Down,
+        axis: VAxis::Down,
     };
     check_stored(&stored, 0)
 }
