@@ -366,3 +366,83 @@ pub fn blob_head(n_lat: usize, n_lon: usize) -> (TriMesh, Vec<u32>) {
     let landmarks = features.iter().map(|&f| nearest(f)).collect();
     (mesh, landmarks)
 }
+
+/// Landmarks as a photograph places them: `k` vertices of `mesh` among
+/// those `allowed` marks that face the camera (looking along `view`, `up`
+/// up), on the near half of the mesh and not hidden behind another part of
+/// it, spread out (farthest first); their targets are the orthographic
+/// projection scaled to span `span` of the texture, centred. `(vertex, u,
+/// v)`, glTF texture coordinates.
+///
+/// # Panics
+/// Fewer than `k` such vertices.
+pub fn photo_landmarks_on(mesh: &TriMesh, allowed: &[bool], view: DVec3, up: DVec3, k: usize, span: f64) -> Vec<(u32, f64, f64)> {
+    let normals = crate::cut::cost::vertex_normals(mesh);
+    let right = view.cross(up).normalize();
+    let up = right.cross(view).normalize();
+    let (lo, hi) = mesh.positions.iter().fold((DVec3::MAX, DVec3::MIN), |(a, b), &p| (a.min(p), b.max(p)));
+    let scale = (hi - lo).max_element() / 2.0;
+    // The near half only: what a photo shows of a figure's other side
+    // (between a cow's legs) is mirrored in any one-piece layout.
+    let middle = 0.5 * (lo + hi).dot(view);
+    let radius = 0.03 * scale;
+    let hidden = occluded(mesh, (right, up, view), radius, 0.05 * scale);
+    let visible: Vec<usize> = (0..mesh.n_vertices())
+        .filter(|&v| allowed[v] && normals[v].dot(-view) > 0.55 && mesh.positions[v].dot(view) < middle && !hidden[v])
+        .collect();
+    assert!(visible.len() >= k, "only {} visible vertices", visible.len());
+    let mut chosen = vec![visible[visible.len() / 2]];
+    let mut nearest = vec![f64::MAX; visible.len()];
+    while chosen.len() < k {
+        let last = mesh.positions[*chosen.last().expect("one") as usize];
+        for (d, &v) in nearest.iter_mut().zip(&visible) {
+            *d = d.min(mesh.positions[v].distance(last));
+        }
+        let far = (0..visible.len()).max_by(|&a, &b| nearest[a].total_cmp(&nearest[b])).expect("visible");
+        chosen.push(visible[far]);
+    }
+    let flat: Vec<(f64, f64)> = chosen.iter().map(|&v| (mesh.positions[v].dot(right), mesh.positions[v].dot(up))).collect();
+    let (mut lo, mut hi) = ((f64::MAX, f64::MAX), (f64::MIN, f64::MIN));
+    for &(x, y) in &flat {
+        lo = (lo.0.min(x), lo.1.min(y));
+        hi = (hi.0.max(x), hi.1.max(y));
+    }
+    let s = span / (hi.0 - lo.0).max(hi.1 - lo.1);
+    let centre = ((lo.0 + hi.0) / 2.0, (lo.1 + hi.1) / 2.0);
+    chosen
+        .iter()
+        .zip(&flat)
+        .map(|(&v, &(x, y))| (v as u32, 0.5 + s * (x - centre.0), 0.5 - s * (y - centre.1)))
+        .collect()
+}
+
+/// As [`photo_landmarks_on`], among all vertices.
+pub fn photo_landmarks(mesh: &TriMesh, view: DVec3, up: DVec3, k: usize, span: f64) -> Vec<(u32, f64, f64)> {
+    photo_landmarks_on(mesh, &vec![true; mesh.n_vertices()], view, up, k, span)
+}
+
+/// Whether each vertex has another within `radius` of its view ray and
+/// more than `depth` nearer the camera (a grid of the projected vertices).
+fn occluded(mesh: &TriMesh, (right, up, view): (DVec3, DVec3, DVec3), radius: f64, depth: f64) -> Vec<bool> {
+    let cell = |p: DVec3| ((p.dot(right) / radius).floor() as i64, (p.dot(up) / radius).floor() as i64);
+    let mut grid: std::collections::HashMap<(i64, i64), Vec<u32>> = std::collections::HashMap::new();
+    for (v, &p) in mesh.positions.iter().enumerate() {
+        grid.entry(cell(p)).or_default().push(v as u32);
+    }
+    mesh.positions
+        .iter()
+        .map(|&p| {
+            let (cx, cy) = cell(p);
+            let (x, y, d) = (p.dot(right), p.dot(up), p.dot(view));
+            (cx - 1..=cx + 1).flat_map(|i| (cy - 1..=cy + 1).map(move |j| (i, j))).any(|key| {
+                grid.get(&key).is_some_and(|vs| {
+                    vs.iter().any(|&w| {
+                        let q = mesh.positions[w as usize];
+                        let (qx, qy) = (q.dot(right) - x, q.dot(up) - y);
+                        qx * qx + qy * qy < radius * radius && q.dot(view) < d - depth
+                    })
+                })
+            })
+        })
+        .collect()
+}
