@@ -182,6 +182,15 @@ fn free_layout(
     })
 }
 
+/// The free layout of `prepared`'s chart, cut as it is, without its
+/// landmarks (the yardstick of the constrained layout's stretch); `None`
+/// when it cannot be laid out one-to-one.
+pub fn unconstrained(asset: &Arc<SourceAsset>, prepared: &PreparedChart, options: &SolverOptions) -> Option<Unwrapped> {
+    let opening = Opening::clone(&prepared.opening);
+    let topology = (*prepared.topology).clone();
+    free_layout(asset, prepared, (*prepared.chart).clone(), topology, opening, options).ok()
+}
+
 /// `layout` of `chart` scaled so its area is the chart's 3D area.
 fn at_mesh_scale(chart: &Chart, layout: &[DVec2]) -> Shape {
     let area_2d: f64 = chart

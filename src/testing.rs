@@ -376,11 +376,21 @@ pub fn blob_head(n_lat: usize, n_lon: usize) -> (TriMesh, Vec<u32>) {
 ///
 /// # Panics
 /// Fewer than `k` such vertices.
-pub fn photo_landmarks_on(mesh: &TriMesh, allowed: &[bool], view: DVec3, up: DVec3, k: usize, span: f64) -> Vec<(u32, f64, f64)> {
+pub fn photo_landmarks_on(
+    mesh: &TriMesh,
+    allowed: &[bool],
+    view: DVec3,
+    up: DVec3,
+    k: usize,
+    span: f64,
+) -> Vec<(u32, f64, f64)> {
     let normals = crate::cut::cost::vertex_normals(mesh);
     let right = view.cross(up).normalize();
     let up = right.cross(view).normalize();
-    let (lo, hi) = mesh.positions.iter().fold((DVec3::MAX, DVec3::MIN), |(a, b), &p| (a.min(p), b.max(p)));
+    let (lo, hi) = mesh
+        .positions
+        .iter()
+        .fold((DVec3::MAX, DVec3::MIN), |(a, b), &p| (a.min(p), b.max(p)));
     let scale = (hi - lo).max_element() / 2.0;
     // The near half only: what a photo shows of a figure's other side
     // (between a cow's legs) is mirrored in any one-piece layout.
@@ -398,10 +408,15 @@ pub fn photo_landmarks_on(mesh: &TriMesh, allowed: &[bool], view: DVec3, up: DVe
         for (d, &v) in nearest.iter_mut().zip(&visible) {
             *d = d.min(mesh.positions[v].distance(last));
         }
-        let far = (0..visible.len()).max_by(|&a, &b| nearest[a].total_cmp(&nearest[b])).expect("visible");
+        let far = (0..visible.len())
+            .max_by(|&a, &b| nearest[a].total_cmp(&nearest[b]))
+            .expect("visible");
         chosen.push(visible[far]);
     }
-    let flat: Vec<(f64, f64)> = chosen.iter().map(|&v| (mesh.positions[v].dot(right), mesh.positions[v].dot(up))).collect();
+    let flat: Vec<(f64, f64)> = chosen
+        .iter()
+        .map(|&v| (mesh.positions[v].dot(right), mesh.positions[v].dot(up)))
+        .collect();
     let (mut lo, mut hi) = ((f64::MAX, f64::MAX), (f64::MIN, f64::MIN));
     for &(x, y) in &flat {
         lo = (lo.0.min(x), lo.1.min(y));
@@ -424,7 +439,12 @@ pub fn photo_landmarks(mesh: &TriMesh, view: DVec3, up: DVec3, k: usize, span: f
 /// Whether each vertex has another within `radius` of its view ray and
 /// more than `depth` nearer the camera (a grid of the projected vertices).
 fn occluded(mesh: &TriMesh, (right, up, view): (DVec3, DVec3, DVec3), radius: f64, depth: f64) -> Vec<bool> {
-    let cell = |p: DVec3| ((p.dot(right) / radius).floor() as i64, (p.dot(up) / radius).floor() as i64);
+    let cell = |p: DVec3| {
+        (
+            (p.dot(right) / radius).floor() as i64,
+            (p.dot(up) / radius).floor() as i64,
+        )
+    };
     let mut grid: std::collections::HashMap<(i64, i64), Vec<u32>> = std::collections::HashMap::new();
     for (v, &p) in mesh.positions.iter().enumerate() {
         grid.entry(cell(p)).or_default().push(v as u32);
@@ -434,15 +454,17 @@ fn occluded(mesh: &TriMesh, (right, up, view): (DVec3, DVec3, DVec3), radius: f6
         .map(|&p| {
             let (cx, cy) = cell(p);
             let (x, y, d) = (p.dot(right), p.dot(up), p.dot(view));
-            (cx - 1..=cx + 1).flat_map(|i| (cy - 1..=cy + 1).map(move |j| (i, j))).any(|key| {
-                grid.get(&key).is_some_and(|vs| {
-                    vs.iter().any(|&w| {
-                        let q = mesh.positions[w as usize];
-                        let (qx, qy) = (q.dot(right) - x, q.dot(up) - y);
-                        qx * qx + qy * qy < radius * radius && q.dot(view) < d - depth
+            (cx - 1..=cx + 1)
+                .flat_map(|i| (cy - 1..=cy + 1).map(move |j| (i, j)))
+                .any(|key| {
+                    grid.get(&key).is_some_and(|vs| {
+                        vs.iter().any(|&w| {
+                            let q = mesh.positions[w as usize];
+                            let (qx, qy) = (q.dot(right) - x, q.dot(up) - y);
+                            qx * qx + qy * qy < radius * radius && q.dot(view) < d - depth
+                        })
                     })
                 })
-            })
         })
         .collect()
 }

@@ -321,8 +321,8 @@ fn inside_region(room: &Room, layout: &[DVec2]) -> bool {
 /// A start fitted to the targets that is larger than its region, gathered
 /// in: every point within the targets' reach of their centre stays (the
 /// constrained vertices on or near their targets, at the scale the targets
-/// ask for), and the rest is drawn in radially, ever less as it lies
-/// farther out, to end inside the region. A radial map that grows with the
+/// ask for), and the rest is drawn in radially, logarithmically, the
+/// farthest point to the region's border. A radial map that grows with the
 /// radius keeps every small triangle's orientation; the layout is checked
 /// as stored and in its room all the same. `None` when it needs no
 /// gathering, has too few targets, or is not admitted.
@@ -343,8 +343,13 @@ fn gathered(room: &Room, placed: &[DVec2], problem: &StepProblem, triangles: &[[
     if room_left <= outer * 1.001 {
         return None;
     }
-    // φ(r) = r up to `outer`, then outer + w (1 − e^{−(r − outer)/w}) < room_left.
+    // φ(r) = r up to `outer`, then outer + w · ln(1 + (r − outer)/w) / ln(1 + (far − outer)/w):
+    // the farthest point lands on `room_left`; the map grows with r all the
+    // way (a logarithm compresses far parts gently, where an exponential
+    // saturation crushed them below f32).
     let w = room_left - outer;
+    let far = placed.iter().map(|p| p.distance(centre)).fold(outer, f64::max);
+    let norm = (1.0 + (far - outer) / w).ln().max(1e-300);
     let layout: Vec<DVec2> = placed
         .iter()
         .map(|&p| {
@@ -353,7 +358,7 @@ fn gathered(room: &Room, placed: &[DVec2], problem: &StepProblem, triangles: &[[
             if r <= outer {
                 p
             } else {
-                centre + d * ((outer + w * (1.0 - (-(r - outer) / w).exp())) / r)
+                centre + d * ((outer + w * (1.0 + (r - outer) / w).ln() / norm) / r)
             }
         })
         .collect();
