@@ -257,7 +257,7 @@ fn main() {
         }
         let opt = |x: Option<f64>, digits: usize| x.map_or("–".into(), |x| format!("{x:.digits$}"));
         rows += &format!(
-            "| {} | {} | {} | {} | {:.0} | {:.0} | {:.0} | {} | {:.3} | {:.3} | {:.2} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.0} | {:.0} | {:.0} | {} | {:.3} | {:.3} | {:.2} | {} | {} / {} | {} |\n",
             case.name,
             f.vertices,
             f.landmarks,
@@ -270,7 +270,8 @@ fn main() {
             f.free_l2,
             f.l2 / f.free_l2,
             opt(f.xatlas_l2, 3),
-            format!("{} / {}", f.xatlas_bad.0, f.xatlas_bad.1),
+            f.xatlas_bad.0,
+            f.xatlas_bad.1,
             opt(f.xatlas_ms, 0),
         );
         eprintln!("{}: {f:?}", case.name);
