@@ -33,6 +33,9 @@ pub struct Unwrapped {
     pub shape: Shape,
     /// Whether it was laid out triangle by triangle.
     pub soup: bool,
+    /// The layout of the chart with its holes filled (virtual vertices
+    /// after the real ones), at the scale of `shape`; empty for a soup.
+    pub filled: Vec<DVec2>,
 }
 
 /// The charts of a solve beside the landmarked one, unwrapped.
@@ -173,9 +176,14 @@ fn free_layout(
         return Err(Box::new((*chart).clone()));
     }
     let n = chart.mesh.n_vertices();
-    let layout = &solved.solver.layout()[..n];
+    let full = solved.solver.layout();
+    let k = mesh_scale(&chart, &full[..n]);
     Ok(Unwrapped {
-        shape: at_mesh_scale(&chart, layout),
+        filled: full.iter().map(|&p| p * k).collect(),
+        shape: Shape {
+            points: full[..n].iter().map(|&p| p * k).collect(),
+            triangles: chart.mesh.triangles.clone(),
+        },
         chart,
         duplicates,
         soup: false,
@@ -191,19 +199,15 @@ pub fn unconstrained(asset: &Arc<SourceAsset>, prepared: &PreparedChart, options
     free_layout(asset, prepared, (*prepared.chart).clone(), topology, opening, options).ok()
 }
 
-/// `layout` of `chart` scaled so its area is the chart's 3D area.
-fn at_mesh_scale(chart: &Chart, layout: &[DVec2]) -> Shape {
+/// The factor that scales `layout` of `chart` to the chart's 3D area.
+fn mesh_scale(chart: &Chart, layout: &[DVec2]) -> f64 {
     let area_2d: f64 = chart
         .mesh
         .triangles
         .iter()
         .map(|t| 0.5 * crate::guard::orientation(layout[t[0] as usize], layout[t[1] as usize], layout[t[2] as usize]))
         .sum();
-    let k = (chart.mesh.area() / area_2d.max(1e-300)).sqrt();
-    Shape {
-        points: layout.iter().map(|&p| p * k).collect(),
-        triangles: chart.mesh.triangles.clone(),
-    }
+    (chart.mesh.area() / area_2d.max(1e-300)).sqrt()
 }
 
 /// `chart` laid out triangle by triangle: every corner its own vertex,
@@ -232,6 +236,7 @@ fn soup(chart: &Chart) -> Unwrapped {
         chart: Arc::new(opened),
         duplicates: Vec::new(),
         soup: true,
+        filled: Vec::new(),
     }
 }
 

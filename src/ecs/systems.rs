@@ -108,11 +108,11 @@ pub fn complete_constraints(
 /// Builds the report once the solver is done.
 pub fn finish_solve(
     mut commands: Commands,
-    mut charts: Query<(Entity, &mut Session, &Solver), (Without<Finished>, Without<Candidate>, Without<Failed>)>,
+    mut charts: Query<(Entity, &mut Session, &mut Solver), (Without<Finished>, Without<Candidate>, Without<Failed>)>,
 ) {
-    for (entity, mut session, solver) in &mut charts {
+    for (entity, mut session, mut solver) in &mut charts {
         if solver.0.is_done() && solver.1 == session.0.revision() {
-            let report = session.0.report(&solver.0);
+            let report = session.0.report(&mut solver.0);
             commands.entity(entity).insert(Finished(report));
         }
     }

@@ -131,6 +131,15 @@ fn hint_and_proof(
 /// The chart's warnings, and one for a bulged boundary.
 fn warnings(s: &SolveSummary) -> Vec<String> {
     let mut warnings = s.prepared.warnings.clone();
+    if let Some(from) = s.solver.record().settled_from {
+        warnings.push(format!(
+            "the fold-free layout that came closest to the targets was stretched to L2 {:.2} (L∞ {:.1}), more than {}× the \
+             chart's own shape: that shape, fitted to the targets, is written instead (the residuals above are its)",
+            from.l2,
+            from.linf,
+            crate::solver::SETTLE_FACTOR
+        ));
+    }
     if s.boundary.shape == BoundaryShape::BulgedSquare {
         warnings.push(format!(
             "{} triangles or interior edges would lie flat on one side of the square with these corners; \
@@ -191,6 +200,7 @@ pub fn build(s: &SolveSummary) -> Report {
         stretch_step1,
         stretch_before_polish: s.solver.record().stretch_before_polish,
         stretch_final,
+        stretch_own: s.solver.record().own_stretch,
         completion: Some(completion),
         hint,
         unreachable_proof,

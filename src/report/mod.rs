@@ -273,6 +273,11 @@ pub struct Report {
     pub stretch_before_polish: Option<Stretch>,
     /// Stretch of the final layout.
     pub stretch_final: Stretch,
+    /// For a partial result: the stretch of the chart's own shape (its free
+    /// layout without landmarks, cut the same way; step 1's on the square).
+    /// A partial layout is never more than 3 times as stretched.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stretch_own: Option<Stretch>,
     /// What the completion phase and polish did.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub completion: Option<CompletionStats>,

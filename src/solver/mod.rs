@@ -63,6 +63,11 @@ impl SolverTimes {
     }
 }
 
+/// A partial layout more stretched than this many times the chart's own
+/// shape is replaced by that shape fitted to the targets
+/// ([`ChartSolver::settle_for`]).
+pub const SETTLE_FACTOR: f64 = 3.0;
+
 /// What the solve did, phase by phase.
 #[derive(Debug, Clone, Default)]
 pub struct SolveRecord {
@@ -82,6 +87,11 @@ pub struct SolveRecord {
     /// A free chart's spline path stalled holding its outer loop and ran
     /// again from the start with the loop free: which run was kept.
     pub spline_loop_freed: Option<LoopFreed>,
+    /// A partial layout too stretched to use was replaced: its stretch.
+    pub settled_from: Option<Stretch>,
+    /// For a partial layout: the stretch of the chart's own shape (its free
+    /// layout without landmarks, or step 1's), the yardstick it is held to.
+    pub own_stretch: Option<Stretch>,
 }
 
 /// What came of running a free chart's stalled spline path again with its
@@ -232,6 +242,21 @@ impl ChartSolver {
             },
             elapsed_before_ms: start.elapsed_ms,
         })
+    }
+
+    /// Replaces a finished solve's layout (the filled chart's, checked by
+    /// the caller: fold-free as stored and admitted by its domain) by one
+    /// that keeps its shape, when the best one it found is too stretched to
+    /// be of use; `from` is that one's stretch, for the report.
+    pub fn settle_for(&mut self, layout: Vec<DVec2>, from: Stretch) {
+        debug_assert!(self.is_done() && layout.len() == self.layout.len());
+        self.layout = layout;
+        self.record.settled_from = Some(from);
+    }
+
+    /// Notes the stretch a partial layout is held to (the chart's own shape).
+    pub fn note_own_stretch(&mut self, own: Stretch) {
+        self.record.own_stretch = Some(own);
     }
 
     pub fn phase(&self) -> &Phase {
