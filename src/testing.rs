@@ -468,3 +468,29 @@ fn occluded(mesh: &TriMesh, (right, up, view): (DVec3, DVec3, DVec3), radius: f6
         })
         .collect()
 }
+
+/// `mesh` with every triangle split into four at its edges' midpoints (a
+/// flat subdivision: the surface is unchanged). The original vertices keep
+/// their ids; each edge's midpoint is numbered after them. A layout of
+/// `mesh` interpolated at the midpoints is a layout of the result with the
+/// same orientation per triangle.
+pub fn subdivide_midpoint(mesh: &TriMesh) -> TriMesh {
+    let mut positions = mesh.positions.clone();
+    let mut midpoint = std::collections::HashMap::<(u32, u32), u32>::with_capacity(mesh.triangles.len() * 3 / 2);
+    let mut mid = |a: u32, b: u32, positions: &mut Vec<DVec3>| {
+        *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
+            positions.push(0.5 * (positions[a as usize] + positions[b as usize]));
+            (positions.len() - 1) as u32
+        })
+    };
+    let mut triangles = Vec::with_capacity(mesh.triangles.len() * 4);
+    for &[a, b, c] in &mesh.triangles {
+        let (ab, bc, ca) = (
+            mid(a, b, &mut positions),
+            mid(b, c, &mut positions),
+            mid(c, a, &mut positions),
+        );
+        triangles.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+    }
+    TriMesh { positions, triangles }
+}
