@@ -68,11 +68,24 @@ struct Case {
     scale: f64,
 }
 
-/// Witnessed targets for `k` interior vertices of `mesh`
-/// ([`uvpin::testing::witnessed_free_case`]) and the scale that takes the
-/// mesh to their layout's area.
-fn witnessed_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Case> {
-    let (constraints, warped) = uvpin::testing::witnessed_free_case(mesh, k, seed)?;
+/// Which layout witnesses a case's targets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Witness {
+    /// uvpin's free layout, shrunk and warped
+    /// ([`uvpin::testing::witnessed_free_case`]).
+    Free,
+    /// uvpin's square layout, warped: targets fill the texture
+    /// ([`uvpin::testing::witnessed_square_case`]).
+    Square,
+}
+
+/// Witnessed targets for `k` interior vertices of `mesh` and the scale that
+/// takes the mesh to their layout's area.
+fn witnessed_case(mesh: &TriMesh, k: usize, seed: u64, witness: Witness) -> Option<Case> {
+    let (constraints, warped) = match witness {
+        Witness::Free => uvpin::testing::witnessed_free_case(mesh, k, seed)?,
+        Witness::Square => uvpin::testing::witnessed_square_case(mesh, k, seed)?,
+    };
     let area = |l: &[DVec2]| uvpin::domain::start::layout_area(l, &mesh.triangles);
     let area_3d: f64 = mesh
         .triangles
@@ -220,7 +233,41 @@ fn subjects() -> Vec<Subject> {
             &[24, 40],
         ));
     }
+    for (file, charts) in [("Duck.glb", 1), ("DamagedHelmet.glb", 2)] {
+        out.extend(atlas_charts(&shared.join(file), charts));
+    }
     out
+}
+
+/// The `n` largest charts of an atlas (welded by position and UV) that are
+/// disks, each as a mesh of its own.
+fn atlas_charts(path: &Path, n: usize) -> Vec<Subject> {
+    let asset = uvpin::io::load_asset(path, None, 0, &Default::default()).expect("atlas");
+    let welded = uvpin::mesh::weld::weld(&asset.primitives);
+    let sizes = welded.chart_sizes();
+    let mut ids: Vec<u32> = (0..sizes.len() as u32).collect();
+    ids.sort_by_key(|&c| std::cmp::Reverse(sizes[c as usize].1));
+    let file = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
+    ids.into_iter()
+        .map(|c| (c, welded.chart(c).mesh))
+        .filter(|(_, mesh)| is_disk(mesh))
+        .take(n)
+        .map(|(c, mesh)| (format!("{file} chart {c}"), mesh, 5, &[24, 40][..]))
+        .collect()
+}
+
+/// One boundary loop and Euler characteristic 1.
+fn is_disk(mesh: &TriMesh) -> bool {
+    uvpin::mesh::topology::Topology::build(mesh).is_ok_and(|t| {
+        let edges: std::collections::HashSet<(u32, u32)> = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .collect();
+        let euler = mesh.n_vertices() as i64 - edges.len() as i64 + mesh.n_triangles() as i64;
+        t.loops.len() == 1 && euler == 1
+    })
 }
 
 /// One row: step 1, square, free and SLIM side by side, one run of each per round.
@@ -250,12 +297,15 @@ fn main() {
     std::fs::create_dir_all(&tmp).expect("tmp");
     let mut rows = Vec::new();
     for (label, mesh, runs, ks) in subjects() {
-        for &k in ks {
-            let name = format!("{label}, {k} landmarks");
+        for (&k, witness) in ks.iter().flat_map(|k| [(k, Witness::Free), (k, Witness::Square)]) {
+            let name = match witness {
+                Witness::Free => format!("{label}, {k} landmarks"),
+                Witness::Square => format!("{label}, {k} landmarks, square witness"),
+            };
             if filter.as_ref().is_some_and(|f| !name.contains(f.as_str())) {
                 continue;
             }
-            let Some(case) = witnessed_case(&mesh, k, 7) else {
+            let Some(case) = witnessed_case(&mesh, k, 7, witness) else {
                 eprintln!("{name}: no witness");
                 continue;
             };
@@ -268,7 +318,8 @@ fn main() {
     let mut body = format!(
         "Sander L2 and L∞ stretch (1 = isometry), largest distance of a landmark from its target (texture units), \
          median milliseconds (`cargo bench --bench free`). Targets witnessed by a one-to-one free layout through a \
-         smooth warp; uvpin runs with its defaults (polish included). SLIM: libigl {} iterations from Tutte's \
+         smooth warp, or (square witness) by uvpin's square layout through a warp that keeps the square's border: \
+         targets that fill the texture; uvpin runs with its defaults (polish included). SLIM: libigl {} iterations from Tutte's \
          embedding on a circle (holes fan-filled for it) fitted to the landmarks, landmarks as soft constraints; it keeps triangles from \
          flipping, not the boundary from crossing itself or a hole from turning inside out (counted in brackets).\n\n\
          | case | vertices | step 1: L2 | L∞ | residual | ms | square: L2 | L∞ | residual | ms | free: L2 | L∞ | residual | ms | SLIM: L2 | L∞ | residual | ms |\n\

@@ -24,6 +24,7 @@ use crate::chart::{self, PreparedChart, PrimitiveUvs};
 use crate::complete::pattern::PendingNewtonPattern;
 use crate::constraints::ConstraintSource;
 use crate::domain::Domain;
+use crate::domain::start::StartKind;
 use crate::error::Error;
 use crate::export::{self, Outputs};
 use crate::io::SourceAsset;
@@ -267,14 +268,71 @@ impl ChartSession {
             bar_net: self.bar_net.as_deref(),
             pattern: self.pattern.as_ref(),
             elapsed_ms: self.times.total_ms(),
-        })?;
+        });
+        let solver = match solver {
+            // No start of its own fits the room: the square's solve may.
+            Err(Error::NoRoom { .. }) if !self.on_square() => self
+                .via_square(options, f64::INFINITY, self.times.total_ms())
+                .map_or_else(|| solver, Ok)?,
+            other => other?,
+        };
         self.pattern = Some(solver.pattern().clone());
         Ok(solver)
+    }
+
+    /// A free chart solved on the square instead, then free again from
+    /// there: a square layout inside the region is a free layout. The
+    /// region's rectangle is mapped onto the square and the targets with it;
+    /// when that solve comes closer to them than `residual`, the free solve
+    /// started from it (mapped back, shrunk just enough to fit the room) is
+    /// returned, finished, if it is closer still. `None` otherwise (the
+    /// square cannot hold the constraints, or does no better).
+    fn via_square(&self, options: &SolverOptions, residual: f64, elapsed_ms: f64) -> Option<ChartSolver> {
+        let (Domain::Free(setup), Some(boundary), Some(step_one)) =
+            (&self.prepared.domain, &self.boundary, &self.step_one)
+        else {
+            return None;
+        };
+        let (lo, hi) = setup.region.layout_box();
+        let (min, size) = (setup.region.min, setup.region.max - setup.region.min);
+        let mut on_square = self.prepared.clone();
+        on_square.domain = Domain::Square;
+        for c in &mut on_square.constraints {
+            c.target_uv = (c.target_uv - min) / size;
+        }
+        let inputs = |prepared| SolverInputs {
+            prepared,
+            source: &self.source,
+            options,
+            boundary,
+            step1: step_one,
+            bar_net: self.bar_net.as_deref(),
+            pattern: None,
+            elapsed_ms,
+        };
+        let mut square = ChartSolver::new(inputs(&on_square)).ok()?;
+        square.run().ok()?;
+        let mapped: Vec<DVec2> = square.layout().iter().map(|&p| lo + p * (hi - lo)).collect();
+        let mut free = self.prepared.clone();
+        free.domain = Domain::Free(Arc::new(crate::free::FreeSetup {
+            square: Some(Arc::new(mapped)),
+            ..(**setup).clone()
+        }));
+        let mut solver = ChartSolver::new(SolverInputs {
+            elapsed_ms: elapsed_ms + square.times().total_ms(),
+            pattern: self.pattern.as_ref(),
+            ..inputs(&free)
+        })
+        .ok()?;
+        solver.run().ok()?;
+        let closer = solver.max_residual() < residual;
+        closer.then(|| solver.fell_short_by(residual))
     }
 
     /// The report of a finished `solver` of this session's constraints;
     /// remembers its layout as the start of a [`StartFrom::LastLayout`] solve.
     pub fn report(&mut self, solver: &mut ChartSolver) -> Report {
+        self.detour_via_square(solver);
         self.settle(solver);
         let boundary = self.boundary.as_deref().expect("a started solver mapped the boundary");
         let step_one = self.step_one.as_deref().expect("a started solver solved step 1");
@@ -296,6 +354,21 @@ impl ChartSession {
             self.secondary = Arc::new(secondary);
         }
         report
+    }
+
+    /// A finished free solve short of its targets: the same chart solved on
+    /// the square and then free from there ([`Self::via_square`]) takes its
+    /// place when it comes closer. Free never does worse than the square.
+    fn detour_via_square(&mut self, solver: &mut ChartSolver) {
+        let residual = solver.max_residual();
+        let short = residual > solver.options().tolerance;
+        if !short || solver.free().is_none() || solver.free().is_some_and(|f| f.start == StartKind::Square) {
+            return;
+        }
+        let options = *solver.options();
+        if let Some(better) = self.via_square(&options, residual, solver.elapsed_ms()) {
+            *solver = better;
+        }
     }
 
     /// A finished solve that is short of its targets keeps a usable layout:
@@ -368,10 +441,7 @@ impl ChartSession {
             return None;
         }
         let shape = crate::domain::start::Shape::of(f);
-        let (kind, fit) = (
-            crate::domain::start::StartKind::Conformal,
-            crate::domain::start::Fit::ToTargetsAsShaped,
-        );
+        let (kind, fit) = (StartKind::Conformal, crate::domain::start::Fit::ToTargetsAsShaped);
         let fitted = crate::domain::start::fit_into_room(room, &shape, &base, solver.problem(), kind, fit)
             .map(|c| c.layout)
             .filter(|l| fits(l));

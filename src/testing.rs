@@ -150,7 +150,7 @@ pub type WitnessedCase = (Vec<(u32, glam::DVec2)>, Vec<glam::DVec2>);
 /// layout (layout coordinates). `None` when the witness does not hold up
 /// (the free layout failed, or the warp folds it or turns a loop inside out).
 pub fn witnessed_free_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<WitnessedCase> {
-    use crate::param::{uv_to_xy, xy_to_uv};
+    use crate::param::uv_to_xy;
     use glam::DVec2;
     let pins = crate::pins::Pins::new(&[]).with_boundary(crate::pins::BoundaryChoice::Free);
     let free = crate::solve_mesh(mesh, &pins, &crate::options::SolverOptions::DEFAULT.into()).ok()?;
@@ -169,6 +169,39 @@ pub fn witnessed_free_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Witnes
     if !crate::guard::all_positive(&warped, &mesh.triangles) || inside_out_loops(mesh, &warped) > 0 {
         return None;
     }
+    let landmarks = pick_interior(mesh, &warped, k, seed)?;
+    Some((landmarks, warped))
+}
+
+/// A witnessed case on the square: uvpin's own square layout of `mesh`
+/// without landmarks, pushed through [`smooth_warp`] (which keeps the square's
+/// border where it is); `k` random interior vertices get their warped
+/// positions as targets. The targets fill the texture as the square fills
+/// it: a free layout must reach them too (a square layout inside the region
+/// is a free layout). `None` when the square layout or the warp folds.
+pub fn witnessed_square_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<WitnessedCase> {
+    use crate::param::uv_to_xy;
+    use glam::DVec2;
+    let pins = crate::pins::Pins::new(&[]).with_boundary(crate::pins::BoundaryChoice::Square);
+    let square = crate::solve_mesh(mesh, &pins, &crate::options::SolverOptions::DEFAULT.into()).ok()?;
+    if !square.report.orientation.is_clean() || square.uvs.len() != mesh.n_vertices() {
+        return None;
+    }
+    let warped: Vec<DVec2> = square
+        .uvs
+        .iter()
+        .map(|uv| smooth_warp(uv_to_xy(DVec2::new(uv[0] as f64, uv[1] as f64)), 0.12))
+        .collect();
+    if !crate::guard::all_positive(&warped, &mesh.triangles) {
+        return None;
+    }
+    let landmarks = pick_interior(mesh, &warped, k, seed)?;
+    Some((landmarks, warped))
+}
+
+/// `k` distinct random vertices of `mesh` off its boundary, each with its
+/// position in `layout` as its target (texture coordinates).
+fn pick_interior(mesh: &TriMesh, layout: &[glam::DVec2], k: usize, seed: u64) -> Option<Vec<(u32, glam::DVec2)>> {
     let topology = crate::mesh::topology::Topology::build(mesh).ok()?;
     let mut on_boundary = vec![false; mesh.positions.len()];
     topology
@@ -180,14 +213,14 @@ pub fn witnessed_free_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Witnes
         return None;
     }
     let mut rng = Rng::new(seed);
-    let mut out: Vec<(u32, DVec2)> = Vec::new();
+    let mut out: Vec<(u32, glam::DVec2)> = Vec::new();
     while out.len() < k {
         let v = rng.below(mesh.positions.len()) as u32;
         if !on_boundary[v as usize] && out.iter().all(|(w, _)| *w != v) {
-            out.push((v, xy_to_uv(warped[v as usize])));
+            out.push((v, crate::param::xy_to_uv(layout[v as usize])));
         }
     }
-    Some((out, warped))
+    Some(out)
 }
 
 /// Boundary loops of `layout` whose signed area has the wrong sign for a

@@ -222,6 +222,78 @@ fn random_free_solves_never_fold_cross_or_leave_their_region() {
     assert!(reached >= 3, "only {reached} of 24 reached");
 }
 
+/// Targets taken from uvpin's own square layout through a warp that keeps
+/// the square's border (so they fill the texture), on random disks with
+/// holes and the witness disks, and the same mapped into a random region:
+/// whatever the square reaches, free reaches, one-to-one inside its region.
+fn targets_that_fill_the_region_are_reached_free_as_on_the_square() {
+    let options: uvpin::Options = uvpin::options::SolverOptions::DEFAULT.into();
+    let mut rng = Rng::new(4242);
+    let (mut cases, mut via_square) = (0, 0);
+    for case in 0..16u64 {
+        let mesh = match case % 3 {
+            0 => witness_disk(8, Outline::Blob, case).0,
+            _ => {
+                let (n, holes) = (12 + rng.below(10), rng.below(3));
+                random_disk(&mut rng, n, holes)
+            }
+        };
+        let k = [3, 8, 24][case as usize % 3];
+        let Some((constraints, _)) = uvpin::testing::witnessed_square_case(&mesh, k, 50 + case) else {
+            continue;
+        };
+        let region = (case % 2 == 1).then(|| random_region(&mut rng));
+        let constraints: Vec<(u32, DVec2)> = match region {
+            Some(r) => constraints
+                .iter()
+                .map(|&(v, t)| (v, r.min + (r.max - r.min) * t))
+                .collect(),
+            None => constraints,
+        };
+        let name = format!(
+            "case {case} ({} vertices, {k} targets, {region:?})",
+            mesh.positions.len()
+        );
+        let pins = uvpin::Pins::new(&constraints);
+        let square = uvpin::solve_mesh(
+            &mesh,
+            &pins.clone().with_boundary(uvpin::pins::BoundaryChoice::Square),
+            &options,
+        );
+        let free_pins = match region {
+            Some(r) => pins.within(r),
+            None => pins.with_boundary(uvpin::pins::BoundaryChoice::Free),
+        };
+        let free = uvpin::solve_mesh(&mesh, &free_pins, &options).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let r = &free.report;
+        assert!(r.orientation.is_clean(), "{name}: {:?}", r.orientation);
+        assert_eq!(r.free.as_ref().map(|f| f.crossings), Some(0), "{name}");
+        let inside = region.unwrap_or(Region::TEXTURE);
+        for uv in &free.uvs {
+            let p = DVec2::new(uv[0] as f64, uv[1] as f64);
+            assert!(inside.contains_uv(p), "{name}: {p} outside {inside:?}");
+        }
+        if region.is_none() {
+            let square = square.unwrap_or_else(|e| panic!("{name}: square: {e}"));
+            assert_eq!(
+                square.report.status,
+                uvpin::Status::Reached,
+                "{name}: the witness is a square layout"
+            );
+        }
+        assert_eq!(
+            r.status,
+            uvpin::Status::Reached,
+            "{name}: free short by {}",
+            r.max_residual
+        );
+        via_square += usize::from(r.explain.iter().any(|l| l.contains("solve on the square")));
+        cases += 1;
+    }
+    eprintln!("{cases} cases reached free, {via_square} of them from the square's solve");
+    assert!(cases >= 12, "only {cases} witnessed cases");
+}
+
 /// Two charts with UVs side by side; the left one constrained.
 fn two_islands() -> (TriMesh, Vec<[f32; 2]>) {
     let a = grid_mesh(8, 8);
@@ -491,6 +563,11 @@ fn main() -> std::process::ExitCode {
             "random_free_solves_never_fold_cross_or_leave_their_region",
             &[],
             random_free_solves_never_fold_cross_or_leave_their_region,
+        ),
+        (
+            "targets_that_fill_the_region_are_reached_free_as_on_the_square",
+            &[],
+            targets_that_fill_the_region_are_reached_free_as_on_the_square,
         ),
         (
             "an_island_is_solved_inside_itself_and_the_other_stays_bit_identical",

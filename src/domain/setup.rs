@@ -96,6 +96,7 @@ pub fn decide(
         source: source_kind,
         obstacles: Arc::new(obstacles),
         island,
+        square: None,
     })))
 }
 

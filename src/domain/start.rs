@@ -5,7 +5,9 @@
 //! if it is injective, moved by the similarity that best fits its
 //! constrained vertices to their targets and gathered in or shrunk until it
 //! fits its room; else step 1's where it lies, to be relaxed toward the
-//! chart's shape before it is fitted so.
+//! chart's shape before it is fitted so. A chart whose free path fell short
+//! of its targets starts again from its solve on the square, mapped onto
+//! the region: a square layout inside the region is a free layout.
 
 use crate::complete::energy::RestTriangle;
 use crate::complete::newton::NewtonSystem;
@@ -28,6 +30,9 @@ pub enum StartKind {
     Conformal,
     /// Step 1's square layout, fitted to the targets (the conformal one folded).
     StepOne,
+    /// The chart's solve on the square, mapped onto the region: it meets
+    /// the targets (the free path from the other starts fell short).
+    Square,
 }
 
 /// The start of a free chart's solve.
@@ -76,6 +81,9 @@ pub fn choose_start(
     problem: &StepProblem,
 ) -> Option<ChosenStart> {
     let shape = Shape::of(filled);
+    if let Some(square) = &room.setup().square {
+        return fit_into_room(room, &shape, square, problem, StartKind::Square, Fit::InPlace);
+    }
     if let Some(island) = &room.setup().island {
         let layout = island_layout(filled, island, step1);
         if let Some(start) = fit_into_room(room, &shape, &layout, problem, StartKind::Island, Fit::InPlace) {

@@ -121,6 +121,11 @@ pub struct FreeSetup {
     /// The chart's stored UVs as layout coordinates (chart-local real
     /// vertices), when it already had them: the start, if it is injective.
     pub island: Option<Vec<DVec2>>,
+    /// A fold-free layout of the filled chart on the region's rectangle that
+    /// meets the targets (the chart solved on the square, mapped onto the
+    /// region), when the free path fell short of them: the start, shrunk
+    /// just enough to fit the room.
+    pub square: Option<Arc<Vec<DVec2>>>,
 }
 
 #[cfg(test)]

@@ -46,6 +46,13 @@ fn free_line(s: &SolveSummary) -> Option<String> {
         crate::domain::start::StartKind::Through => "least-squares conformal through the targets",
         crate::domain::start::StartKind::Conformal => "least-squares conformal",
         crate::domain::start::StartKind::StepOne => "step 1 (the conformal layout folded)",
+        crate::domain::start::StartKind::Square => match s.solver.record().free_fell_short {
+            Some(r) if r.is_finite() => &*format!(
+                "the chart's solve on the square, mapped onto the region (the free path from its own start ended \
+                 {r:.1e} short of the targets)"
+            ),
+            _ => "the chart's solve on the square, mapped onto the region (no start of its own fitted the room)",
+        },
     };
     let islands = setup.obstacles.triangles.len();
     Some(format!(

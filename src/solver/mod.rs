@@ -89,6 +89,10 @@ pub struct SolveRecord {
     pub spline_loop_freed: Option<LoopFreed>,
     /// A partial layout too stretched to use was replaced: its stretch.
     pub settled_from: Option<Stretch>,
+    /// A free chart's path from its own start ended this far from the
+    /// targets (infinite: no start fitted its room); this solve started
+    /// from the chart's solve on the square instead.
+    pub free_fell_short: Option<f64>,
     /// For a partial layout: the stretch of the chart's own shape (its free
     /// layout without landmarks, or step 1's), the yardstick it is held to.
     pub own_stretch: Option<Stretch>,
@@ -252,6 +256,24 @@ impl ChartSolver {
         debug_assert!(self.is_done() && layout.len() == self.layout.len());
         self.layout = layout;
         self.record.settled_from = Some(from);
+    }
+
+    /// The largest distance of a constrained vertex from its target.
+    pub fn max_residual(&self) -> f64 {
+        self.problem.max_residual(&self.layout)
+    }
+
+    /// Milliseconds this solve has taken, loading and step 1 included.
+    pub fn elapsed_ms(&self) -> f64 {
+        self.elapsed_before_ms + self.times.total_ms()
+    }
+
+    /// Notes that this solve replaced a free one that its own path left
+    /// `residual` short of the targets ([`SolveRecord::free_fell_short`]).
+    #[must_use]
+    pub fn fell_short_by(mut self, residual: f64) -> Self {
+        self.record.free_fell_short = Some(residual);
+        self
     }
 
     /// Notes the stretch a partial layout is held to (the chart's own shape).
