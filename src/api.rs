@@ -34,6 +34,7 @@ use crate::pins::Pins;
 use crate::report::{self, Report};
 use crate::session::ChartSession;
 use crate::solver::step_one::StepOne;
+use crate::solver::{Progress, Stage};
 use glam::DVec2;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -57,6 +58,27 @@ pub struct Options {
     pub input: io::InputRules,
     /// What is written when the result is an error (the model never is).
     pub on_error: OnError,
+    /// Told where a solve stands as it goes (`None`: nobody is told).
+    pub progress: Option<ProgressSink>,
+}
+
+/// Receives a solve's [`Progress`]: each stage as it begins, and after
+/// every tick of the solver (often: a display throttles itself).
+#[derive(Clone)]
+pub struct ProgressSink(pub Arc<dyn Fn(Progress) + Send + Sync>);
+
+impl std::fmt::Debug for ProgressSink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ProgressSink")
+    }
+}
+
+impl ProgressSink {
+    fn tell(sink: Option<&ProgressSink>, progress: Progress) {
+        if let Some(sink) = sink {
+            (sink.0)(progress);
+        }
+    }
 }
 
 impl Options {
@@ -155,6 +177,7 @@ pub fn solve_file(constraints_path: &Path, options: &Options) -> Result<Report, 
             })
         })?;
     }
+    ProgressSink::tell(options.progress.as_ref(), Progress::at(Stage::Loading));
     let (loaded, asset) = load(constraints_path, &options.solver, &options.input)?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     solve_loaded_in(loaded, &Arc::new(asset), options, load_ms)
@@ -180,8 +203,11 @@ fn solve_loaded_in(
 ) -> Result<Report, Error> {
     let solver_options = loaded.solver;
     let source = ConstraintSource::File(Arc::new(loaded));
+    let sink = options.progress.as_ref();
+    ProgressSink::tell(sink, Progress::at(Stage::Opening));
     let mut session = ChartSession::open(source, asset.clone(), load_ms)?;
-    let solved = session.solve(&solver_options)?;
+    let solved = session.solve_watching(&solver_options, &mut |p| ProgressSink::tell(sink, p))?;
+    ProgressSink::tell(sink, Progress::at(Stage::Writing));
     Ok(session.export(&solved.solver, &solved.report, &options.outputs()))
 }
 

@@ -83,8 +83,10 @@ pub mod testing;
 pub struct ReadmeExample;
 
 pub use api::{
-    MeshSolution, MeshStepOne, Options, load, solve_file, solve_loaded, solve_mesh, step_one, unreachable_proof,
+    MeshSolution, MeshStepOne, Options, ProgressSink, load, solve_file, solve_loaded, solve_mesh, step_one,
+    unreachable_proof,
 };
 pub use error::{Error, Result};
 pub use pins::Pins;
 pub use report::{Report, Status};
+pub use solver::{Progress, Stage};

@@ -33,7 +33,7 @@ use crate::param::bar_net::BarNet;
 use crate::param::boundary::BoundaryMap;
 use crate::report::{self, Report, StageTimes};
 use crate::solver::step_one::{self, StepOne, StepOneTimes};
-use crate::solver::{ChartSolver, SolverInputs};
+use crate::solver::{ChartSolver, Progress, SolverInputs, Stage};
 use glam::DVec2;
 use std::sync::Arc;
 use std::time::Instant;
@@ -495,10 +495,21 @@ impl ChartSession {
     /// # Errors
     /// As [`Self::new_solver`]; a Newton system that cannot be built (a bug).
     pub fn solve(&mut self, options: &SolverOptions) -> Result<Solution, Error> {
-        let mut solver = self.new_solver(options, StartFrom::StepOne)?;
-        solver.run()?;
-        let report = self.report(&mut solver);
-        Ok(Solution { solver, report })
+        self.solve_watching(options, &mut |_| {})
+    }
+
+    /// As [`Self::solve`], telling `watch` where it stands: each stage as
+    /// it begins, and after every tick of the solver.
+    ///
+    /// # Errors
+    /// As [`Self::solve`].
+    pub fn solve_watching(
+        &mut self,
+        options: &SolverOptions,
+        watch: &mut dyn FnMut(Progress),
+    ) -> Result<Solution, Error> {
+        let solved = self.run_solve(options, StartFrom::StepOne, &|| false, watch)?;
+        solved.ok_or_else(|| Error::Internal("a solve that nothing stops was stopped".into()))
     }
 
     /// As [`Self::solve`], started `from` where asked; `stop` is asked
@@ -512,13 +523,28 @@ impl ChartSession {
         from: StartFrom,
         stop: &dyn Fn() -> bool,
     ) -> Result<Option<Solution>, Error> {
+        self.run_solve(options, from, stop, &mut |_| {})
+    }
+
+    fn run_solve(
+        &mut self,
+        options: &SolverOptions,
+        from: StartFrom,
+        stop: &dyn Fn() -> bool,
+        watch: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Solution>, Error> {
+        watch(Progress::at(Stage::StepOne));
+        self.run_step_one()?;
+        watch(Progress::at(Stage::Starting));
         let mut solver = self.new_solver(options, from)?;
         while !solver.is_done() {
             if stop() {
                 return Ok(None);
             }
             solver.tick()?;
+            watch(solver.progress());
         }
+        watch(Progress::at(Stage::Finishing));
         let report = self.report(&mut solver);
         Ok(Some(Solution { solver, report }))
     }

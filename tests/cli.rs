@@ -6,6 +6,43 @@ use common::*;
 use uvpin::mesh::TriMesh;
 use uvpin::testing::grid_mesh;
 
+/// On a terminal (a pseudo-terminal made by `script`), `uvpin solve`
+/// shows a bar with each stage, then clears it; piped, it draws nothing.
+#[test]
+fn solve_shows_its_stages_on_a_terminal_and_nothing_when_piped() {
+    let tmp = TempDir::new("progress");
+    let out = tmp.path("face.glb");
+    let ron = repo().join("assets/face.uvpin.ron");
+    let command = format!(
+        "'{}' solve '{}' -o '{}'",
+        env!("CARGO_BIN_EXE_uvpin"),
+        ron.display(),
+        out.display()
+    );
+    let o = std::process::Command::new("script")
+        .args(["-qec", &command, "/dev/null"])
+        .output()
+        .expect("script (util-linux) runs the solve on a pseudo-terminal");
+    let shown = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{shown}");
+    for stage in ["loading", "step 1", "polish", "writing"] {
+        assert!(shown.contains(stage), "no {stage:?} on the terminal: {shown}");
+    }
+    let summary = shown.rsplit("\x1b[2K").next().unwrap_or_default();
+    assert!(
+        summary.starts_with("reached"),
+        "the bar is cleared before the summary: {summary:?}"
+    );
+    let piped = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        tmp.path("piped.glb").to_str().unwrap(),
+    ]);
+    assert!(piped.status.success(), "{}", stderr(&piped));
+    assert!(!stderr(&piped).contains("step 1"), "{}", stderr(&piped));
+}
+
 #[test]
 fn readme_demo_solves_the_sample_and_an_independent_reader_agrees() {
     let tmp = TempDir::new("demo");

@@ -117,6 +117,35 @@ fn a_daemon_killed_between_staging_and_renaming_leaves_the_old_set_and_the_next_
 }
 
 #[test]
+fn a_long_solve_logs_each_stage_it_enters() {
+    let dir = TempDir::new("watch-long-solve");
+    make_assets(&dir.0);
+    // Every solve counts as long (a test hook): its stages are logged.
+    let hook = [("UVPIN_TEST_LONG_SOLVE_MS", "0")];
+    let d = Daemon::watch_with_env(&dir.0, &[], &hook);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    let stages: Vec<String> = d
+        .log()
+        .into_iter()
+        .filter(|l| l["event"] == "stage")
+        .map(|l| l["stage"].as_str().unwrap_or_default().to_string())
+        .collect();
+    // Each stage once, in the solver's order.
+    let order = ["spline_path", "completion", "polish", "finishing"];
+    let rank: Vec<usize> = stages
+        .iter()
+        .map(|s| {
+            order
+                .iter()
+                .position(|o| o == s)
+                .unwrap_or_else(|| panic!("{s}: {stages:?}"))
+        })
+        .collect();
+    assert!(rank.windows(2).all(|w| w[0] < w[1]), "{stages:?}\n{}", d.dump());
+    assert!(stages.iter().any(|s| s == "polish"), "{stages:?}\n{}", d.dump());
+}
+
+#[test]
 fn every_editor_save_pattern_gives_exactly_one_solve_of_the_final_content() {
     let dir = TempDir::new("watch-saves");
     let ron = make_assets(&dir.0);

@@ -3,6 +3,7 @@
 mod check;
 mod edit;
 mod inspect;
+mod progress;
 
 use crate::report::Status;
 use clap::{Parser, Subcommand};
@@ -434,6 +435,7 @@ fn solve(
         return fail(&e);
     }
     let to_stdout = report_path.is_some_and(|p| p.as_os_str() == "-");
+    let bar = progress::solve_bar(print.quiet);
     let result = config
         .map(crate::config::Config::load)
         .transpose()
@@ -450,9 +452,13 @@ fn solve(
                     scope: crate::io::ReadScope::Anywhere,
                 },
                 on_error: crate::api::OnError::WriteNothing,
+                progress: bar.as_ref().map(|(_, sink)| sink.clone()),
             };
             crate::api::solve_file(constraints, &options)
         });
+    if let Some((bar, _)) = bar {
+        bar.finish_and_clear();
+    }
     match result {
         Ok(report) => {
             if !print.quiet {

@@ -52,6 +52,27 @@ pub struct WatchedFile {
 #[derive(Component, Debug, Clone, Copy)]
 pub struct Reported;
 
+/// When the chart's current solve started, and the last stage of it logged.
+#[derive(Component, Debug, Clone, Copy)]
+pub struct SolveClock {
+    pub started: std::time::Instant,
+    pub logged: Option<crate::solver::Stage>,
+}
+
+/// A solve running this long has each stage it enters logged.
+pub const LONG_SOLVE: Duration = Duration::from_secs(2);
+
+/// [`LONG_SOLVE`], or (a test hook) `UVPIN_TEST_LONG_SOLVE_MS` milliseconds.
+fn long_solve() -> Duration {
+    static LONG: std::sync::OnceLock<Duration> = std::sync::OnceLock::new();
+    *LONG.get_or_init(|| {
+        std::env::var("UVPIN_TEST_LONG_SOLVE_MS")
+            .ok()
+            .and_then(|ms| ms.parse().ok())
+            .map_or(LONG_SOLVE, Duration::from_millis)
+    })
+}
+
 /// What the rules ask of the watcher: to read a file again later, or to
 /// watch one more folder.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -64,6 +85,7 @@ pub enum WatchRequest {
 /// status file.
 pub fn watch_schedule() -> Schedule {
     let mut schedule = solve_schedule();
+    schedule.add_systems(log_long_solves.after(SolveSystems::Step).before(SolveSystems::Export));
     schedule.add_systems((report_results, write_status_file).chain().after(SolveSystems::Export));
     schedule
 }
@@ -242,6 +264,45 @@ fn log_start(
     entry.state = FileState::Solving;
     entry.asset = Some(asset_name.to_string());
     entry.last_error = None;
+    world.entity_mut(entity).insert(SolveClock {
+        started: std::time::Instant::now(),
+        logged: None,
+    });
+}
+
+/// A chart whose solve is running.
+type Running<'a> = (&'a WatchedFile, &'a Solver, &'a mut SolveClock);
+
+/// Logs the stage of every solve running longer than [`LONG_SOLVE`], each
+/// time it enters a new one: a long solve on a build machine shows where it is.
+pub fn log_long_solves(
+    log: Res<DaemonLog>,
+    settings: Res<Settings>,
+    mut charts: Query<Running, (Without<Finished>, Without<Failed>)>,
+) {
+    for (watched, solver, mut clock) in &mut charts {
+        let elapsed = clock.started.elapsed();
+        let progress = solver.0.progress();
+        if elapsed < long_solve() || clock.logged == Some(progress.stage) {
+            continue;
+        }
+        clock.logged = Some(progress.stage);
+        let name = display(&watched.path, &settings.0.cwd);
+        let how_far = progress
+            .fraction
+            .map_or(String::new(), |f| format!(", {:.0} % through", f * 100.0));
+        let message = format!(
+            "{} after {:.1} s{how_far}",
+            progress.stage.label(),
+            elapsed.as_secs_f64()
+        );
+        log.logger.info(
+            "stage",
+            Some(&name),
+            &message,
+            json!({ "stage": progress.stage, "elapsed_ms": elapsed.as_millis() as u64 }),
+        );
+    }
 }
 
 /// A chart whose outcome may not be reported yet.

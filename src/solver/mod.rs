@@ -63,6 +63,65 @@ impl SolverTimes {
     }
 }
 
+/// The stages of a solve, in order, for progress displays (a CLI's bar, a
+/// daemon's log of a long solve).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stage {
+    /// Reading the constraint file and the asset.
+    Loading,
+    /// Welding, choosing the chart, repairing and cutting it open.
+    Opening,
+    /// The bar-net solve (Eq. 1–2).
+    StepOne,
+    /// The solver's start (a free chart's: laid out, fitted to the targets,
+    /// relaxed).
+    Starting,
+    /// The spline path (Eq. 6) with the foldover guard.
+    SplinePath,
+    /// The soft-to-hard completion.
+    Completion,
+    /// The distortion polish.
+    Polish,
+    /// The report, the free chart's fallbacks, the other charts.
+    Finishing,
+    /// Writing the outputs.
+    Writing,
+}
+
+impl Stage {
+    /// A short name for a progress line.
+    pub fn label(self) -> &'static str {
+        match self {
+            Stage::Loading => "loading",
+            Stage::Opening => "opening the chart",
+            Stage::StepOne => "step 1",
+            Stage::Starting => "starting",
+            Stage::SplinePath => "spline path",
+            Stage::Completion => "completion",
+            Stage::Polish => "polish",
+            Stage::Finishing => "finishing",
+            Stage::Writing => "writing",
+        }
+    }
+}
+
+/// Where a solve stands: its stage and, when known, how far through it
+/// (0 to 1, an estimate: the share of the way to the targets on the spline
+/// path, of the rounds in the completion, of the steps in the polish).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Progress {
+    pub stage: Stage,
+    pub fraction: Option<f64>,
+}
+
+impl Progress {
+    /// `stage`, with no measure of how far through it.
+    pub fn at(stage: Stage) -> Self {
+        Progress { stage, fraction: None }
+    }
+}
+
 /// A partial layout more stretched than this many times the chart's own
 /// shape is replaced by that shape fitted to the targets
 /// ([`ChartSolver::settle_for`]).
@@ -283,6 +342,29 @@ impl ChartSolver {
 
     pub fn phase(&self) -> &Phase {
         &self.phase
+    }
+
+    /// Where this solve stands ([`Progress`]).
+    pub fn progress(&self) -> Progress {
+        let (stage, fraction) = match &self.phase {
+            Phase::SplineStepping { .. } => {
+                let (start, now) = (self.problem.max_residual(&self.start), self.max_residual());
+                (Stage::SplinePath, (start > 0.0).then(|| 1.0 - now / start))
+            }
+            Phase::Completion(soft) => (
+                Stage::Completion,
+                Some(f64::from(soft.stats.rounds) / f64::from(self.options.completion_rounds.max(1))),
+            ),
+            Phase::Polish(polish) => (
+                Stage::Polish,
+                Some(f64::from(polish.stats.steps) / f64::from(self.options.polish_iterations.max(1))),
+            ),
+            Phase::Done => (Stage::Finishing, None),
+        };
+        Progress {
+            stage,
+            fraction: fraction.map(|f| f.clamp(0.0, 1.0)),
+        }
     }
 
     pub fn is_done(&self) -> bool {
