@@ -78,6 +78,9 @@ fn solve(mesh: &TriMesh, constraints: &[(u32, DVec2)], boundary: BoundaryChoice,
             f.phases,
             f.peak_mb
         );
+        for line in &r.explain {
+            eprintln!("    {line}");
+        }
     }
     f
 }

@@ -152,7 +152,7 @@ fn free_layout(
         source: RegionSource::Texture,
         obstacles: Arc::new(Obstacles::default()),
         island: None,
-        square: None,
+        given: None,
     };
     let chart = Arc::new(chart);
     let piece = PreparedChart {

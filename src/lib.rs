@@ -59,6 +59,7 @@ pub mod inspect;
 pub mod io;
 pub mod mesh;
 pub mod metrics;
+pub mod multilevel;
 pub mod options;
 pub mod pack;
 pub mod param;

@@ -75,6 +75,12 @@ pub struct SolverOptions {
     /// Stop the completion and polish after this many milliseconds of solving
     /// (default none): the best fold-free layout so far is kept.
     pub time_budget_ms: Option<f64>,
+    /// A free chart with more vertices than this is solved on a coarse
+    /// level first, then prolonged and settled by local sweeps (default
+    /// 40000): near-linear cost at any size.
+    pub multilevel_above: usize,
+    /// Multilevel: vertices of the coarse level, about (default 16000, at least 500).
+    pub multilevel_coarse: usize,
 }
 
 impl SolverOptions {
@@ -96,6 +102,8 @@ impl SolverOptions {
         polish_iterations: 20,
         polish_max_vertices: 50_000,
         time_budget_ms: None,
+        multilevel_above: 40_000,
+        multilevel_coarse: 16_000,
     };
 }
 
@@ -127,6 +135,13 @@ impl SolverOptions {
             })
         };
         positive("tolerance", self.tolerance)?;
+        if self.multilevel_coarse < 500 {
+            return Err(OptionError {
+                field: "multilevel_coarse",
+                value: self.multilevel_coarse as f64,
+                why: "must be at least 500",
+            });
+        }
         positive("initial_weight", self.initial_weight)?;
         if !(self.weight_growth.is_finite() && self.weight_growth >= 1.0) {
             let why = "must be a number of at least 1";

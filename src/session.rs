@@ -251,6 +251,10 @@ impl ChartSession {
     /// Step-1 errors; a constraint on the outer boundary whose target
     /// contradicts the boundary map.
     pub fn new_solver(&mut self, options: &SolverOptions, from: StartFrom) -> Result<ChartSolver, Error> {
+        if let Some(solver) = self.solver_from_coarse_level(options)? {
+            self.pattern = Some(solver.pattern().clone());
+            return Ok(solver);
+        }
         self.run_step_one()?;
         let (Some(boundary), Some(step_one)) = (&self.boundary, &self.step_one) else {
             return Err(not_yet("step 1"));
@@ -278,6 +282,30 @@ impl ChartSession {
         };
         self.pattern = Some(solver.pattern().clone());
         Ok(solver)
+    }
+
+    /// A large free chart's solver from its coarse level, without its own
+    /// step 1 ([`ChartSolver::from_coarse_level`]); `None` when it is not
+    /// one or its coarse level fails.
+    ///
+    /// # Errors
+    /// As [`Self::new_solver`].
+    fn solver_from_coarse_level(&mut self, options: &SolverOptions) -> Result<Option<ChartSolver>, Error> {
+        if self.on_square() || self.prepared.filled.mesh.n_vertices() <= options.multilevel_above {
+            return Ok(None);
+        }
+        self.map_boundary()?;
+        let boundary = self.mapped_boundary()?;
+        ChartSolver::from_coarse_level(SolverInputs {
+            prepared: &self.prepared,
+            source: &self.source,
+            options,
+            boundary,
+            step1: &[],
+            bar_net: None,
+            pattern: self.pattern.as_ref(),
+            elapsed_ms: self.times.total_ms(),
+        })
     }
 
     /// A free chart solved on the square instead, then free again from
@@ -315,7 +343,10 @@ impl ChartSession {
         let mapped: Vec<DVec2> = square.layout().iter().map(|&p| lo + p * (hi - lo)).collect();
         let mut free = self.prepared.clone();
         free.domain = Domain::Free(Arc::new(crate::free::FreeSetup {
-            square: Some(Arc::new(mapped)),
+            given: Some(crate::free::GivenStart {
+                layout: Arc::new(mapped),
+                kind: StartKind::Square,
+            }),
             ..(**setup).clone()
         }));
         let mut solver = ChartSolver::new(SolverInputs {
@@ -335,7 +366,9 @@ impl ChartSession {
         self.detour_via_square(solver);
         self.settle(solver);
         let boundary = self.boundary.as_deref().expect("a started solver mapped the boundary");
-        let step_one = self.step_one.as_deref().expect("a started solver solved step 1");
+        // A chart started from its coarse level has no step 1 of its own:
+        // its start stands in for it.
+        let step_one = self.step_one.as_deref().map_or(solver.start_layout(), Vec::as_slice);
         let mut report = report::build(&report::SolveSummary {
             constraint_file: self.source.name(),
             asset: &self.asset,
@@ -534,8 +567,6 @@ impl ChartSession {
         watch: &mut dyn FnMut(Progress),
     ) -> Result<Option<Solution>, Error> {
         watch(Progress::at(Stage::StepOne));
-        self.run_step_one()?;
-        watch(Progress::at(Stage::Starting));
         let mut solver = self.new_solver(options, from)?;
         while !solver.is_done() {
             if stop() {

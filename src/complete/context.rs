@@ -337,7 +337,7 @@ impl NewtonContext {
 }
 
 /// Rest shapes scaled from total area 1 to `area`.
-fn scaled(rest: Vec<RestTriangle>, area: f64) -> Vec<RestTriangle> {
+pub fn scaled(rest: Vec<RestTriangle>, area: f64) -> Vec<RestTriangle> {
     let s = area.max(1e-300);
     let inv = 1.0 / s.sqrt();
     rest.into_iter()

@@ -96,7 +96,7 @@ pub fn decide(
         source: source_kind,
         obstacles: Arc::new(obstacles),
         island,
-        square: None,
+        given: None,
     })))
 }
 

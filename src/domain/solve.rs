@@ -168,27 +168,30 @@ fn open_free(
     let filled = chart.filled;
     let triangles = &filled.mesh.triangles;
     let room = Arc::new(Room::new(setup.clone(), chart.topology, triangles));
-    let n_real = filled.n_real_triangles;
-    let pattern = chart
-        .pattern
-        .get()
-        .map_err(|e| Error::Internal(format!("free-boundary system: {e}")))?;
-    let rest = crate::complete::energy::rest_shapes(
-        &filled.mesh.positions,
-        triangles,
-        n_real,
-        crate::complete::VIRTUAL_WEIGHT,
-    );
-    let system = crate::complete::newton::NewtonSystem::new(pattern);
+    let no_room = || Error::NoRoom {
+        chart: chart.id,
+        region: setup.region,
+    };
+    let chosen = match &setup.given {
+        // A given start needs no Newton system (a large chart's may never).
+        Some(_) => super::start::given_start(&room, filled, problem).ok_or_else(no_room)?,
+        None => {
+            let system = newton_system(chart)?;
+            let rest = crate::complete::energy::rest_shapes(
+                &filled.mesh.positions,
+                triangles,
+                filled.n_real_triangles,
+                crate::complete::VIRTUAL_WEIGHT,
+            );
+            choose_start(&room, filled, &rest, &system, chart.step1, problem).ok_or_else(no_room)?
+        }
+    };
     let ChosenStart {
         mut layout,
         kind,
         rest_area,
         shrink,
-    } = choose_start(&room, filled, &rest, &system, chart.step1, problem).ok_or_else(|| Error::NoRoom {
-        chart: chart.id,
-        region: setup.region,
-    })?;
+    } = chosen;
     let (lo, hi) = setup.region.layout_box();
     let scaffold = Arc::new(Scaffold::new(lo, hi, &setup.obstacles, room.boundary_vertices().len()));
     let offset = layout.len() as u32;
@@ -197,7 +200,8 @@ fn open_free(
     let (mut rest_area, mut shrink, mut relax_steps) = (rest_area, shrink, 0);
     let far_from_shape = kind == StartKind::StepOne || (kind == StartKind::Conformal && problem.targets.len() >= 2);
     if far_from_shape {
-        let relaxed = relax(filled, system.pattern(), &mut layout, &domain, rest_area, problem, kind);
+        let pattern = newton_system(chart)?.pattern().clone();
+        let relaxed = relax(filled, &pattern, &mut layout, &domain, rest_area, problem, kind);
         if let Some((refit, steps)) = relaxed {
             layout[..refit.layout.len()].copy_from_slice(&refit.layout);
             (rest_area, shrink, relax_steps) = (refit.rest_area, refit.shrink, steps);
@@ -212,6 +216,19 @@ fn open_free(
         start_ms: ms(t0),
     };
     Ok((layout, solve))
+}
+
+/// The Newton system over the chart's vertices (its pattern built now if
+/// it was not).
+///
+/// # Errors
+/// The pattern could not be built (never for a valid mesh).
+fn newton_system(chart: &ChartParts) -> Result<crate::complete::newton::NewtonSystem, Error> {
+    let pattern = chart
+        .pattern
+        .get()
+        .map_err(|e| Error::Internal(format!("free-boundary system: {e}")))?;
+    Ok(crate::complete::newton::NewtonSystem::new(pattern))
 }
 
 /// Relaxes a free start toward its own low-distortion shape (symmetric

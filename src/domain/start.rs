@@ -33,6 +33,8 @@ pub enum StartKind {
     /// The chart's solve on the square, mapped onto the region: it meets
     /// the targets (the free path from the other starts fell short).
     Square,
+    /// A coarse level of the chart solved and prolonged (a large chart).
+    Coarse,
 }
 
 /// The start of a free chart's solve.
@@ -68,6 +70,20 @@ const INSIDE_MARGIN: f64 = 0.01;
 /// chart, so the chart does not fit.
 const MIN_SPAN: f64 = 0.1;
 
+/// A given start ([`crate::free::GivenStart`]) where it is, shrunk just
+/// enough to fit its room if it does not.
+pub fn given_start(room: &Room, filled: &FilledChart, problem: &StepProblem) -> Option<ChosenStart> {
+    let given = room.setup().given.as_ref()?;
+    fit_into_room(
+        room,
+        &Shape::of(filled),
+        &given.layout,
+        problem,
+        given.kind,
+        Fit::InPlace,
+    )
+}
+
 /// The start of a free chart: see the module docs. `rest` are the filled
 /// chart's rest shapes (real area 1, virtual triangles light), `system` the
 /// Newton system over every vertex, `step1` step 1's layout. `None` when no
@@ -81,9 +97,6 @@ pub fn choose_start(
     problem: &StepProblem,
 ) -> Option<ChosenStart> {
     let shape = Shape::of(filled);
-    if let Some(square) = &room.setup().square {
-        return fit_into_room(room, &shape, square, problem, StartKind::Square, Fit::InPlace);
-    }
     if let Some(island) = &room.setup().island {
         let layout = island_layout(filled, island, step1);
         if let Some(start) = fit_into_room(room, &shape, &layout, problem, StartKind::Island, Fit::InPlace) {

@@ -121,11 +121,18 @@ pub struct FreeSetup {
     /// The chart's stored UVs as layout coordinates (chart-local real
     /// vertices), when it already had them: the start, if it is injective.
     pub island: Option<Vec<DVec2>>,
-    /// A fold-free layout of the filled chart on the region's rectangle that
-    /// meets the targets (the chart solved on the square, mapped onto the
-    /// region), when the free path fell short of them: the start, shrunk
-    /// just enough to fit the room.
-    pub square: Option<Arc<Vec<DVec2>>>,
+    /// A fold-free layout of the filled chart that meets the targets, made
+    /// another way (the chart's solve on the square mapped onto the region;
+    /// a coarse level's solve prolonged): the start, shrunk just enough to
+    /// fit the room.
+    pub given: Option<GivenStart>,
+}
+
+/// A start made outside the free solve, and how.
+#[derive(Debug, Clone)]
+pub struct GivenStart {
+    pub layout: Arc<Vec<DVec2>>,
+    pub kind: crate::domain::start::StartKind,
 }
 
 #[cfg(test)]

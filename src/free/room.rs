@@ -305,7 +305,7 @@ mod tests {
             source: RegionSource::Texture,
             obstacles: Arc::new(obstacles),
             island: None,
-            square: None,
+            given: None,
         };
         (Room::new(Arc::new(setup), &topology, &mesh.triangles), mesh)
     }

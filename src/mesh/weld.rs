@@ -104,6 +104,27 @@ impl Chart {
         }
     }
 
+    /// A chart on some of this chart's vertices (`vertices[k]`: this
+    /// chart's id of new vertex `k`) with triangles of its own (a coarse
+    /// level of it); each new triangle stands for this chart's first.
+    pub fn subset(&self, vertices: &[u32], triangles: Vec<[u32; 3]>) -> Chart {
+        let welded_ids: Vec<u32> = vertices.iter().map(|&v| self.welded_ids[v as usize]).collect();
+        let mut local_of = vec![None; self.local_of.len()];
+        for (l, &w) in welded_ids.iter().enumerate().rev() {
+            local_of[w as usize] = Some(l as u32);
+        }
+        Chart {
+            id: self.id,
+            mesh: TriMesh {
+                positions: vertices.iter().map(|&v| self.mesh.positions[v as usize]).collect(),
+                triangles: triangles.clone(),
+            },
+            welded_ids,
+            triangle_ids: vec![self.triangle_ids.first().copied().unwrap_or(0); triangles.len()],
+            local_of,
+        }
+    }
+
     /// This chart with only the triangles `keep` marks (same vertices).
     pub fn with_triangles(&self, keep: &[bool]) -> Chart {
         let pick = |k: &usize| keep[*k];

@@ -18,6 +18,7 @@ pub(super) fn explain_lines(
 ) -> Vec<String> {
     let mut lines = vec![step1_line(s, step1)];
     lines.extend(free_line(s));
+    lines.extend(multilevel_line(s));
     lines.extend([
         spline_line(s),
         completion_line(s, c),
@@ -29,6 +30,16 @@ pub(super) fn explain_lines(
         ),
     ]);
     lines
+}
+
+/// A large chart's coarse level.
+fn multilevel_line(s: &SolveSummary) -> Option<String> {
+    let m = s.solver.record().multilevel?;
+    Some(format!(
+        "coarse level: {} vertices, coarsened in {:.0} ms, solved in {:.0} ms, prolonged in {:.0} ms with {} local \
+         sweeps ({} vertices put in their ring's kernel)",
+        m.coarse_vertices, m.coarsen_ms, m.coarse_solve_ms, m.prolong_ms, m.sweeps, m.in_kernel
+    ))
 }
 
 /// A free boundary's region and start.
@@ -46,6 +57,7 @@ fn free_line(s: &SolveSummary) -> Option<String> {
         crate::domain::start::StartKind::Through => "least-squares conformal through the targets",
         crate::domain::start::StartKind::Conformal => "least-squares conformal",
         crate::domain::start::StartKind::StepOne => "step 1 (the conformal layout folded)",
+        crate::domain::start::StartKind::Coarse => "a coarse level of the chart, solved and prolonged",
         crate::domain::start::StartKind::Square => match s.solver.record().free_fell_short {
             Some(r) if r.is_finite() => &*format!(
                 "the chart's solve on the square, mapped onto the region (the free path from its own start ended \
@@ -93,6 +105,12 @@ fn status_word(status: Status) -> &'static str {
 
 fn step1_line(s: &SolveSummary, step1: &Stretch) -> String {
     let t = &s.times;
+    if s.solver.record().multilevel.is_some() {
+        return format!(
+            "step 1 (bar-net, Eq. 1-2): on the coarse level only; the prolonged start has stretch L2 {:.4}, L∞ {:.4}",
+            step1.l2, step1.linf
+        );
+    }
     format!(
         "step 1 (bar-net, Eq. 1-2): outer loop of {} vertices on the {} (corners {}); {} holes fan-filled; \
          {} free vertices solved; stretch L2 {:.4}, L∞ {:.4}; {:.2} ms",

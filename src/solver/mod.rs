@@ -11,6 +11,7 @@
 //! [`ChartSolver::judge`] and [`ChartSolver::newton_tick`], the three parts
 //! of a tick, in that order.
 
+pub mod multilevel;
 pub mod policy;
 pub mod step_one;
 
@@ -72,11 +73,9 @@ pub enum Stage {
     Loading,
     /// Welding, choosing the chart, repairing and cutting it open.
     Opening,
-    /// The bar-net solve (Eq. 1–2).
+    /// The bar-net solve (Eq. 1–2) and the solver's start (a free chart's
+    /// fitted to the targets, or its coarse level solved and prolonged).
     StepOne,
-    /// The solver's start (a free chart's: laid out, fitted to the targets,
-    /// relaxed).
-    Starting,
     /// The spline path (Eq. 6) with the foldover guard.
     SplinePath,
     /// The soft-to-hard completion.
@@ -96,7 +95,6 @@ impl Stage {
             Stage::Loading => "loading",
             Stage::Opening => "opening the chart",
             Stage::StepOne => "step 1",
-            Stage::Starting => "starting",
             Stage::SplinePath => "spline path",
             Stage::Completion => "completion",
             Stage::Polish => "polish",
@@ -148,6 +146,8 @@ pub struct SolveRecord {
     pub spline_loop_freed: Option<LoopFreed>,
     /// A partial layout too stretched to use was replaced: its stretch.
     pub settled_from: Option<Stretch>,
+    /// A large chart started from its coarse level: what that did.
+    pub multilevel: Option<multilevel::MultilevelStats>,
     /// A free chart's path from its own start ended this far from the
     /// targets (infinite: no start fitted its room); this solve started
     /// from the chart's solve on the square instead.
@@ -166,6 +166,15 @@ pub enum LoopFreed {
     Kept,
     /// It ended further from them: the first run's layout kept.
     Discarded,
+}
+
+/// Where a solve starts: the layout, its domain, whether it is storable
+/// as f32 already, and what a coarse level did for it.
+struct Started {
+    layout: Vec<DVec2>,
+    domain: SolveDomain,
+    storable: bool,
+    coarse: Option<multilevel::MultilevelStats>,
 }
 
 /// Everything a chart's solve starts from.
@@ -247,8 +256,66 @@ impl ChartSolver {
                 "the step-1 layout has a flipped or zero-area triangle ({t})"
             )));
         }
+        let (problem, policy, pattern) = Self::problem_of(&start)?;
+        let chart = ChartParts {
+            id: start.prepared.chart.id,
+            filled,
+            topology: &start.prepared.topology,
+            step1: start.step1,
+            pattern: &pattern,
+        };
+        let (layout, domain) = SolveDomain::start(&start.prepared.domain, &chart, &problem)?;
+        let storable = storable || start.prepared.domain.free().is_some();
+        let started = Started {
+            layout,
+            domain,
+            storable,
+            coarse: None,
+        };
+        Ok(Self::assemble(&start, (problem, policy, pattern), started, t0))
+    }
+
+    /// A large free chart's solver started from its coarse level, solved
+    /// and prolonged ([`multilevel`]), before and without its own step 1
+    /// (`start.step1` is not read). `None` when the chart is not one, or its
+    /// coarse level could not be made, solved or placed in its room: it is
+    /// then solved from step 1 ([`ChartSolver::new`]).
+    ///
+    /// # Errors
+    /// As [`ChartSolver::new`].
+    pub fn from_coarse_level(start: SolverInputs) -> Result<Option<Self>, Error> {
+        let t0 = Instant::now();
+        if !multilevel::applies(&start) {
+            return Ok(None);
+        }
+        let (problem, policy, pattern) = Self::problem_of(&start)?;
+        let chart = ChartParts {
+            id: start.prepared.chart.id,
+            filled: &start.prepared.filled,
+            topology: &start.prepared.topology,
+            step1: &[],
+            pattern: &pattern,
+        };
+        let Some((layout, stats)) = multilevel::coarse_start(&start) else {
+            return Ok(None);
+        };
+        let Some((layout, domain)) = multilevel::start_in(&start, &chart, &problem, layout) else {
+            return Ok(None);
+        };
+        let started = Started {
+            layout,
+            domain,
+            storable: true,
+            coarse: Some(stats),
+        };
+        Ok(Some(Self::assemble(&start, (problem, policy, pattern), started, t0)))
+    }
+
+    /// The spline path's problem, the policy and the Newton pattern of a
+    /// solve of `start`.
+    fn problem_of(start: &SolverInputs) -> Result<(StepProblem, Policy, Arc<PendingNewtonPattern>), Error> {
+        let filled = &start.prepared.filled;
         let options = *start.options;
-        let free_setup = start.prepared.domain.free();
         let problem = chart::step_problem(
             start.prepared,
             start.source,
@@ -261,7 +328,7 @@ impl ChartSolver {
             _ => {
                 // Step 1 ordered the same vertex graph: no second ordering.
                 let order = start.bar_net.and_then(BarNet::elimination_order).map(Arc::new);
-                let build = if free_setup.is_some() {
+                let build = if start.prepared.domain.free().is_some() {
                     Build::Lazily
                 } else {
                     policy.pattern_build()
@@ -274,37 +341,41 @@ impl ChartSolver {
                 ))
             }
         };
-        let chart = ChartParts {
-            id: start.prepared.chart.id,
-            filled,
-            topology: &start.prepared.topology,
-            step1: start.step1,
-            pattern: &pattern,
-        };
-        let (layout, domain) = SolveDomain::start(&start.prepared.domain, &chart, &problem)?;
-        let spline = SteppingState::start(&problem, &layout, &options, policy.completion_follows_stall());
-        let spline_storable = storable || free_setup.is_some();
-        Ok(ChartSolver {
-            filled: filled.clone(),
+        Ok((problem, policy, pattern))
+    }
+
+    fn assemble(
+        start: &SolverInputs,
+        (problem, policy, pattern): (StepProblem, Policy, Arc<PendingNewtonPattern>),
+        started: Started,
+        t0: Instant,
+    ) -> Self {
+        let options = *start.options;
+        let spline = SteppingState::start(&problem, &started.layout, &options, policy.completion_follows_stall());
+        ChartSolver {
+            filled: start.prepared.filled.clone(),
             problem,
             options,
             policy,
-            start: layout.clone(),
-            layout,
-            domain,
+            start: started.layout.clone(),
+            layout: started.layout,
+            domain: started.domain,
             spline,
-            spline_storable,
+            spline_storable: started.storable,
             spline_layout: None,
             held_loop_run: None,
             phase: Phase::SplineStepping { full_step: None },
             pattern,
-            record: SolveRecord::default(),
+            record: SolveRecord {
+                multilevel: started.coarse,
+                ..SolveRecord::default()
+            },
             times: SolverTimes {
                 stepping_ms: ms(t0),
                 ..SolverTimes::default()
             },
             elapsed_before_ms: start.elapsed_ms,
-        })
+        }
     }
 
     /// Replaces a finished solve's layout (the filled chart's, checked by
@@ -315,6 +386,11 @@ impl ChartSolver {
         debug_assert!(self.is_done() && layout.len() == self.layout.len());
         self.layout = layout;
         self.record.settled_from = Some(from);
+    }
+
+    /// The layout this solve started from (the filled chart's).
+    pub fn start_layout(&self) -> &[DVec2] {
+        &self.start[..self.filled.mesh.n_vertices()]
     }
 
     /// The largest distance of a constrained vertex from its target.

@@ -1,0 +1,407 @@
+//! A mesh hierarchy by half-edge collapses (Hoppe's progressive meshes):
+//! the filled chart is coarsened by removing one vertex at a time into a
+//! neighbour, shortest 3D edge first, keeping it a manifold disk with the
+//! same holes, its loops walked only along themselves, its landmarks and
+//! hole centres in place, and no triangle turned over on the surface. Every
+//! coarse vertex is a fine one, so a coarse layout meeting the targets meets
+//! them on the fine mesh too; the collapses, undone in reverse, are the
+//! prolongation ([`super::prolong`]).
+
+use crate::mesh::TriMesh;
+use glam::DVec3;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// What a vertex is to the coarsening.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// Off every loop: may go into any neighbour.
+    Inner,
+    /// On boundary loop `k` of the real mesh (the outer loop or a hole's):
+    /// may go only into a neighbour along that loop.
+    Loop(u32),
+    /// Never removed: a landmark or a hole's virtual centre.
+    Kept,
+}
+
+/// One collapse: `u` went into `v`. `star` ranges over
+/// [`Hierarchy::star`]: `u`'s triangles then, each as `id · 4 + slot`, the
+/// slot of `u` in a triangle that took `v` for it, or 3 for one that had
+/// both and went.
+#[derive(Debug, Clone, Copy)]
+pub struct Collapse {
+    pub u: u32,
+    pub v: u32,
+    pub star: (u32, u32),
+}
+
+/// The fine mesh's triangles as the coarse level has them, and the
+/// collapses that led there.
+#[derive(Debug, Clone)]
+pub struct Hierarchy {
+    /// Every triangle of the fine mesh, as it stands at the coarse level
+    /// (a removed one keeps its fine corners).
+    pub triangles: Vec<[u32; 3]>,
+    pub alive: Vec<bool>,
+    /// Whether each fine vertex is still there.
+    pub present: Vec<bool>,
+    pub collapses: Vec<Collapse>,
+    pub star: Vec<u32>,
+}
+
+/// A triangle whose corners' quality (`4√3 A / Σ ℓ²`, 1 for equilateral)
+/// falls below this is not made by a collapse, unless the triangle it
+/// replaces was as poor.
+const MIN_QUALITY: f64 = 0.05;
+
+/// A collapse may not turn a triangle's normal by more than this much
+/// (cosine), nor make one whose normal is further than this from the fine
+/// surface's normal at any of its corners: the coarse surface stays close
+/// to the fine one.
+const MIN_NORMAL_COSINE: f64 = 0.5;
+
+/// Loops keep at least this many vertices (the outer one more).
+const MIN_HOLE: u32 = 3;
+const MIN_OUTER: u32 = 12;
+
+struct Coarsening<'a> {
+    positions: &'a [DVec3],
+    /// The fine surface's area-weighted vertex normals (unit).
+    normals: Vec<DVec3>,
+    role: &'a [Role],
+    triangles: Vec<[u32; 3]>,
+    alive: Vec<bool>,
+    incident: Vec<Vec<u32>>,
+    present: Vec<bool>,
+    version: Vec<u32>,
+    loop_size: Vec<u32>,
+    outer: u32,
+    /// Whether a triangle is real (all corners real vertices).
+    real: Vec<bool>,
+    collapses: Vec<Collapse>,
+    star: Vec<u32>,
+}
+
+/// Coarsens `mesh` (a filled chart: a disk, holes closed by fans) to about
+/// `target` vertices. `role` says what each vertex may do; `outer` is the
+/// outer loop's index among the loops of [`Role::Loop`]; `virtual_from`
+/// the first virtual vertex (triangles touching one are not checked
+/// against the surface).
+pub fn coarsen(mesh: &TriMesh, role: &[Role], outer: u32, virtual_from: usize, target: usize) -> Hierarchy {
+    let n = mesh.n_vertices();
+    let mut incident = vec![Vec::with_capacity(6); n];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for &v in tri {
+            incident[v as usize].push(t as u32);
+        }
+    }
+    let mut loop_size = Vec::new();
+    for r in role {
+        if let Role::Loop(k) = *r {
+            if loop_size.len() <= k as usize {
+                loop_size.resize(k as usize + 1, 0);
+            }
+            loop_size[k as usize] += 1;
+        }
+    }
+    let real: Vec<bool> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.iter().all(|&v| (v as usize) < virtual_from))
+        .collect();
+    let mut normals = vec![DVec3::ZERO; n];
+    for (t, _) in mesh.triangles.iter().zip(&real).filter(|(_, r)| **r) {
+        let nt = normal(t.map(|v| mesh.positions[v as usize]));
+        t.iter().for_each(|&v| normals[v as usize] += nt);
+    }
+    normals.iter_mut().for_each(|n| *n = n.normalize_or_zero());
+    let mut c = Coarsening {
+        positions: &mesh.positions,
+        normals,
+        role,
+        triangles: mesh.triangles.clone(),
+        alive: vec![true; mesh.n_triangles()],
+        incident,
+        present: vec![true; n],
+        version: vec![0; n],
+        loop_size,
+        outer,
+        real,
+        collapses: Vec::new(),
+        star: Vec::new(),
+    };
+    c.run(target);
+    Hierarchy {
+        triangles: c.triangles,
+        alive: c.alive,
+        present: c.present,
+        collapses: c.collapses,
+        star: c.star,
+    }
+}
+
+/// A heap entry: an edge's squared length (as ordered bits), its ends, and
+/// their versions when it was pushed.
+type Entry = Reverse<(u64, u32, u32, u32, u32)>;
+
+impl Coarsening<'_> {
+    fn run(&mut self, target: usize) {
+        let mut heap: BinaryHeap<Entry> = BinaryHeap::with_capacity(3 * self.present.len());
+        for t in 0..self.triangles.len() {
+            let [a, b, c] = self.triangles[t];
+            for (p, q) in [(a, b), (b, c), (c, a)] {
+                if p < q {
+                    self.push(&mut heap, p, q);
+                }
+            }
+        }
+        let mut remaining = self.present.len();
+        while remaining > target {
+            let Some(Reverse((_, a, b, va, vb))) = heap.pop() else {
+                break;
+            };
+            if !self.present[a as usize]
+                || !self.present[b as usize]
+                || self.version[a as usize] != va
+                || self.version[b as usize] != vb
+            {
+                continue;
+            }
+            let done = self.try_collapse(a, b) || self.try_collapse(b, a);
+            if let Some(v) = done.then(|| self.survivor(a, b)) {
+                remaining -= 1;
+                self.version[v as usize] += 1;
+                let neighbours = self.neighbours(v);
+                for w in neighbours {
+                    self.push(&mut heap, v, w);
+                }
+            }
+        }
+    }
+
+    /// Which of `a` and `b` is left after one went into the other.
+    fn survivor(&self, a: u32, b: u32) -> u32 {
+        if self.present[a as usize] { a } else { b }
+    }
+
+    fn push(&self, heap: &mut BinaryHeap<Entry>, p: u32, q: u32) {
+        let d = self.positions[p as usize].distance_squared(self.positions[q as usize]);
+        heap.push(Reverse((
+            d.to_bits(),
+            p,
+            q,
+            self.version[p as usize],
+            self.version[q as usize],
+        )));
+    }
+
+    /// The living triangles around `v`.
+    fn star_of(&self, v: u32) -> impl Iterator<Item = u32> + '_ {
+        self.incident[v as usize]
+            .iter()
+            .copied()
+            .filter(move |&t| self.alive[t as usize] && self.triangles[t as usize].contains(&v))
+    }
+
+    fn neighbours(&self, v: u32) -> Vec<u32> {
+        let mut out: Vec<u32> = self
+            .star_of(v)
+            .flat_map(|t| self.triangles[t as usize])
+            .filter(|&w| w != v)
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// Removes `u` into `v` if every rule allows it.
+    fn try_collapse(&mut self, u: u32, v: u32) -> bool {
+        if !self.allowed(u, v) {
+            return false;
+        }
+        let start = self.star.len() as u32;
+        let star: Vec<u32> = self.star_of(u).collect();
+        for &t in &star {
+            let tri = &mut self.triangles[t as usize];
+            if tri.contains(&v) {
+                self.alive[t as usize] = false;
+                self.star.push(t * 4 + 3);
+            } else {
+                let slot = tri.iter().position(|&w| w == u).expect("in u's star");
+                tri[slot] = v;
+                self.star.push(t * 4 + slot as u32);
+                self.incident[v as usize].push(t);
+            }
+        }
+        self.incident[u as usize] = Vec::new();
+        self.incident[v as usize].retain(|&t| self.alive[t as usize]);
+        self.present[u as usize] = false;
+        if let Role::Loop(k) = self.role[u as usize] {
+            self.loop_size[k as usize] -= 1;
+        }
+        self.collapses.push(Collapse {
+            u,
+            v,
+            star: (start, self.star.len() as u32),
+        });
+        true
+    }
+
+    /// The rules: `u` may go; along its loop if on one; the link
+    /// condition (the mesh stays a manifold disk); no triangle made poor or
+    /// turned over on the surface.
+    fn allowed(&self, u: u32, v: u32) -> bool {
+        let k = match self.role[u as usize] {
+            Role::Kept => return false,
+            Role::Inner => None,
+            Role::Loop(k) => Some(k),
+        };
+        let shared: Vec<u32> = self
+            .star_of(u)
+            .filter(|&t| self.triangles[t as usize].contains(&v))
+            .collect();
+        let on_loop_edge = k.is_some_and(|k| {
+            self.role[v as usize] == Role::Loop(k) && shared.iter().filter(|&&t| self.real[t as usize]).count() == 1
+        });
+        if let Some(k) = k {
+            let least = if k == self.outer { MIN_OUTER } else { MIN_HOLE };
+            if !on_loop_edge || self.loop_size[k as usize] <= least {
+                return false;
+            }
+        }
+        self.link_condition(u, v, shared.len()) && self.shapes_kept(u, v)
+    }
+
+    /// The vertices next to both `u` and `v` are exactly the far corners
+    /// of the `n_shared` triangles on edge (u, v).
+    fn link_condition(&self, u: u32, v: u32, n_shared: usize) -> bool {
+        let (nu, nv) = (self.neighbours(u), self.neighbours(v));
+        let common = nu.iter().filter(|w| nv.binary_search(w).is_ok()).count();
+        (1..=2).contains(&n_shared) && common == n_shared
+    }
+
+    /// Every triangle of `u`'s that takes `v` for `u` keeps its side of the
+    /// surface and a fair shape.
+    fn shapes_kept(&self, u: u32, v: u32) -> bool {
+        let p = |w: u32| self.positions[w as usize];
+        self.star_of(u).all(|t| {
+            let tri = self.triangles[t as usize];
+            if tri.contains(&v) || !self.real[t as usize] {
+                return true;
+            }
+            let moved = tri.map(|w| if w == u { v } else { w });
+            let (n0, n1) = (normal(tri.map(p)), normal(moved.map(p)));
+            let off_surface = moved
+                .iter()
+                .any(|&w| self.normals[w as usize].dot(n1) <= MIN_NORMAL_COSINE * n1.length());
+            let turned = off_surface || n0.dot(n1) <= MIN_NORMAL_COSINE * n0.length() * n1.length();
+            let poorer = quality(moved.map(p)) < MIN_QUALITY.min(quality(tri.map(p)));
+            !turned && !poorer
+        })
+    }
+}
+
+fn normal([a, b, c]: [DVec3; 3]) -> DVec3 {
+    (b - a).cross(c - a)
+}
+
+/// `4√3 A / Σ ℓ²`: 1 for an equilateral triangle, 0 for a flat one.
+fn quality(t: [DVec3; 3]) -> f64 {
+    let l2 = t[0].distance_squared(t[1]) + t[1].distance_squared(t[2]) + t[2].distance_squared(t[0]);
+    if l2 > 0.0 {
+        2.0 * 3f64.sqrt() * normal(t).length() / l2
+    } else {
+        0.0
+    }
+}
+
+impl Hierarchy {
+    /// The coarse mesh: the vertices still present, renumbered in order,
+    /// and the living triangles; `fine_of[k]` is coarse vertex `k`'s fine id.
+    pub fn coarse_mesh(&self, positions: &[DVec3]) -> (TriMesh, Vec<u32>) {
+        let mut coarse_of = vec![u32::MAX; self.present.len()];
+        let mut fine_of = Vec::new();
+        for (v, _) in self.present.iter().enumerate().filter(|(_, p)| **p) {
+            coarse_of[v] = fine_of.len() as u32;
+            fine_of.push(v as u32);
+        }
+        let triangles = self
+            .triangles
+            .iter()
+            .zip(&self.alive)
+            .filter(|(_, a)| **a)
+            .map(|(t, _)| t.map(|v| coarse_of[v as usize]))
+            .collect();
+        let positions = fine_of.iter().map(|&v| positions[v as usize]).collect();
+        (TriMesh { positions, triangles }, fine_of)
+    }
+
+    /// The number of vertices left.
+    pub fn n_coarse(&self) -> usize {
+        self.present.len() - self.collapses.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::topology::Topology;
+    use crate::testing::grid_mesh;
+
+    fn roles(mesh: &TriMesh, kept: &[u32]) -> (Vec<Role>, u32) {
+        let topology = Topology::build(mesh).unwrap();
+        let mut role = vec![Role::Inner; mesh.n_vertices()];
+        for (k, l) in topology.loops.iter().enumerate() {
+            for &v in l {
+                role[v as usize] = Role::Loop(k as u32);
+            }
+        }
+        for &v in kept {
+            role[v as usize] = Role::Kept;
+        }
+        (role, topology.outer as u32)
+    }
+
+    #[test]
+    fn a_grid_coarsens_to_a_disk_with_its_landmarks() {
+        let mut mesh = grid_mesh(60, 60);
+        for p in &mut mesh.positions {
+            p.z = 0.1 * (3.0 * p.x).sin() * (2.0 * p.y).cos();
+        }
+        let kept = [61 + 60 * 10, 1000, 2500];
+        let (role, outer) = roles(&mesh, &kept);
+        let h = coarsen(&mesh, &role, outer, mesh.n_vertices(), 400);
+        assert!(h.n_coarse() <= 450, "{} left", h.n_coarse());
+        let (coarse, fine_of) = h.coarse_mesh(&mesh.positions);
+        for k in kept {
+            assert!(fine_of.contains(&k), "landmark {k} kept");
+        }
+        let topology = Topology::build(&coarse).expect("a manifold");
+        assert_eq!(topology.loops.len(), 1, "a disk");
+        let euler = coarse.n_vertices() as i64 - topology.edges.len() as i64 + coarse.n_triangles() as i64;
+        assert_eq!(euler, 1);
+        // Every coarse triangle faces up, as the bumps' normals do.
+        for t in &coarse.triangles {
+            assert!(normal(t.map(|v| coarse.positions[v as usize])).z > 0.0);
+        }
+    }
+
+    #[test]
+    fn undoing_every_collapse_gives_the_fine_triangles_back() {
+        let mesh = grid_mesh(20, 20);
+        let (role, outer) = roles(&mesh, &[]);
+        let mut h = coarsen(&mesh, &role, outer, mesh.n_vertices(), 30);
+        for c in h.collapses.clone().iter().rev() {
+            for &s in &h.star[c.star.0 as usize..c.star.1 as usize] {
+                let (t, slot) = ((s / 4) as usize, (s % 4) as usize);
+                if slot == 3 {
+                    h.alive[t] = true;
+                } else {
+                    h.triangles[t][slot] = c.u;
+                }
+            }
+        }
+        assert_eq!(h.triangles, mesh.triangles);
+        assert!(h.alive.iter().all(|&a| a));
+    }
+}

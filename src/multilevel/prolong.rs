@@ -1,0 +1,268 @@
+//! Prolongation: the collapses of a [`Hierarchy`] undone in reverse, each
+//! vertex put back where its ring's layout places it. A vertex goes where
+//! its star, flattened from the surface (angles scaled to a full turn, 3D
+//! lengths), puts it among its neighbours: mean value coordinates for a
+//! vertex inside the disk (Floater), the similarity of its two loop
+//! neighbours for one on the outer loop. Where that would turn a triangle
+//! of its star over, it goes to the centre of its ring's kernel (the points
+//! from which every triangle of the star is positive); a ring without a
+//! kernel ends the prolongation. So every layout on the way, and the last,
+//! has every triangle positive.
+
+use super::coarsen::Hierarchy;
+use crate::guard::orientation;
+use glam::{DVec2, DVec3};
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ProlongError {
+    /// No point keeps every triangle around the vertex positive.
+    #[error("no place for vertex {vertex} keeps its triangles positive")]
+    NoKernel { vertex: u32 },
+}
+
+/// How the vertices were put back.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ProlongStats {
+    pub splits: usize,
+    /// Vertices the star's own shape could not place: put in their kernel.
+    pub in_kernel: usize,
+}
+
+/// Undoes the collapses of `hierarchy` on `layout`, last first, until
+/// `until` vertices are present (entries of vertices present are read; the
+/// others written): [`usize::MAX`] goes back to the fine level.
+///
+/// # Errors
+/// [`ProlongError::NoKernel`]: a vertex with no place.
+pub fn prolong(
+    hierarchy: &mut Hierarchy,
+    positions: &[DVec3],
+    layout: &mut [DVec2],
+    until: usize,
+) -> Result<ProlongStats, ProlongError> {
+    let mut stats = ProlongStats::default();
+    let mut ring = Vec::new();
+    while hierarchy.n_coarse() < until
+        && let Some(c) = hierarchy.collapses.pop()
+    {
+        let star = hierarchy.star[c.star.0 as usize..c.star.1 as usize].to_vec();
+        hierarchy.star.truncate(c.star.0 as usize);
+        for &s in &star {
+            let (t, slot) = ((s / 4) as usize, (s % 4) as usize);
+            if slot == 3 {
+                hierarchy.alive[t] = true;
+            } else {
+                hierarchy.triangles[t][slot] = c.u;
+            }
+        }
+        hierarchy.present[c.u as usize] = true;
+        let closed = ring_of(
+            c.u,
+            star.iter().map(|&s| hierarchy.triangles[(s / 4) as usize]),
+            &mut ring,
+        );
+        let p = place(c.u, &ring, closed, positions, layout);
+        let p = match p.filter(|&p| keeps_positive(p, &ring, closed, layout)) {
+            Some(p) => p,
+            None => {
+                stats.in_kernel += 1;
+                kernel_centre(&ring, closed, layout)
+                    .filter(|&p| keeps_positive(p, &ring, closed, layout))
+                    .ok_or(ProlongError::NoKernel { vertex: c.u })?
+            }
+        };
+        layout[c.u as usize] = p;
+        stats.splits += 1;
+    }
+    Ok(stats)
+}
+
+/// `u`'s neighbours in counter-clockwise order, from its star's triangles;
+/// `true` when they close around it (it is inside the disk), else the
+/// chain runs from one loop neighbour to the other.
+fn ring_of(u: u32, star: impl Iterator<Item = [u32; 3]>, ring: &mut Vec<u32>) -> bool {
+    let mut next = Vec::new();
+    for t in star {
+        let k = t.iter().position(|&w| w == u).expect("u in its star");
+        next.push((t[(k + 1) % 3], t[(k + 2) % 3]));
+    }
+    ring.clear();
+    let starts_chain = |a: u32| next.iter().all(|&(_, b)| b != a);
+    let first = next
+        .iter()
+        .map(|&(a, _)| a)
+        .find(|&a| starts_chain(a))
+        .unwrap_or(next[0].0);
+    let mut at = first;
+    for _ in 0..=next.len() {
+        ring.push(at);
+        match next.iter().find(|&&(a, _)| a == at) {
+            Some(&(_, b)) if b != first => at = b,
+            Some(_) => return true,
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Where `u`'s flattened star puts it among its ring's current places.
+fn place(u: u32, ring: &[u32], closed: bool, positions: &[DVec3], layout: &[DVec2]) -> Option<DVec2> {
+    let centre = positions[u as usize];
+    let spokes: Vec<DVec3> = ring.iter().map(|&b| positions[b as usize] - centre).collect();
+    let n_angles = if closed { ring.len() } else { ring.len() - 1 };
+    let angles: Vec<f64> = (0..n_angles)
+        .map(|i| spokes[i].angle_between(spokes[(i + 1) % ring.len()]))
+        .collect();
+    let total: f64 = angles.iter().sum();
+    if total.is_nan() || total <= 0.0 {
+        return None;
+    }
+    let scale = if closed { std::f64::consts::TAU / total } else { 1.0 };
+    let mut flat = Vec::with_capacity(ring.len());
+    let mut phi = 0.0;
+    for (i, s) in spokes.iter().enumerate() {
+        flat.push(DVec2::from_angle(phi) * s.length());
+        if i < n_angles {
+            phi += angles[i] * scale;
+        }
+    }
+    if closed {
+        mean_value_point(&flat, ring, layout)
+    } else {
+        similarity_point(&flat, ring, layout)
+    }
+}
+
+/// The point with the origin's mean value coordinates in the flattened
+/// ring `flat`, taken on the ring's places.
+fn mean_value_point(flat: &[DVec2], ring: &[u32], layout: &[DVec2]) -> Option<DVec2> {
+    let k = flat.len();
+    let half_tan = |i: usize| {
+        let (a, b) = (flat[i], flat[(i + 1) % k]);
+        let angle = a.angle_to(b);
+        (0.5 * angle).tan()
+    };
+    let (mut sum, mut total) = (DVec2::ZERO, 0.0);
+    for i in 0..k {
+        let w = (half_tan((i + k - 1) % k) + half_tan(i)) / flat[i].length();
+        sum += w * layout[ring[i] as usize];
+        total += w;
+    }
+    let p = sum / total;
+    (total > 0.0 && p.is_finite()).then_some(p)
+}
+
+/// The origin moved by the similarity that takes the flattened chain's
+/// ends to their places.
+fn similarity_point(flat: &[DVec2], ring: &[u32], layout: &[DVec2]) -> Option<DVec2> {
+    let (f0, f1) = (flat[0], flat[flat.len() - 1]);
+    let (p0, p1) = (layout[ring[0] as usize], layout[ring[ring.len() - 1] as usize]);
+    let (df, dp) = (f1 - f0, p1 - p0);
+    let len2 = df.length_squared();
+    if len2.is_nan() || len2 <= 0.0 {
+        return None;
+    }
+    // The complex ratio dp / df, a rotation and scale.
+    let z = DVec2::new(dp.x * df.x + dp.y * df.y, dp.y * df.x - dp.x * df.y) / len2;
+    let rotate = |v: DVec2| DVec2::new(z.x * v.x - z.y * v.y, z.x * v.y + z.y * v.x);
+    let p = p0 + rotate(-f0);
+    p.is_finite().then_some(p)
+}
+
+/// Every triangle (p, b_i, b_{i+1}) of the star strictly positive.
+fn keeps_positive(p: DVec2, ring: &[u32], closed: bool, layout: &[DVec2]) -> bool {
+    let n_edges = if closed { ring.len() } else { ring.len() - 1 };
+    (0..n_edges).all(|i| {
+        let (a, b) = (layout[ring[i] as usize], layout[ring[(i + 1) % ring.len()] as usize]);
+        orientation(p, a, b) > 0.0
+    })
+}
+
+/// The centroid of the ring's kernel: the part of its bounding box left of
+/// every ring edge. `None` when empty.
+fn kernel_centre(ring: &[u32], closed: bool, layout: &[DVec2]) -> Option<DVec2> {
+    let points: Vec<DVec2> = ring.iter().map(|&b| layout[b as usize]).collect();
+    let (lo, hi) = points
+        .iter()
+        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let mut polygon = vec![lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
+    let n_edges = if closed { points.len() } else { points.len() - 1 };
+    for i in 0..n_edges {
+        polygon = clip_left(&polygon, points[i], points[(i + 1) % points.len()]);
+        if polygon.len() < 3 {
+            return None;
+        }
+    }
+    centroid(&polygon)
+}
+
+/// The part of convex `polygon` strictly left of the line a → b
+/// (Sutherland–Hodgman).
+fn clip_left(polygon: &[DVec2], a: DVec2, b: DVec2) -> Vec<DVec2> {
+    let side = |p: DVec2| (b - a).perp_dot(p - a);
+    let mut out = Vec::with_capacity(polygon.len() + 1);
+    for i in 0..polygon.len() {
+        let (p, q) = (polygon[i], polygon[(i + 1) % polygon.len()]);
+        let (sp, sq) = (side(p), side(q));
+        if sp > 0.0 {
+            out.push(p);
+        }
+        if (sp > 0.0) != (sq > 0.0) && sp != sq {
+            out.push(p + (q - p) * (sp / (sp - sq)));
+        }
+    }
+    out
+}
+
+fn centroid(polygon: &[DVec2]) -> Option<DVec2> {
+    let (mut area, mut c) = (0.0, DVec2::ZERO);
+    for i in 0..polygon.len() {
+        let (p, q) = (polygon[i], polygon[(i + 1) % polygon.len()]);
+        let cross = p.perp_dot(q);
+        area += cross;
+        c += (p + q) * cross;
+    }
+    (area > 0.0).then(|| c / (3.0 * area)).filter(|c| c.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::multilevel::coarsen::{Role, coarsen};
+    use crate::testing::grid_mesh;
+
+    #[test]
+    fn a_grid_coarsened_and_prolonged_from_its_own_layout_is_fold_free() {
+        let mesh = grid_mesh(40, 40);
+        let topology = crate::mesh::topology::Topology::build(&mesh).unwrap();
+        let mut role = vec![Role::Inner; mesh.n_vertices()];
+        for &v in &topology.loops[0] {
+            role[v as usize] = Role::Loop(0);
+        }
+        let mut h = coarsen(&mesh, &role, 0, mesh.n_vertices(), 150);
+        // The coarse level laid out as the grid's plane, warped.
+        let mut layout: Vec<DVec2> = mesh
+            .positions
+            .iter()
+            .map(|p| crate::testing::smooth_warp(DVec2::new(p.x, p.y), 0.08))
+            .collect();
+        let (coarse, fine_of) = h.coarse_mesh(&mesh.positions);
+        let coarse_layout: Vec<DVec2> = fine_of.iter().map(|&v| layout[v as usize]).collect();
+        assert!(crate::guard::all_positive(&coarse_layout, &coarse.triangles));
+        for (v, present) in h.present.iter().enumerate() {
+            if !present {
+                layout[v] = DVec2::splat(f64::NAN);
+            }
+        }
+        let n_coarse = h.n_coarse();
+        assert!(n_coarse < 200, "{n_coarse} left");
+        let stats = prolong(&mut h, &mesh.positions, &mut layout, usize::MAX).unwrap();
+        assert_eq!(stats.splits, mesh.n_vertices() - n_coarse);
+        assert!(h.collapses.is_empty());
+        assert_eq!(h.triangles, mesh.triangles);
+        assert!(crate::guard::all_positive(&layout, &mesh.triangles));
+    }
+}
