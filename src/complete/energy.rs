@@ -101,7 +101,36 @@ pub fn psi(f: [f64; 4]) -> f64 {
 /// Weighted energy, gradient (6, for the corners' x, y) and projected
 /// Hessian (6 × 6, row-major) of one triangle. `None` when folded.
 pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 6], [f64; 36])> {
-    let f = jacobian(rest, x);
+    let (value, grad_f, h) = psi_terms(jacobian(rest, x))?;
+    Some(pull_back(rest, value, &grad_f, &h))
+}
+
+/// Weighted energy, gradient and projected Hessian (`[h_xx, h_xy, h_yy]`)
+/// of one triangle with respect to corner `k` alone (the others held): a
+/// vertex's share of [`triangle_terms`], for local sweeps. `None` when folded.
+pub fn corner_terms(rest: &RestTriangle, x: [DVec2; 3], k: usize) -> Option<(f64, DVec2, [f64; 3])> {
+    let (value, g, h) = psi_terms(jacobian(rest, x))?;
+    let d = rest.inv_rest;
+    // ∂F_ij/∂x_k,i = c_j (see `pull_back`).
+    let c = [[-(d[0] + d[2]), -(d[1] + d[3])], [d[0], d[1]], [d[2], d[3]]][k];
+    let w = rest.weight;
+    let grad = DVec2::new(c[0] * g[0] + c[1] * g[1], c[0] * g[2] + c[1] * g[3]) * w;
+    let block = |i: usize, l: usize| {
+        let mut s = 0.0;
+        for (j, cj) in c.iter().enumerate() {
+            for (m, cm) in c.iter().enumerate() {
+                s += cj * cm * h[(2 * i + j) * 4 + 2 * l + m];
+            }
+        }
+        w * s
+    };
+    Some((w * value, grad, [block(0, 0), block(0, 1), block(1, 1)]))
+}
+
+/// ψ per unit area at `F`, its gradient and its Hessian (vec order a, b,
+/// c, d; row-major 4 × 4), the twist mode projected to keep it positive
+/// semi-definite. `None` when `det F <= 0`.
+fn psi_terms(f: [f64; 4]) -> Option<(f64, [f64; 4], [f64; 16])> {
     let (a, b, c, d) = (f[0], f[1], f[2], f[3]);
     let j = a * d - b * c;
     if j <= 0.0 {
@@ -146,7 +175,7 @@ pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 
             }
         }
     }
-    Some(pull_back(rest, value, &grad_f, &h))
+    Some((value, grad_f, h))
 }
 
 /// One triangle's energy per unit area `value`, its gradient `grad_f` and

@@ -1,6 +1,7 @@
 //! A mesh hierarchy by half-edge collapses (Hoppe's progressive meshes):
 //! the filled chart is coarsened by removing one vertex at a time into a
-//! neighbour, shortest 3D edge first, keeping it a manifold disk with the
+//! neighbour, shortest 3D edges first, in rounds that touch each region
+//! once, keeping it a manifold disk with the
 //! same holes, its loops walked only along themselves, its landmarks and
 //! hole centres in place, and no triangle turned over on the surface. Every
 //! coarse vertex is a fine one, so a coarse layout meeting the targets meets
@@ -9,8 +10,6 @@
 
 use crate::mesh::TriMesh;
 use glam::DVec3;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 /// What a vertex is to the coarsening.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,13 +72,16 @@ struct Coarsening<'a> {
     alive: Vec<bool>,
     incident: Vec<Vec<u32>>,
     present: Vec<bool>,
-    version: Vec<u32>,
+    /// The round in which a vertex last took in a neighbour.
+    touched: Vec<u32>,
     loop_size: Vec<u32>,
     outer: u32,
     /// Whether a triangle is real (all corners real vertices).
     real: Vec<bool>,
     collapses: Vec<Collapse>,
     star: Vec<u32>,
+    /// Scratch lists of neighbours.
+    around: [Vec<u32>; 2],
 }
 
 /// Coarsens `mesh` (a filled chart: a disk, holes closed by fans) to about
@@ -123,12 +125,13 @@ pub fn coarsen(mesh: &TriMesh, role: &[Role], outer: u32, virtual_from: usize, t
         alive: vec![true; mesh.n_triangles()],
         incident,
         present: vec![true; n],
-        version: vec![0; n],
+        touched: vec![0; n],
         loop_size,
         outer,
         real,
         collapses: Vec::new(),
         star: Vec::new(),
+        around: [Vec::new(), Vec::new()],
     };
     c.run(target);
     Hierarchy {
@@ -140,59 +143,59 @@ pub fn coarsen(mesh: &TriMesh, role: &[Role], outer: u32, virtual_from: usize, t
     }
 }
 
-/// A heap entry: an edge's squared length (as ordered bits), its ends, and
-/// their versions when it was pushed.
-type Entry = Reverse<(u64, u32, u32, u32, u32)>;
-
 impl Coarsening<'_> {
+    /// Rounds of collapses, shortest edges first: each round sorts the
+    /// living edges once and collapses along them, each survivor taking in
+    /// one neighbour at most, so the mesh coarsens evenly; until `target`
+    /// vertices are left or a round removes none.
     fn run(&mut self, target: usize) {
-        let mut heap: BinaryHeap<Entry> = BinaryHeap::with_capacity(3 * self.present.len());
-        for t in 0..self.triangles.len() {
-            let [a, b, c] = self.triangles[t];
-            for (p, q) in [(a, b), (b, c), (c, a)] {
-                if p < q {
-                    self.push(&mut heap, p, q);
-                }
-            }
-        }
         let mut remaining = self.present.len();
+        let mut round = 0u32;
+        let mut edges: Vec<(u64, u32)> = Vec::new();
         while remaining > target {
-            let Some(Reverse((_, a, b, va, vb))) = heap.pop() else {
-                break;
-            };
-            if !self.present[a as usize]
-                || !self.present[b as usize]
-                || self.version[a as usize] != va
-                || self.version[b as usize] != vb
-            {
-                continue;
-            }
-            let done = self.try_collapse(a, b) || self.try_collapse(b, a);
-            if let Some(v) = done.then(|| self.survivor(a, b)) {
-                remaining -= 1;
-                self.version[v as usize] += 1;
-                let neighbours = self.neighbours(v);
-                for w in neighbours {
-                    self.push(&mut heap, v, w);
+            round += 1;
+            self.living_edges(&mut edges);
+            let before = remaining;
+            for &(key, b) in &edges {
+                let a = key as u32;
+                if remaining <= target {
+                    break;
+                }
+                if self.touched[a as usize] == round || self.touched[b as usize] == round {
+                    continue;
+                }
+                if self.try_collapse(a, b) || self.try_collapse(b, a) {
+                    remaining -= 1;
+                    let v = self.survivor(a, b);
+                    self.touched[v as usize] = round;
                 }
             }
+            if remaining == before {
+                break;
+            }
         }
+    }
+
+    /// Every living edge once, shortest first: its squared length's bits
+    /// above its first end, and its second end.
+    fn living_edges(&self, edges: &mut Vec<(u64, u32)>) {
+        use rayon::slice::ParallelSliceMut;
+        edges.clear();
+        for (t, _) in self.triangles.iter().zip(&self.alive).filter(|(_, a)| **a) {
+            let [a, b, c] = *t;
+            for (p, q) in [(a, b), (b, c), (c, a)] {
+                let (p, q) = (p.min(q), p.max(q));
+                let d = self.positions[p as usize].distance_squared(self.positions[q as usize]) as f32;
+                edges.push(((u64::from(d.to_bits()) << 32) | u64::from(p), q));
+            }
+        }
+        edges.par_sort_unstable();
+        edges.dedup();
     }
 
     /// Which of `a` and `b` is left after one went into the other.
     fn survivor(&self, a: u32, b: u32) -> u32 {
         if self.present[a as usize] { a } else { b }
-    }
-
-    fn push(&self, heap: &mut BinaryHeap<Entry>, p: u32, q: u32) {
-        let d = self.positions[p as usize].distance_squared(self.positions[q as usize]);
-        heap.push(Reverse((
-            d.to_bits(),
-            p,
-            q,
-            self.version[p as usize],
-            self.version[q as usize],
-        )));
     }
 
     /// The living triangles around `v`.
@@ -203,15 +206,16 @@ impl Coarsening<'_> {
             .filter(move |&t| self.alive[t as usize] && self.triangles[t as usize].contains(&v))
     }
 
-    fn neighbours(&self, v: u32) -> Vec<u32> {
-        let mut out: Vec<u32> = self
-            .star_of(v)
-            .flat_map(|t| self.triangles[t as usize])
-            .filter(|&w| w != v)
-            .collect();
+    /// `v`'s neighbours into `out`, sorted.
+    fn neighbours(&self, v: u32, out: &mut Vec<u32>) {
+        out.clear();
+        out.extend(
+            self.star_of(v)
+                .flat_map(|t| self.triangles[t as usize])
+                .filter(|&w| w != v),
+        );
         out.sort_unstable();
         out.dedup();
-        out
     }
 
     /// Removes `u` into `v` if every rule allows it.
@@ -250,34 +254,39 @@ impl Coarsening<'_> {
     /// The rules: `u` may go; along its loop if on one; the link
     /// condition (the mesh stays a manifold disk); no triangle made poor or
     /// turned over on the surface.
-    fn allowed(&self, u: u32, v: u32) -> bool {
+    fn allowed(&mut self, u: u32, v: u32) -> bool {
         let k = match self.role[u as usize] {
             Role::Kept => return false,
             Role::Inner => None,
             Role::Loop(k) => Some(k),
         };
-        let shared: Vec<u32> = self
-            .star_of(u)
-            .filter(|&t| self.triangles[t as usize].contains(&v))
-            .collect();
-        let on_loop_edge = k.is_some_and(|k| {
-            self.role[v as usize] == Role::Loop(k) && shared.iter().filter(|&&t| self.real[t as usize]).count() == 1
-        });
+        let (mut shared, mut shared_real) = (0, 0);
+        for t in self.star_of(u).filter(|&t| self.triangles[t as usize].contains(&v)) {
+            shared += 1;
+            shared_real += usize::from(self.real[t as usize]);
+        }
         if let Some(k) = k {
+            let on_loop_edge = self.role[v as usize] == Role::Loop(k) && shared_real == 1;
             let least = if k == self.outer { MIN_OUTER } else { MIN_HOLE };
             if !on_loop_edge || self.loop_size[k as usize] <= least {
                 return false;
             }
         }
-        self.link_condition(u, v, shared.len()) && self.shapes_kept(u, v)
+        self.link_condition(u, v, shared) && self.shapes_kept(u, v)
     }
 
     /// The vertices next to both `u` and `v` are exactly the far corners
     /// of the `n_shared` triangles on edge (u, v).
-    fn link_condition(&self, u: u32, v: u32, n_shared: usize) -> bool {
-        let (nu, nv) = (self.neighbours(u), self.neighbours(v));
+    fn link_condition(&mut self, u: u32, v: u32, n_shared: usize) -> bool {
+        if !(1..=2).contains(&n_shared) {
+            return false;
+        }
+        let [mut nu, mut nv] = std::mem::take(&mut self.around);
+        self.neighbours(u, &mut nu);
+        self.neighbours(v, &mut nv);
         let common = nu.iter().filter(|w| nv.binary_search(w).is_ok()).count();
-        (1..=2).contains(&n_shared) && common == n_shared
+        self.around = [nu, nv];
+        common == n_shared
     }
 
     /// Every triangle of `u`'s that takes `v` for `u` keeps its side of the
