@@ -118,10 +118,16 @@ pub fn open(
     unseamable: &[[u32; 2]],
     rules: &SeamRules,
 ) -> Result<Option<Opened>, CutError> {
+    let topology = Topology::build(mesh);
+    if let (SeamSpec::Auto, Ok(t)) = (spec, &topology)
+        && !rules.spread_disks
+        && !nearly_closed(mesh, t)
+    {
+        return Ok(None);
+    }
     let graph = EdgeGraph::new(mesh);
     let seam = match spec {
-        SeamSpec::Auto => match Topology::build(mesh) {
-            Ok(t) if !rules.spread_disks && !nearly_closed(mesh, &t) => return Ok(None),
+        SeamSpec::Auto => match topology {
             Ok(_) => {
                 let seam = plan(mesh, &graph, landmarks, unseamable, rules);
                 if seam.edges.is_empty() {

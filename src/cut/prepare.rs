@@ -87,7 +87,8 @@ pub fn make_solvable(
     let mut separation = Vec::new();
     // Only a chart that must be cut open can be too large for its targets:
     // a disk lies flat at any scale.
-    let must_open = Topology::build(&main.mesh).map_or(true, |t| super::nearly_closed(&main.mesh, &t));
+    let topology = Topology::build(&main.mesh);
+    let must_open = topology.as_ref().map_or(true, |t| super::nearly_closed(&main.mesh, t));
     let scale_weighed = must_open && budget.is_some() && matches!(spec, SeamSpec::Auto);
     if let (SeamSpec::Auto, Some(budget), true) = (spec, budget, must_open) {
         let local_landmarks: Vec<u32> = landmarks.iter().filter_map(|w| main.local_of(*w)).collect();
@@ -121,6 +122,21 @@ pub fn make_solvable(
         ),
     };
     let (repairs, duplicates) = (repaired.repairs, duplicates);
+    // A disk with boundary enough, its seams left to us, is solvable as it
+    // is (what `open` would find, without building its topology again).
+    if let (SeamSpec::Auto, false, Ok(topology)) = (&spec, must_open || rules.spread_disks, topology) {
+        return Ok(Solvable {
+            topology,
+            chart: main,
+            seam: None,
+            seam_copies: 0,
+            repairs,
+            duplicates,
+            rest,
+            separation,
+            scale_weighed,
+        });
+    }
     match super::open(&main.mesh, &spec, &landmark_ids, &barred, rules)? {
         None => Ok(Solvable {
             topology: Topology::build(&main.mesh)?,
