@@ -79,7 +79,9 @@ pub struct SolverOptions {
     /// level first, then prolonged and settled by local sweeps (default
     /// 40000): near-linear cost at any size.
     pub multilevel_above: usize,
-    /// Multilevel: vertices of the coarse level, about (default 16000, at least 500).
+    /// Multilevel: vertices of the coarse level at most (default 16000, at
+    /// least 500); a chart's coarse level has an eighth of its vertices up
+    /// to that.
     pub multilevel_coarse: usize,
 }
 

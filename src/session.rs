@@ -251,10 +251,14 @@ impl ChartSession {
     /// Step-1 errors; a constraint on the outer boundary whose target
     /// contradicts the boundary map.
     pub fn new_solver(&mut self, options: &SolverOptions, from: StartFrom) -> Result<ChartSolver, Error> {
-        if let Some(solver) = self.solver_from_coarse_level(options)? {
-            self.pattern = Some(solver.pattern().clone());
-            return Ok(solver);
-        }
+        let missed = match self.solver_from_coarse_level(options)? {
+            Some(Ok(solver)) => {
+                self.pattern = Some(solver.pattern().clone());
+                return Ok(solver);
+            }
+            Some(Err(missed)) => Some(missed),
+            None => None,
+        };
         self.run_step_one()?;
         let (Some(boundary), Some(step_one)) = (&self.boundary, &self.step_one) else {
             return Err(not_yet("step 1"));
@@ -273,13 +277,16 @@ impl ChartSession {
             pattern: self.pattern.as_ref(),
             elapsed_ms: self.times.total_ms(),
         });
-        let solver = match solver {
+        let mut solver = match solver {
             // No start of its own fits the room: the square's solve may.
             Err(Error::NoRoom { .. }) if !self.on_square() => self
                 .via_square(options, f64::INFINITY, self.times.total_ms())
                 .map_or_else(|| solver, Ok)?,
             other => other?,
         };
+        if let Some(missed) = missed {
+            solver.note_multilevel_missed(missed);
+        }
         self.pattern = Some(solver.pattern().clone());
         Ok(solver)
     }
@@ -290,13 +297,16 @@ impl ChartSession {
     ///
     /// # Errors
     /// As [`Self::new_solver`].
-    fn solver_from_coarse_level(&mut self, options: &SolverOptions) -> Result<Option<ChartSolver>, Error> {
+    fn solver_from_coarse_level(
+        &mut self,
+        options: &SolverOptions,
+    ) -> Result<Option<Result<ChartSolver, crate::solver::multilevel::Missed>>, Error> {
         if self.on_square() || self.prepared.filled.mesh.n_vertices() <= options.multilevel_above {
             return Ok(None);
         }
         self.map_boundary()?;
         let boundary = self.mapped_boundary()?;
-        ChartSolver::from_coarse_level(SolverInputs {
+        let inputs = SolverInputs {
             prepared: &self.prepared,
             source: &self.source,
             options,
@@ -305,7 +315,8 @@ impl ChartSession {
             bar_net: None,
             pattern: self.pattern.as_ref(),
             elapsed_ms: self.times.total_ms(),
-        })
+        };
+        ChartSolver::from_coarse_level(inputs).map(Some)
     }
 
     /// A free chart solved on the square instead, then free again from

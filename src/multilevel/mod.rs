@@ -5,5 +5,6 @@
 //! landmarks are coarse vertices, so they stay exactly on their targets.
 
 pub mod coarsen;
+pub mod outline;
 pub mod prolong;
 pub mod smooth;

@@ -10,6 +10,7 @@
 //! has every triangle positive.
 
 use super::coarsen::Hierarchy;
+use super::outline::{Outline, inside};
 use crate::guard::orientation;
 use glam::{DVec2, DVec3};
 use thiserror::Error;
@@ -18,7 +19,7 @@ use thiserror::Error;
 pub enum ProlongError {
     /// No point keeps every triangle around the vertex positive.
     #[error("no place for vertex {vertex} keeps its triangles positive")]
-    NoKernel { vertex: u32 },
+    NoKernel { vertex: u32, ring: Vec<u32> },
 }
 
 /// How the vertices were put back.
@@ -31,15 +32,21 @@ pub struct ProlongStats {
 
 /// Undoes the collapses of `hierarchy` on `layout`, last first, until
 /// `until` vertices are present (entries of vertices present are read; the
-/// others written): [`usize::MAX`] goes back to the fine level.
+/// others written): [`usize::MAX`] goes back to the fine level. A vertex
+/// of the outer loop is put strictly inside `region` (`lo`, `hi`) too, its
+/// two edges clear of the rest of `outline` (the level's outer loop, kept
+/// up to date).
 ///
 /// # Errors
-/// [`ProlongError::NoKernel`]: a vertex with no place.
+/// [`ProlongError::NoKernel`]: a vertex with no place; the hierarchy is
+/// left at the level before it (the ring may take a shape that has one
+/// after a sweep).
 pub fn prolong(
     hierarchy: &mut Hierarchy,
     positions: &[DVec3],
     layout: &mut [DVec2],
     until: usize,
+    (outline, region): (&mut Outline, (DVec2, DVec2)),
 ) -> Result<ProlongStats, ProlongError> {
     let mut stats = ProlongStats::default();
     let mut ring = Vec::new();
@@ -62,20 +69,58 @@ pub fn prolong(
             star.iter().map(|&s| hierarchy.triangles[(s / 4) as usize]),
             &mut ring,
         );
+        let (first, last) = (ring[0], ring[ring.len() - 1]);
+        let fits = |p: DVec2| {
+            keeps_positive(p, &ring, closed, layout)
+                && (closed || (inside(p, region) && !outline.crossed_between((last, first), p, layout)))
+        };
         let p = place(c.u, &ring, closed, positions, layout);
-        let p = match p.filter(|&p| keeps_positive(p, &ring, closed, layout)) {
+        let p = match p.filter(|&p| fits(p)) {
             Some(p) => p,
             None => {
                 stats.in_kernel += 1;
-                kernel_centre(&ring, closed, layout)
-                    .filter(|&p| keeps_positive(p, &ring, closed, layout))
-                    .ok_or(ProlongError::NoKernel { vertex: c.u })?
+                let drawn_in = p.and_then(|p| towards_chord(p, &ring, layout).find(|&q| fits(q)));
+                let Some(p) = drawn_in.or_else(|| kernel_centre(&ring, closed, layout, region).filter(|&q| fits(q)))
+                else {
+                    redo(hierarchy, c, star);
+                    return Err(ProlongError::NoKernel {
+                        vertex: c.u,
+                        ring: ring.clone(),
+                    });
+                };
+                p
             }
         };
         layout[c.u as usize] = p;
+        if !closed {
+            outline.split((last, first), c.u);
+        }
         stats.splits += 1;
     }
     Ok(stats)
+}
+
+/// Collapse `c` made again (its star `star`): a vertex that found no place
+/// leaves the hierarchy as it was before it was tried.
+fn redo(hierarchy: &mut Hierarchy, c: super::coarsen::Collapse, star: Vec<u32>) {
+    for &s in &star {
+        let (t, slot) = ((s / 4) as usize, (s % 4) as usize);
+        if slot == 3 {
+            hierarchy.alive[t] = false;
+        } else {
+            hierarchy.triangles[t][slot] = c.v;
+        }
+    }
+    hierarchy.present[c.u as usize] = false;
+    hierarchy.star.extend(star);
+    hierarchy.collapses.push(c);
+}
+
+/// Points from `p` toward the middle of an open ring's chord (its two loop
+/// neighbours), for a loop vertex its star's shape put too far out.
+fn towards_chord(p: DVec2, ring: &[u32], layout: &[DVec2]) -> impl Iterator<Item = DVec2> {
+    let m = 0.5 * (layout[ring[0] as usize] + layout[ring[ring.len() - 1] as usize]);
+    [0.5, 0.25, 0.1, 0.02].into_iter().map(move |t| m + (p - m) * t)
 }
 
 /// `u`'s neighbours in counter-clockwise order, from its star's triangles;
@@ -179,15 +224,16 @@ fn keeps_positive(p: DVec2, ring: &[u32], closed: bool, layout: &[DVec2]) -> boo
     })
 }
 
-/// The centroid of the ring's kernel: the part of its bounding box left of
-/// every ring edge. `None` when empty.
-fn kernel_centre(ring: &[u32], closed: bool, layout: &[DVec2]) -> Option<DVec2> {
+/// The centroid of the ring's kernel: the part of its bounding box (within
+/// `region`) left of every ring edge. `None` when empty.
+fn kernel_centre(ring: &[u32], closed: bool, layout: &[DVec2], region: (DVec2, DVec2)) -> Option<DVec2> {
     let points: Vec<DVec2> = ring.iter().map(|&b| layout[b as usize]).collect();
     let (lo, hi) = points
         .iter()
         .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| {
             (lo.min(p), hi.max(p))
         });
+    let (lo, hi) = (lo.max(region.0), hi.min(region.1));
     let mut polygon = vec![lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
     let n_edges = if closed { points.len() } else { points.len() - 1 };
     for i in 0..n_edges {
@@ -232,6 +278,7 @@ fn centroid(polygon: &[DVec2]) -> Option<DVec2> {
 mod tests {
     use super::*;
     use crate::multilevel::coarsen::{Role, coarsen};
+    use crate::multilevel::outline::Outline;
     use crate::testing::grid_mesh;
 
     #[test]
@@ -259,7 +306,9 @@ mod tests {
         }
         let n_coarse = h.n_coarse();
         assert!(n_coarse < 200, "{n_coarse} left");
-        let stats = prolong(&mut h, &mesh.positions, &mut layout, usize::MAX).unwrap();
+        let region = (DVec2::splat(-1.0), DVec2::splat(2.0));
+        let mut outline = Outline::of(&h);
+        let stats = prolong(&mut h, &mesh.positions, &mut layout, usize::MAX, (&mut outline, region)).unwrap();
         assert_eq!(stats.splits, mesh.n_vertices() - n_coarse);
         assert!(h.collapses.is_empty());
         assert_eq!(h.triangles, mesh.triangles);

@@ -9,6 +9,7 @@
 //! each colour moves in parallel; then the vertices around the worst
 //! triangles sweep on alone until they settle.
 
+use super::outline::{Outline, inside};
 use crate::complete::energy::{RestTriangle, corner_terms, jacobian, psi};
 use crate::guard::orientation;
 use glam::DVec2;
@@ -74,22 +75,37 @@ struct Sweep<'a> {
     stars: Stars,
 }
 
+/// The outer loop a sweep may move, and the box it stays strictly inside.
+#[derive(Debug, Clone, Copy)]
+pub struct LoopRoom<'a> {
+    pub outline: &'a Outline,
+    pub region: (DVec2, DVec2),
+}
+
 /// Up to `max_sweeps` sweeps over the vertices `movable` marks, then the
 /// worst triangles' surroundings on their own. `layout` must have every
-/// triangle positive; it still has after.
+/// triangle positive; it still has after. Vertices on the outer loop move
+/// only with `room`, one at a time, their edges kept off the rest of the
+/// loop and inside its box.
 pub fn smooth(
     layout: &mut [DVec2],
     triangles: &[[u32; 3]],
     rest: &[RestTriangle],
     movable: &[bool],
     max_sweeps: u32,
+    room: Option<LoopRoom>,
 ) -> SmoothStats {
     let sweep = Sweep {
         triangles,
         rest,
         stars: Stars::new(layout.len(), triangles),
     };
-    let classes = sweep.colour_classes(movable);
+    let on_loop = |v: u32| room.is_some_and(|r| r.outline.contains(v));
+    let inner: Vec<bool> = (0..movable.len()).map(|v| movable[v] && !on_loop(v as u32)).collect();
+    let loop_vertices: Vec<u32> = (0..movable.len() as u32)
+        .filter(|&v| movable[v as usize] && on_loop(v))
+        .collect();
+    let classes = sweep.colour_classes(&inner);
     let mut stats = SmoothStats {
         energy_before: sweep.energy(layout),
         ..SmoothStats::default()
@@ -103,6 +119,13 @@ pub fn smooth(
                 .collect();
             moved.into_iter().for_each(|(v, p)| layout[v as usize] = p);
         }
+        if let Some(room) = room {
+            for &v in &loop_vertices {
+                if let Some(p) = sweep.relaxed_on_loop(v, layout, room) {
+                    layout[v as usize] = p;
+                }
+            }
+        }
         stats.sweeps += 1;
         let now = sweep.energy(layout);
         let gained = last - now;
@@ -115,7 +138,12 @@ pub fn smooth(
     for _ in 0..WORST_SWEEPS {
         let mut any = false;
         for &v in &worst {
-            if let Some(p) = sweep.relaxed(v as usize, layout) {
+            let moved = match room {
+                Some(room) if on_loop(v) => sweep.relaxed_on_loop(v, layout, room),
+                None if on_loop(v) => None,
+                _ => sweep.relaxed(v as usize, layout),
+            };
+            if let Some(p) = moved {
                 any |= p.distance(layout[v as usize]) > 1e-6 * p.length().max(1.0);
                 layout[v as usize] = p;
             }
@@ -126,6 +154,55 @@ pub fn smooth(
     }
     stats.energy_after = sweep.energy(layout);
     stats
+}
+
+/// Up to `max_sweeps` sweeps, one vertex at a time, of the movable vertices
+/// within `rings` edges of `seeds`: a ring with no place for its vertex
+/// reshaped where it is, at a cost that does not grow with the level.
+pub fn smooth_near(
+    layout: &mut [DVec2],
+    (triangles, rest): (&[[u32; 3]], &[RestTriangle]),
+    movable: &[bool],
+    (seeds, rings): (&[u32], usize),
+    max_sweeps: u32,
+    room: Option<LoopRoom>,
+) {
+    let sweep = Sweep {
+        triangles,
+        rest,
+        stars: Stars::new(layout.len(), triangles),
+    };
+    let mut near: Vec<u32> = seeds.to_vec();
+    let mut seen: std::collections::HashSet<u32> = near.iter().copied().collect();
+    let mut frontier = near.clone();
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &v in &frontier {
+            for &t in sweep.stars.of(v as usize) {
+                for w in triangles[t as usize] {
+                    if seen.insert(w) {
+                        next.push(w);
+                    }
+                }
+            }
+        }
+        near.extend(&next);
+        frontier = next;
+    }
+    near.retain(|&v| movable[v as usize]);
+    let on_loop = |v: u32| room.is_some_and(|r| r.outline.contains(v));
+    for _ in 0..max_sweeps {
+        for &v in &near {
+            let moved = match room {
+                Some(room) if on_loop(v) => sweep.relaxed_on_loop(v, layout, room),
+                None if on_loop(v) => None,
+                _ => sweep.relaxed(v as usize, layout),
+            };
+            if let Some(p) = moved {
+                layout[v as usize] = p;
+            }
+        }
+    }
 }
 
 impl Sweep<'_> {
@@ -207,6 +284,17 @@ impl Sweep<'_> {
             alpha *= 0.5;
         }
         None
+    }
+
+    /// [`Self::relaxed`] for a vertex of the outer loop, cut back while its
+    /// edges would meet the rest of the loop or leave the box.
+    fn relaxed_on_loop(&self, v: u32, layout: &[DVec2], room: LoopRoom) -> Option<DVec2> {
+        let (p, q) = (layout[v as usize], self.relaxed(v as usize, layout)?);
+        [1.0, 0.5, 0.25].into_iter().map(|t| p + (q - p) * t).find(|&q| {
+            inside(q, room.region)
+                && self.keeps_positive(v as usize, q, layout)
+                && !room.outline.crossed_moving(v, q, layout)
+        })
     }
 
     fn star_energy(&self, v: usize, p: DVec2, layout: &[DVec2]) -> f64 {
@@ -316,7 +404,7 @@ mod tests {
             }
         }
         assert!(crate::guard::all_positive(&layout, &mesh.triangles));
-        let stats = smooth(&mut layout, &mesh.triangles, &rest, &movable, 20);
+        let stats = smooth(&mut layout, &mesh.triangles, &rest, &movable, 20, None);
         // 4 per unit area is an isometry: most of the excess goes.
         let excess = |e: f64| e - 4.0;
         assert!(

@@ -34,12 +34,20 @@ pub(super) fn explain_lines(
 
 /// A large chart's coarse level.
 fn multilevel_line(s: &SolveSummary) -> Option<String> {
-    let m = s.solver.record().multilevel?;
-    Some(format!(
-        "coarse level: {} vertices, coarsened in {:.0} ms, solved in {:.0} ms, prolonged in {:.0} ms with {} local \
+    if let Some(missed) = &s.solver.record().multilevel_missed {
+        return Some(format!("coarse level: not used ({missed}); solved at its own level"));
+    }
+    let m = s.solver.record().multilevel.as_ref()?;
+    Some(
+        format!(
+            "coarse level: {} vertices, coarsened in {:.0} ms, solved in {:.0} ms, prolonged in {:.0} ms with {} local \
          sweeps ({} vertices put in their ring's kernel)",
-        m.coarse_vertices, m.coarsen_ms, m.coarse_solve_ms, m.prolong_ms, m.sweeps, m.in_kernel
-    ))
+            m.coarse_vertices, m.coarsen_ms, m.coarse_solve_ms, m.prolong_ms, m.sweeps, m.in_kernel
+        ) + &m
+            .stuck
+            .as_ref()
+            .map_or(String::new(), |e| format!("; {e} until its surroundings swept on")),
+    )
 }
 
 /// A free boundary's region and start.

@@ -148,6 +148,8 @@ pub struct SolveRecord {
     pub settled_from: Option<Stretch>,
     /// A large chart started from its coarse level: what that did.
     pub multilevel: Option<multilevel::MultilevelStats>,
+    /// A large chart whose coarse level was not used: why.
+    pub multilevel_missed: Option<multilevel::Missed>,
     /// A free chart's path from its own start ended this far from the
     /// targets (infinite: no start fitted its room); this solve started
     /// from the chart's solve on the square instead.
@@ -277,17 +279,15 @@ impl ChartSolver {
 
     /// A large free chart's solver started from its coarse level, solved
     /// and prolonged ([`multilevel`]), before and without its own step 1
-    /// (`start.step1` is not read). `None` when the chart is not one, or its
-    /// coarse level could not be made, solved or placed in its room: it is
-    /// then solved from step 1 ([`ChartSolver::new`]).
+    /// (`start.step1` is not read); the chart must be one
+    /// ([`multilevel::applies`]). Why not, when its coarse level could not
+    /// be made, solved or placed in its room: it is then solved from step 1
+    /// ([`ChartSolver::new`]) and the report says why.
     ///
     /// # Errors
     /// As [`ChartSolver::new`].
-    pub fn from_coarse_level(start: SolverInputs) -> Result<Option<Self>, Error> {
+    pub fn from_coarse_level(start: SolverInputs) -> Result<Result<Self, multilevel::Missed>, Error> {
         let t0 = Instant::now();
-        if !multilevel::applies(&start) {
-            return Ok(None);
-        }
         let (problem, policy, pattern) = Self::problem_of(&start)?;
         let chart = ChartParts {
             id: start.prepared.chart.id,
@@ -296,19 +296,20 @@ impl ChartSolver {
             step1: &[],
             pattern: &pattern,
         };
-        let Some((layout, stats)) = multilevel::coarse_start(&start) else {
-            return Ok(None);
-        };
-        let Some((layout, domain)) = multilevel::start_in(&start, &chart, &problem, layout) else {
-            return Ok(None);
-        };
-        let started = Started {
-            layout,
-            domain,
-            storable: true,
-            coarse: Some(stats),
-        };
-        Ok(Some(Self::assemble(&start, (problem, policy, pattern), started, t0)))
+        let started = multilevel::coarse_start(&start)
+            .and_then(|(layout, stats)| Ok((multilevel::start_in(&start, &chart, &problem, layout)?, stats)));
+        match started {
+            Ok(((layout, domain), stats)) => {
+                let started = Started {
+                    layout,
+                    domain,
+                    storable: true,
+                    coarse: Some(stats),
+                };
+                Ok(Ok(Self::assemble(&start, (problem, policy, pattern), started, t0)))
+            }
+            Err(missed) => Ok(Err(missed)),
+        }
     }
 
     /// The spline path's problem, the policy and the Newton pattern of a
@@ -409,6 +410,11 @@ impl ChartSolver {
     pub fn fell_short_by(mut self, residual: f64) -> Self {
         self.record.free_fell_short = Some(residual);
         self
+    }
+
+    /// Notes why this large chart's coarse level was not used.
+    pub fn note_multilevel_missed(&mut self, missed: multilevel::Missed) {
+        self.record.multilevel_missed = Some(missed);
     }
 
     /// Notes the stretch a partial layout is held to (the chart's own shape).

@@ -18,8 +18,9 @@ use crate::free::{FreeSetup, GivenStart};
 use crate::mesh::TriMesh;
 use crate::mesh::topology::Topology;
 use crate::multilevel::coarsen::{Hierarchy, Role, coarsen};
-use crate::multilevel::prolong::prolong;
-use crate::multilevel::smooth::smooth;
+use crate::multilevel::outline::Outline;
+use crate::multilevel::prolong::{ProlongError, prolong};
+use crate::multilevel::smooth::{LoopRoom, smooth, smooth_near};
 use crate::param::bar_net::{FilledChart, fill_holes};
 use crate::param::boundary::TrapCandidates;
 use crate::rbf::stepping::StepProblem;
@@ -28,7 +29,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// What the coarse level did, for the report.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct MultilevelStats {
     /// Vertices of the coarse level (of the filled chart).
     pub coarse_vertices: usize,
@@ -40,7 +41,31 @@ pub struct MultilevelStats {
     pub in_kernel: usize,
     /// Local sweeps, over every stage.
     pub sweeps: u32,
+    /// The first vertex the prolongation found no place for until the level
+    /// swept on.
+    pub stuck: Option<String>,
 }
+
+/// Why a large chart's coarse level was not used (it was then solved at
+/// its own level).
+#[derive(Debug, Clone, PartialEq, thiserror::Error, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Missed {
+    #[error("the coarse level is not a disk with the chart's holes")]
+    NotADisk,
+    #[error("the coarse level's solve failed: {0}")]
+    SolveFailed(String),
+    #[error("the coarse level's solve ended {0:.1e} short of the targets")]
+    Short(f64),
+    #[error("prolonging it: {0}")]
+    Prolong(String),
+    #[error("its room does not admit the prolonged layout: {0}")]
+    NoRoom(String),
+}
+
+/// A chart's coarse level has this share of its vertices (up to
+/// `multilevel_coarse`): small enough to solve in a fraction of the time.
+const COARSENING: usize = 8;
 
 /// Each stage of the prolongation brings back this many times the
 /// vertices present before it, then sweeps.
@@ -48,6 +73,14 @@ const STAGE_GROWTH: usize = 4;
 
 /// Local sweeps per stage, at most.
 const SWEEPS: u32 = 8;
+
+/// A prolongation that finds a vertex no place is swept this many times
+/// more, and tried again, at most this many times.
+const STUCK_SWEEPS: u32 = 40;
+const STUCK: u32 = 8;
+
+/// ... over the vertices this many edges around the ring.
+const STUCK_RINGS: usize = 4;
 
 fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
@@ -61,31 +94,26 @@ pub fn applies(inputs: &SolverInputs) -> bool {
 }
 
 /// The start of `inputs`' chart from its coarse level (see the module
-/// docs), or `None` when it does not [`apply`](applies) or a level fails.
-pub fn coarse_start(inputs: &SolverInputs) -> Option<(Vec<DVec2>, MultilevelStats)> {
+/// docs); it must [`apply`](applies).
+///
+/// # Errors
+/// Why a level could not be made, solved or prolonged.
+pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStats), Missed> {
     let prepared = inputs.prepared;
     let filled = &prepared.filled;
     let options = inputs.options;
     let n = filled.mesh.n_vertices();
-    if !applies(inputs) {
-        return None;
-    }
     let t0 = Instant::now();
     let (roles, outer) = roles(prepared);
-    let mut hierarchy = coarsen(
-        &filled.mesh,
-        &roles,
-        outer,
-        filled.n_real_vertices,
-        options.multilevel_coarse,
-    );
+    let target = (n / COARSENING).clamp(options.multilevel_coarse.min(500), options.multilevel_coarse);
+    let mut hierarchy = coarsen(&filled.mesh, &roles, outer, filled.n_real_vertices, target);
     let mut stats = MultilevelStats {
         coarse_vertices: hierarchy.n_coarse(),
         coarsen_ms: ms(t0),
         ..MultilevelStats::default()
     };
     let t1 = Instant::now();
-    let (coarse, fine_of) = coarse_chart(prepared, &hierarchy)?;
+    let (coarse, fine_of) = coarse_chart(prepared, &hierarchy).ok_or(Missed::NotADisk)?;
     let coarse_layout = solve_coarse(inputs, &coarse)?;
     stats.coarse_solve_ms = ms(t1);
     let t2 = Instant::now();
@@ -93,13 +121,25 @@ pub fn coarse_start(inputs: &SolverInputs) -> Option<(Vec<DVec2>, MultilevelStat
     for (k, &v) in fine_of.iter().enumerate() {
         layout[v as usize] = coarse_layout[k];
     }
+    // The outer loop moves in the sweeps unless other islands are near:
+    // then it stays where the prolongation put it.
+    let free = prepared.domain.free();
+    let loop_moves = free.is_some_and(|f| f.obstacles.is_empty());
     let held: Vec<bool> = roles
         .iter()
-        .map(|&r| r == Role::Kept || r == Role::Loop(outer))
+        .map(|&r| r == Role::Kept || (!loop_moves && r == Role::Loop(outer)))
         .collect();
-    settle_stages(&mut hierarchy, filled, &held, &mut layout, &mut stats)?;
+    let region = free.map_or((DVec2::ZERO, DVec2::ONE), |f| f.region.layout_box());
+    settle_stages(
+        &mut hierarchy,
+        filled,
+        (&held, loop_moves),
+        region,
+        &mut layout,
+        &mut stats,
+    )?;
     stats.prolong_ms = ms(t2);
-    Some((layout, stats))
+    Ok((layout, stats))
 }
 
 /// The free domain of `inputs`' chart started from the prolonged `layout`
@@ -110,10 +150,20 @@ pub fn start_in(
     chart: &ChartParts,
     problem: &StepProblem,
     layout: Vec<DVec2>,
-) -> Option<(Vec<DVec2>, SolveDomain)> {
+) -> Result<(Vec<DVec2>, SolveDomain), Missed> {
     let Domain::Free(setup) = &inputs.prepared.domain else {
-        return None;
+        return Err(Missed::NoRoom("not a free chart".into()));
     };
+    let room = crate::free::room::Room::new(setup.clone(), chart.topology, &chart.filled.mesh.triangles);
+    if let Err(v) = room.admits(&layout) {
+        return Err(Missed::NoRoom(v.to_string()));
+    }
+    if let Some(t) = crate::guard::first_non_positive(&layout, &chart.filled.mesh.triangles) {
+        return Err(Missed::NoRoom(format!("triangle {t} folds")));
+    }
+    if !crate::guard::all_positive_as_stored(&layout, &chart.filled.mesh.triangles) {
+        return Err(Missed::NoRoom("a triangle folds as stored (f32)".into()));
+    }
     let given = Domain::Free(Arc::new(FreeSetup {
         given: Some(GivenStart {
             layout: Arc::new(layout),
@@ -121,7 +171,7 @@ pub fn start_in(
         }),
         ..(**setup).clone()
     }));
-    SolveDomain::start(&given, chart, problem).ok()
+    SolveDomain::start(&given, chart, problem).map_err(|e| Missed::NoRoom(e.to_string()))
 }
 
 /// What each filled vertex may do in the coarsening: the landmarks and the
@@ -200,9 +250,10 @@ fn virtual_ids(filled: &FilledChart, coarse: &FilledChart, fine_of: &[u32]) -> O
 }
 
 /// The coarse chart solved in full; its layout if it reached the targets.
-fn solve_coarse(inputs: &SolverInputs, coarse: &PreparedChart) -> Option<Vec<DVec2>> {
-    let boundary = step_one::map_boundary(coarse, inputs.source).ok()?;
-    let net = step_one::factor_bar_net(coarse, &boundary, std::path::Path::new("")).ok()?;
+fn solve_coarse(inputs: &SolverInputs, coarse: &PreparedChart) -> Result<Vec<DVec2>, Missed> {
+    let failed = |e: crate::error::Error| Missed::SolveFailed(e.to_string());
+    let boundary = step_one::map_boundary(coarse, inputs.source).map_err(failed)?;
+    let net = step_one::factor_bar_net(coarse, &boundary, std::path::Path::new("")).map_err(failed)?;
     let step1 = step_one::solve_force_density(coarse, &boundary, &net);
     let options = super::SolverOptions {
         multilevel_above: usize::MAX,
@@ -217,32 +268,58 @@ fn solve_coarse(inputs: &SolverInputs, coarse: &PreparedChart) -> Option<Vec<DVe
         pattern: None,
         ..*inputs
     })
-    .ok()?;
-    solver.run().ok()?;
-    let reached = solver.max_residual() <= options.tolerance;
-    reached.then(|| solver.layout().to_vec())
+    .map_err(failed)?;
+    solver.run().map_err(failed)?;
+    let short = solver.max_residual();
+    if short > options.tolerance {
+        return Err(Missed::Short(short));
+    }
+    Ok(solver.layout().to_vec())
 }
 
 /// Undoes the collapses in stages of [`STAGE_GROWTH`], each settled by
 /// local sweeps of the stage's own shapes, the vertices `held` marks (the
-/// landmarks, the hole centres, the outer loop) in place.
+/// landmarks, the hole centres) in place; the outer loop moves with
+/// `loop_moves` (inside `region`, never meeting itself), else stays.
 fn settle_stages(
     hierarchy: &mut Hierarchy,
     filled: &FilledChart,
-    held: &[bool],
+    (held, loop_moves): (&[bool], bool),
+    region: (DVec2, DVec2),
     layout: &mut [DVec2],
     stats: &mut MultilevelStats,
-) -> Option<()> {
+) -> Result<(), Missed> {
     let n = filled.mesh.n_vertices();
+    let mut stuck = 0;
+    let mut outline = Outline::of(hierarchy);
     while !hierarchy.collapses.is_empty() {
         let until = (hierarchy.n_coarse() * STAGE_GROWTH).min(n);
-        let p = prolong(hierarchy, &filled.mesh.positions, layout, until).ok()?;
-        stats.in_kernel += p.in_kernel;
+        let prolonged = prolong(hierarchy, &filled.mesh.positions, layout, until, (&mut outline, region));
         let (triangles, rest) = stage_shapes(hierarchy, filled, layout);
         let movable: Vec<bool> = (0..n).map(|v| hierarchy.present[v] && !held[v]).collect();
-        stats.sweeps += smooth(layout, &triangles, &rest, &movable, SWEEPS).sweeps;
+        let room = loop_moves.then_some(LoopRoom {
+            outline: &outline,
+            region,
+        });
+        match prolonged {
+            Ok(p) => {
+                stats.in_kernel += p.in_kernel;
+                stats.sweeps += smooth(layout, &triangles, &rest, &movable, SWEEPS, room).sweeps;
+            }
+            // A ring with no place for its vertex: its surroundings sweep
+            // on, which reshapes it, and it is tried again.
+            Err(ProlongError::NoKernel { vertex, ring }) if stuck < STUCK => {
+                stuck += 1;
+                stats
+                    .stuck
+                    .get_or_insert_with(|| format!("vertex {vertex} found no place"));
+                let shapes = (&triangles[..], &rest[..]);
+                smooth_near(layout, shapes, &movable, (&ring, STUCK_RINGS), STUCK_SWEEPS, room);
+            }
+            Err(e) => return Err(Missed::Prolong(e.to_string())),
+        }
     }
-    Some(())
+    Ok(())
 }
 
 /// The triangles present at this stage (real ones first) and their rest
