@@ -294,6 +294,110 @@ fn targets_that_fill_the_region_are_reached_free_as_on_the_square() {
     assert!(cases >= 12, "only {cases} witnessed cases");
 }
 
+/// Large charts start from a coarse level (here any chart over 2,500
+/// vertices, to a level of 800): witnessed cases on disks with holes, free
+/// and in a given region, reach their targets exactly, fold-free and
+/// one-to-one inside their region (checked by the independent reader), with
+/// stretch close to the chart's solve at its own level; random landmarks on
+/// the same meshes never fold or overlap, whatever level solves them.
+fn large_charts_are_solved_from_their_coarse_level() {
+    let multilevel = uvpin::options::SolverOptions {
+        multilevel_above: 2_500,
+        multilevel_coarse: 800,
+        ..uvpin::options::SolverOptions::DEFAULT
+    };
+    let single = uvpin::options::SolverOptions {
+        multilevel_above: usize::MAX,
+        ..multilevel
+    };
+    let mut rng = Rng::new(31);
+    let mut used = 0;
+    for case in 0..6u64 {
+        let (n, holes) = (55 + rng.below(20), rng.below(4));
+        let mesh = random_disk(&mut rng, n, holes);
+        let Some((constraints, _)) = uvpin::testing::witnessed_free_case(&mesh, 8 + 8 * (case as usize % 3), case)
+        else {
+            continue;
+        };
+        let region = (case % 2 == 1).then(|| random_region(&mut rng));
+        let constraints: Vec<(u32, DVec2)> = match region {
+            Some(r) => constraints
+                .iter()
+                .map(|&(v, t)| (v, r.min + (r.max - r.min) * t))
+                .collect(),
+            None => constraints,
+        };
+        let pins = match region {
+            Some(r) => uvpin::Pins::new(&constraints).within(r),
+            None => uvpin::Pins::new(&constraints).with_boundary(uvpin::pins::BoundaryChoice::Free),
+        };
+        let name = format!(
+            "case {case} ({} vertices, {holes} holes, {region:?})",
+            mesh.positions.len()
+        );
+        let coarse = uvpin::solve_mesh(&mesh, &pins, &multilevel.into()).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let r = &coarse.report;
+        let said = r
+            .explain
+            .iter()
+            .find(|l| l.starts_with("coarse level"))
+            .cloned()
+            .unwrap_or_default();
+        assert!(
+            said.contains("solved and prolonged") || said.contains("vertices, coarsened"),
+            "{name}: {said}"
+        );
+        used += usize::from(!said.contains("not used"));
+        assert_eq!(r.status, uvpin::Status::Reached, "{name}: {said}");
+        assert!(r.max_residual <= 1e-9, "{name}");
+        assert!(r.orientation.is_clean(), "{name}: {:?}", r.orientation);
+        assert_eq!(r.free.as_ref().map(|f| f.crossings), Some(0), "{name}");
+        let inside = region.unwrap_or(Region::TEXTURE);
+        assert!(
+            coarse
+                .uvs
+                .iter()
+                .all(|uv| inside.contains_uv(DVec2::new(uv[0] as f64, uv[1] as f64))),
+            "{name}"
+        );
+        let own = uvpin::solve_mesh(&mesh, &pins, &single.into()).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let (l2, own_l2) = (r.stretch_final.l2, own.report.stretch_final.l2);
+        assert!(
+            l2 <= 1.15 * own_l2,
+            "{name}: L2 {l2} from the coarse level, {own_l2} at its own"
+        );
+        if case == 0 {
+            let (_, check) = solve_file(
+                &name,
+                &mesh,
+                &constraints,
+                "    boundary: Free,\n    solver: (multilevel_above: 2500, multilevel_coarse: 800),\n",
+            );
+            assert_eq!(check["crossings"], 0, "{check}");
+            assert_eq!(check["overlapping_pairs"], 0, "{check}");
+        }
+        // Random targets: mostly unreachable, never folded or overlapping.
+        let random: Vec<(u32, DVec2)> = pick(&mut rng, mesh.positions.len(), 6)
+            .into_iter()
+            .map(|v| {
+                (
+                    v,
+                    inside.min + (inside.max - inside.min) * DVec2::new(rng.range(0.1, 0.9), rng.range(0.1, 0.9)),
+                )
+            })
+            .collect();
+        let pins = uvpin::Pins::new(&random).within(inside);
+        let any = uvpin::solve_mesh(&mesh, &pins, &multilevel.into()).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(
+            any.report.orientation.is_clean(),
+            "{name} random: {:?}",
+            any.report.orientation
+        );
+        assert_eq!(any.report.free.as_ref().map(|f| f.crossings), Some(0), "{name} random");
+    }
+    assert!(used >= 4, "the coarse level was used in only {used} cases");
+}
+
 /// Two charts with UVs side by side; the left one constrained.
 fn two_islands() -> (TriMesh, Vec<[f32; 2]>) {
     let a = grid_mesh(8, 8);
@@ -568,6 +672,11 @@ fn main() -> std::process::ExitCode {
             "targets_that_fill_the_region_are_reached_free_as_on_the_square",
             &[],
             targets_that_fill_the_region_are_reached_free_as_on_the_square,
+        ),
+        (
+            "large_charts_are_solved_from_their_coarse_level",
+            &[],
+            large_charts_are_solved_from_their_coarse_level,
         ),
         (
             "an_island_is_solved_inside_itself_and_the_other_stays_bit_identical",
