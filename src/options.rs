@@ -75,9 +75,10 @@ pub struct SolverOptions {
     /// Stop the completion and polish after this many milliseconds of solving
     /// (default none): the best fold-free layout so far is kept.
     pub time_budget_ms: Option<f64>,
-    /// A free chart with more vertices than this is solved on a coarse
-    /// level first, then prolonged and settled by local sweeps (default
-    /// 40000): near-linear cost at any size.
+    /// A chart with more vertices than this is solved on a coarse level
+    /// first, then prolonged and settled by local sweeps (default 40000):
+    /// near-linear cost and a polish at any size (not a chart on the square
+    /// with a landmark on its outer loop).
     pub multilevel_above: usize,
     /// Multilevel: vertices of the coarse level at most (default 16000, at
     /// least 500); a chart's coarse level has an eighth of its vertices up

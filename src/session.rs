@@ -301,7 +301,7 @@ impl ChartSession {
         &mut self,
         options: &SolverOptions,
     ) -> Result<Option<Result<ChartSolver, crate::solver::multilevel::Missed>>, Error> {
-        if self.on_square() || self.prepared.filled.mesh.n_vertices() <= options.multilevel_above {
+        if self.prepared.filled.mesh.n_vertices() <= options.multilevel_above {
             return Ok(None);
         }
         self.map_boundary()?;
@@ -316,6 +316,9 @@ impl ChartSession {
             pattern: self.pattern.as_ref(),
             elapsed_ms: self.times.total_ms(),
         };
+        if !crate::solver::multilevel::applies(&inputs) {
+            return Ok(None);
+        }
         ChartSolver::from_coarse_level(inputs).map(Some)
     }
 

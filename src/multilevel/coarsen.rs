@@ -76,6 +76,7 @@ struct Coarsening<'a> {
     touched: Vec<u32>,
     loop_size: Vec<u32>,
     outer: u32,
+    square: bool,
     /// Whether a triangle is real (all corners real vertices).
     real: Vec<bool>,
     collapses: Vec<Collapse>,
@@ -84,12 +85,34 @@ struct Coarsening<'a> {
     around: [Vec<u32>; 2],
 }
 
-/// Coarsens `mesh` (a filled chart: a disk, holes closed by fans) to about
-/// `target` vertices. `role` says what each vertex may do; `outer` is the
-/// outer loop's index among the loops of [`Role::Loop`]; `virtual_from`
-/// the first virtual vertex (triangles touching one are not checked
-/// against the surface).
-pub fn coarsen(mesh: &TriMesh, role: &[Role], outer: u32, virtual_from: usize, target: usize) -> Hierarchy {
+/// How to coarsen a filled chart.
+#[derive(Debug, Clone, Copy)]
+pub struct Plan<'a> {
+    /// What each vertex may do.
+    pub role: &'a [Role],
+    /// The outer loop's index among the loops of [`Role::Loop`].
+    pub outer: u32,
+    /// The first virtual vertex: triangles touching one are not checked
+    /// against the surface.
+    pub virtual_from: usize,
+    /// Vertices to leave, about.
+    pub target: usize,
+    /// The outer loop lies on the square: no collapse joins two of its
+    /// vertices by a new edge (a chord or a triangle along one side of the
+    /// square has no area).
+    pub square: bool,
+}
+
+/// Coarsens `mesh` (a filled chart: a disk, holes closed by fans) as
+/// `plan` says.
+pub fn coarsen(mesh: &TriMesh, plan: Plan) -> Hierarchy {
+    let Plan {
+        role,
+        outer,
+        virtual_from,
+        target,
+        square,
+    } = plan;
     let n = mesh.n_vertices();
     let mut incident = vec![Vec::with_capacity(6); n];
     for (t, tri) in mesh.triangles.iter().enumerate() {
@@ -128,6 +151,7 @@ pub fn coarsen(mesh: &TriMesh, role: &[Role], outer: u32, virtual_from: usize, t
         touched: vec![0; n],
         loop_size,
         outer,
+        square,
         real,
         collapses: Vec::new(),
         star: Vec::new(),
@@ -272,7 +296,24 @@ impl Coarsening<'_> {
                 return false;
             }
         }
-        self.link_condition(u, v, shared) && self.shapes_kept(u, v)
+        self.link_condition(u, v, shared) && self.shapes_kept(u, v) && !(self.square && self.makes_chord(u, v))
+    }
+
+    /// Whether `u` going into outer-loop vertex `v` would join `v` to
+    /// another outer-loop vertex it is not joined to yet.
+    fn makes_chord(&mut self, u: u32, v: u32) -> bool {
+        let on_outer = |w: u32| self.role[w as usize] == Role::Loop(self.outer);
+        if !on_outer(v) {
+            return false;
+        }
+        let [mut nu, mut nv] = std::mem::take(&mut self.around);
+        self.neighbours(u, &mut nu);
+        self.neighbours(v, &mut nv);
+        let chord = nu
+            .iter()
+            .any(|&w| w != v && on_outer(w) && nv.binary_search(&w).is_err());
+        self.around = [nu, nv];
+        chord
     }
 
     /// The vertices next to both `u` and `v` are exactly the far corners
@@ -371,6 +412,16 @@ mod tests {
         (role, topology.outer as u32)
     }
 
+    fn plan(role: &[Role], outer: u32, target: usize) -> Plan<'_> {
+        Plan {
+            role,
+            outer,
+            virtual_from: role.len(),
+            target,
+            square: false,
+        }
+    }
+
     #[test]
     fn a_grid_coarsens_to_a_disk_with_its_landmarks() {
         let mut mesh = grid_mesh(60, 60);
@@ -379,7 +430,7 @@ mod tests {
         }
         let kept = [61 + 60 * 10, 1000, 2500];
         let (role, outer) = roles(&mesh, &kept);
-        let h = coarsen(&mesh, &role, outer, mesh.n_vertices(), 400);
+        let h = coarsen(&mesh, plan(&role, outer, 400));
         assert!(h.n_coarse() <= 450, "{} left", h.n_coarse());
         let (coarse, fine_of) = h.coarse_mesh(&mesh.positions);
         for k in kept {
@@ -399,7 +450,7 @@ mod tests {
     fn undoing_every_collapse_gives_the_fine_triangles_back() {
         let mesh = grid_mesh(20, 20);
         let (role, outer) = roles(&mesh, &[]);
-        let mut h = coarsen(&mesh, &role, outer, mesh.n_vertices(), 30);
+        let mut h = coarsen(&mesh, plan(&role, outer, 30));
         for c in h.collapses.clone().iter().rev() {
             for &s in &h.star[c.star.0 as usize..c.star.1 as usize] {
                 let (t, slot) = ((s / 4) as usize, (s % 4) as usize);

@@ -22,6 +22,18 @@ pub enum ProlongError {
     NoKernel { vertex: u32, ring: Vec<u32> },
 }
 
+/// Where a vertex of the outer loop goes back.
+#[derive(Debug, Clone)]
+pub enum LoopRule {
+    /// A free chart's: where its star puts it (or nearer its neighbours),
+    /// strictly inside `region`, its edges clear of the rest of `outline`
+    /// (the level's outer loop, kept up to date).
+    Free { outline: Outline, region: (DVec2, DVec2) },
+    /// On the square: on the segment between its loop neighbours (a side
+    /// of the square), as far along as its 3D distances say.
+    OnSide,
+}
+
 /// How the vertices were put back.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ProlongStats {
@@ -33,9 +45,7 @@ pub struct ProlongStats {
 /// Undoes the collapses of `hierarchy` on `layout`, last first, until
 /// `until` vertices are present (entries of vertices present are read; the
 /// others written): [`usize::MAX`] goes back to the fine level. A vertex
-/// of the outer loop is put strictly inside `region` (`lo`, `hi`) too, its
-/// two edges clear of the rest of `outline` (the level's outer loop, kept
-/// up to date).
+/// of the outer loop goes where `rule` says.
 ///
 /// # Errors
 /// [`ProlongError::NoKernel`]: a vertex with no place; the hierarchy is
@@ -46,7 +56,7 @@ pub fn prolong(
     positions: &[DVec3],
     layout: &mut [DVec2],
     until: usize,
-    (outline, region): (&mut Outline, (DVec2, DVec2)),
+    rule: &mut LoopRule,
 ) -> Result<ProlongStats, ProlongError> {
     let mut stats = ProlongStats::default();
     let mut ring = Vec::new();
@@ -72,16 +82,35 @@ pub fn prolong(
         let (first, last) = (ring[0], ring[ring.len() - 1]);
         let fits = |p: DVec2| {
             keeps_positive(p, &ring, closed, layout)
-                && (closed || (inside(p, region) && !outline.crossed_between((last, first), p, layout)))
+                && match &*rule {
+                    _ if closed => true,
+                    LoopRule::Free { outline, region } => {
+                        inside(p, *region) && !outline.crossed_between((last, first), p, layout)
+                    }
+                    LoopRule::OnSide => true,
+                }
         };
-        let p = place(c.u, &ring, closed, positions, layout);
+        let on_side = !closed && matches!(rule, LoopRule::OnSide);
+        let p = if on_side {
+            on_segment(c.u, (first, last), positions, layout)
+        } else {
+            place(c.u, &ring, closed, positions, layout)
+        };
         let p = match p.filter(|&p| fits(p)) {
             Some(p) => p,
             None => {
                 stats.in_kernel += 1;
-                let drawn_in = p.and_then(|p| towards_chord(p, &ring, layout).find(|&q| fits(q)));
-                let Some(p) = drawn_in.or_else(|| kernel_centre(&ring, closed, layout, region).filter(|&q| fits(q)))
-                else {
+                let region = match &*rule {
+                    LoopRule::Free { region, .. } => *region,
+                    LoopRule::OnSide => (DVec2::splat(f64::NEG_INFINITY), DVec2::splat(f64::INFINITY)),
+                };
+                let moved = (!on_side)
+                    .then(|| {
+                        let drawn_in = p.and_then(|p| towards_chord(p, &ring, layout).find(|&q| fits(q)));
+                        drawn_in.or_else(|| kernel_centre(&ring, closed, layout, region).filter(|&q| fits(q)))
+                    })
+                    .flatten();
+                let Some(p) = moved else {
                     redo(hierarchy, c, star);
                     return Err(ProlongError::NoKernel {
                         vertex: c.u,
@@ -92,7 +121,7 @@ pub fn prolong(
             }
         };
         layout[c.u as usize] = p;
-        if !closed {
+        if let (false, LoopRule::Free { outline, .. }) = (closed, &mut *rule) {
             outline.split((last, first), c.u);
         }
         stats.splits += 1;
@@ -114,6 +143,18 @@ fn redo(hierarchy: &mut Hierarchy, c: super::coarsen::Collapse, star: Vec<u32>) 
     hierarchy.present[c.u as usize] = false;
     hierarchy.star.extend(star);
     hierarchy.collapses.push(c);
+}
+
+/// A loop vertex between its loop neighbours `a` and `b`, as far from `a`
+/// as its 3D distances to the two say.
+fn on_segment(u: u32, (a, b): (u32, u32), positions: &[DVec3], layout: &[DVec2]) -> Option<DVec2> {
+    let (da, db) = (
+        positions[u as usize].distance(positions[a as usize]),
+        positions[u as usize].distance(positions[b as usize]),
+    );
+    let t = da / (da + db);
+    let (pa, pb) = (layout[a as usize], layout[b as usize]);
+    (t > 0.0 && t < 1.0).then(|| pa + (pb - pa) * t)
 }
 
 /// Points from `p` toward the middle of an open ring's chord (its two loop
@@ -289,7 +330,14 @@ mod tests {
         for &v in &topology.loops[0] {
             role[v as usize] = Role::Loop(0);
         }
-        let mut h = coarsen(&mesh, &role, 0, mesh.n_vertices(), 150);
+        let plan = crate::multilevel::coarsen::Plan {
+            role: &role,
+            outer: 0,
+            virtual_from: mesh.n_vertices(),
+            target: 150,
+            square: false,
+        };
+        let mut h = coarsen(&mesh, plan);
         // The coarse level laid out as the grid's plane, warped.
         let mut layout: Vec<DVec2> = mesh
             .positions
@@ -307,8 +355,11 @@ mod tests {
         let n_coarse = h.n_coarse();
         assert!(n_coarse < 200, "{n_coarse} left");
         let region = (DVec2::splat(-1.0), DVec2::splat(2.0));
-        let mut outline = Outline::of(&h);
-        let stats = prolong(&mut h, &mesh.positions, &mut layout, usize::MAX, (&mut outline, region)).unwrap();
+        let mut rule = LoopRule::Free {
+            outline: Outline::of(&h),
+            region,
+        };
+        let stats = prolong(&mut h, &mesh.positions, &mut layout, usize::MAX, &mut rule).unwrap();
         assert_eq!(stats.splits, mesh.n_vertices() - n_coarse);
         assert!(h.collapses.is_empty());
         assert_eq!(h.triangles, mesh.triangles);

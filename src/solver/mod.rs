@@ -288,6 +288,21 @@ impl ChartSolver {
     /// As [`ChartSolver::new`].
     pub fn from_coarse_level(start: SolverInputs) -> Result<Result<Self, multilevel::Missed>, Error> {
         let t0 = Instant::now();
+        if start.prepared.domain.free().is_none() {
+            // On the square the prolonged layout is a step-1 layout: its
+            // outer loop on the square's sides, every triangle positive.
+            return Ok(match multilevel::coarse_start(&start) {
+                Ok((layout, stats)) => {
+                    let mut solver = ChartSolver::new(SolverInputs {
+                        step1: &layout,
+                        ..start
+                    })?;
+                    solver.record.multilevel = Some(stats);
+                    Ok(solver)
+                }
+                Err(missed) => Err(missed),
+            });
+        }
         let (problem, policy, pattern) = Self::problem_of(&start)?;
         let chart = ChartParts {
             id: start.prepared.chart.id,

@@ -17,9 +17,9 @@ use crate::domain::start::StartKind;
 use crate::free::{FreeSetup, GivenStart};
 use crate::mesh::TriMesh;
 use crate::mesh::topology::Topology;
-use crate::multilevel::coarsen::{Hierarchy, Role, coarsen};
+use crate::multilevel::coarsen::{Hierarchy, Plan, Role, coarsen};
 use crate::multilevel::outline::Outline;
-use crate::multilevel::prolong::{ProlongError, prolong};
+use crate::multilevel::prolong::{LoopRule, ProlongError, prolong};
 use crate::multilevel::smooth::{LoopRoom, smooth, smooth_near};
 use crate::param::bar_net::{FilledChart, fill_holes};
 use crate::param::boundary::TrapCandidates;
@@ -86,11 +86,14 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-/// Whether `inputs`' chart is solved from a coarse level: free, and
-/// larger than `multilevel_above`.
+/// Whether `inputs`' chart is solved from a coarse level: larger than
+/// `multilevel_above`, and free or on the square without a landmark on its
+/// outer loop (which the boundary map places).
 pub fn applies(inputs: &SolverInputs) -> bool {
-    inputs.prepared.domain.free().is_some()
-        && inputs.prepared.filled.mesh.n_vertices() > inputs.options.multilevel_above
+    let p = inputs.prepared;
+    let on_loop = |v: &u32| inputs.boundary.loop_vertices.contains(v);
+    p.filled.mesh.n_vertices() > inputs.options.multilevel_above
+        && (p.domain.free().is_some() || !p.constraint_vertices.iter().any(on_loop))
 }
 
 /// The start of `inputs`' chart from its coarse level (see the module
@@ -104,16 +107,25 @@ pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStat
     let options = inputs.options;
     let n = filled.mesh.n_vertices();
     let t0 = Instant::now();
-    let (roles, outer) = roles(prepared);
+    let square = prepared.domain.free().is_none();
+    let corners = square.then(|| inputs.boundary.corner_vertices());
+    let (roles, outer) = roles(prepared, corners);
     let target = (n / COARSENING).clamp(options.multilevel_coarse.min(500), options.multilevel_coarse);
-    let mut hierarchy = coarsen(&filled.mesh, &roles, outer, filled.n_real_vertices, target);
+    let plan = Plan {
+        role: &roles,
+        outer,
+        virtual_from: filled.n_real_vertices,
+        target,
+        square,
+    };
+    let mut hierarchy = coarsen(&filled.mesh, plan);
     let mut stats = MultilevelStats {
         coarse_vertices: hierarchy.n_coarse(),
         coarsen_ms: ms(t0),
         ..MultilevelStats::default()
     };
     let t1 = Instant::now();
-    let (coarse, fine_of) = coarse_chart(prepared, &hierarchy).ok_or(Missed::NotADisk)?;
+    let (coarse, fine_of) = coarse_chart(prepared, &hierarchy, corners).ok_or(Missed::NotADisk)?;
     let coarse_layout = solve_coarse(inputs, &coarse)?;
     stats.coarse_solve_ms = ms(t1);
     let t2 = Instant::now();
@@ -121,8 +133,8 @@ pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStat
     for (k, &v) in fine_of.iter().enumerate() {
         layout[v as usize] = coarse_layout[k];
     }
-    // The outer loop moves in the sweeps unless other islands are near:
-    // then it stays where the prolongation put it.
+    // A free outer loop moves in the sweeps unless other islands are near:
+    // then it stays where the prolongation put it; on the square it stays.
     let free = prepared.domain.free();
     let loop_moves = free.is_some_and(|f| f.obstacles.is_empty());
     let held: Vec<bool> = roles
@@ -133,7 +145,7 @@ pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStat
     settle_stages(
         &mut hierarchy,
         filled,
-        (&held, loop_moves),
+        (&held, loop_moves, square),
         region,
         &mut layout,
         &mut stats,
@@ -174,9 +186,10 @@ pub fn start_in(
     SolveDomain::start(&given, chart, problem).map_err(|e| Missed::NoRoom(e.to_string()))
 }
 
-/// What each filled vertex may do in the coarsening: the landmarks and the
-/// virtual hole centres stay; loop vertices move along their loop.
-fn roles(prepared: &PreparedChart) -> (Vec<Role>, u32) {
+/// What each filled vertex may do in the coarsening: the landmarks, the
+/// virtual hole centres and the square's `corners` stay; loop vertices
+/// move along their loop.
+fn roles(prepared: &PreparedChart, corners: Option<[u32; 4]>) -> (Vec<Role>, u32) {
     let filled = &prepared.filled;
     let mut roles = vec![Role::Inner; filled.mesh.n_vertices()];
     for (k, l) in prepared.topology.loops.iter().enumerate() {
@@ -186,13 +199,21 @@ fn roles(prepared: &PreparedChart) -> (Vec<Role>, u32) {
         roles[v as usize] = Role::Kept;
     }
     roles[filled.n_real_vertices..].fill(Role::Kept);
+    corners
+        .into_iter()
+        .flatten()
+        .for_each(|v| roles[v as usize] = Role::Kept);
     (roles, prepared.topology.outer as u32)
 }
 
 /// The coarse level as a chart of its own (its real vertices and
 /// triangles, its holes filled anew), and each of its filled vertices'
 /// fine id. `None` if it is not a disk with the same holes.
-fn coarse_chart(prepared: &PreparedChart, hierarchy: &Hierarchy) -> Option<(PreparedChart, Vec<u32>)> {
+fn coarse_chart(
+    prepared: &PreparedChart,
+    hierarchy: &Hierarchy,
+    corners: Option<[u32; 4]>,
+) -> Option<(PreparedChart, Vec<u32>)> {
     let filled = &prepared.filled;
     let n_real = filled.n_real_vertices as u32;
     let (mesh, fine_of) = hierarchy.coarse_mesh(&filled.mesh.positions);
@@ -226,7 +247,9 @@ fn coarse_chart(prepared: &PreparedChart, hierarchy: &Hierarchy) -> Option<(Prep
         topology: Arc::new(topology),
         filled: Arc::new(coarse_filled),
         constraint_vertices,
-        corners: None,
+        corners: corners
+            .map(|c| c.map(coarse_of_fine))
+            .map(|c| c.map(Option::unwrap_or_default)),
         ..prepared.clone()
     };
     Some((coarse, fine_ids))
@@ -284,23 +307,33 @@ fn solve_coarse(inputs: &SolverInputs, coarse: &PreparedChart) -> Result<Vec<DVe
 fn settle_stages(
     hierarchy: &mut Hierarchy,
     filled: &FilledChart,
-    (held, loop_moves): (&[bool], bool),
+    (held, loop_moves, square): (&[bool], bool, bool),
     region: (DVec2, DVec2),
     layout: &mut [DVec2],
     stats: &mut MultilevelStats,
 ) -> Result<(), Missed> {
     let n = filled.mesh.n_vertices();
     let mut stuck = 0;
-    let mut outline = Outline::of(hierarchy);
+    let mut rule = if square {
+        LoopRule::OnSide
+    } else {
+        LoopRule::Free {
+            outline: Outline::of(hierarchy),
+            region,
+        }
+    };
     while !hierarchy.collapses.is_empty() {
         let until = (hierarchy.n_coarse() * STAGE_GROWTH).min(n);
-        let prolonged = prolong(hierarchy, &filled.mesh.positions, layout, until, (&mut outline, region));
+        let prolonged = prolong(hierarchy, &filled.mesh.positions, layout, until, &mut rule);
         let (triangles, rest) = stage_shapes(hierarchy, filled, layout);
         let movable: Vec<bool> = (0..n).map(|v| hierarchy.present[v] && !held[v]).collect();
-        let room = loop_moves.then_some(LoopRoom {
-            outline: &outline,
-            region,
-        });
+        let room = match &rule {
+            LoopRule::Free { outline, region } if loop_moves => Some(LoopRoom {
+                outline,
+                region: *region,
+            }),
+            _ => None,
+        };
         match prolonged {
             Ok(p) => {
                 stats.in_kernel += p.in_kernel;
