@@ -166,6 +166,17 @@ fn witnessed_free_cases_are_reached_exactly_and_one_to_one() {
     }
 }
 
+/// Targets in the texture moved into `region` as the texture maps onto it.
+fn into_region(constraints: Vec<(u32, DVec2)>, region: Option<Region>) -> Vec<(u32, DVec2)> {
+    match region {
+        Some(r) => constraints
+            .iter()
+            .map(|&(v, t)| (v, r.min + (r.max - r.min) * t))
+            .collect(),
+        None => constraints,
+    }
+}
+
 /// A random region inside the texture, at least a third of it on each side.
 fn random_region(rng: &mut Rng) -> Region {
     let (w, h) = (rng.range(0.35, 0.9), rng.range(0.35, 0.9));
@@ -243,13 +254,7 @@ fn targets_that_fill_the_region_are_reached_free_as_on_the_square() {
             continue;
         };
         let region = (case % 2 == 1).then(|| random_region(&mut rng));
-        let constraints: Vec<(u32, DVec2)> = match region {
-            Some(r) => constraints
-                .iter()
-                .map(|&(v, t)| (v, r.min + (r.max - r.min) * t))
-                .collect(),
-            None => constraints,
-        };
+        let constraints = into_region(constraints, region);
         let name = format!(
             "case {case} ({} vertices, {k} targets, {region:?})",
             mesh.positions.len()
@@ -320,13 +325,7 @@ fn large_charts_are_solved_from_their_coarse_level() {
             continue;
         };
         let region = (case % 2 == 1).then(|| random_region(&mut rng));
-        let constraints: Vec<(u32, DVec2)> = match region {
-            Some(r) => constraints
-                .iter()
-                .map(|&(v, t)| (v, r.min + (r.max - r.min) * t))
-                .collect(),
-            None => constraints,
-        };
+        let constraints = into_region(constraints, region);
         let pins = match region {
             Some(r) => uvpin::Pins::new(&constraints).within(r),
             None => uvpin::Pins::new(&constraints).with_boundary(uvpin::pins::BoundaryChoice::Free),

@@ -124,22 +124,13 @@ pub fn make_solvable(
     let (repairs, duplicates) = (repaired.repairs, duplicates);
     // A disk with boundary enough, its seams left to us, is solvable as it
     // is (what `open` would find, without building its topology again).
-    if let (SeamSpec::Auto, false, Ok(topology)) = (&spec, must_open || rules.spread_disks, topology) {
-        return Ok(Solvable {
-            topology,
-            chart: main,
-            seam: None,
-            seam_copies: 0,
-            repairs,
-            duplicates,
-            rest,
-            separation,
-            scale_weighed,
-        });
-    }
-    match super::open(&main.mesh, &spec, &landmark_ids, &barred, rules)? {
+    let (opened, topology) = match topology {
+        Ok(t) if matches!(spec, SeamSpec::Auto) && !must_open && !rules.spread_disks => (None, Some(t)),
+        _ => (super::open(&main.mesh, &spec, &landmark_ids, &barred, rules)?, None),
+    };
+    match opened {
         None => Ok(Solvable {
-            topology: Topology::build(&main.mesh)?,
+            topology: topology.map_or_else(|| Topology::build(&main.mesh), Ok)?,
             chart: main,
             seam: None,
             seam_copies: 0,

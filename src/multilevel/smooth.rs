@@ -138,12 +138,7 @@ pub fn smooth(
     for _ in 0..WORST_SWEEPS {
         let mut any = false;
         for &v in &worst {
-            let moved = match room {
-                Some(room) if on_loop(v) => sweep.relaxed_on_loop(v, layout, room),
-                None if on_loop(v) => None,
-                _ => sweep.relaxed(v as usize, layout),
-            };
-            if let Some(p) = moved {
+            if let Some(p) = sweep.relaxed_in(v, layout, room) {
                 any |= p.distance(layout[v as usize]) > 1e-6 * p.length().max(1.0);
                 layout[v as usize] = p;
             }
@@ -190,15 +185,9 @@ pub fn smooth_near(
         frontier = next;
     }
     near.retain(|&v| movable[v as usize]);
-    let on_loop = |v: u32| room.is_some_and(|r| r.outline.contains(v));
     for _ in 0..max_sweeps {
         for &v in &near {
-            let moved = match room {
-                Some(room) if on_loop(v) => sweep.relaxed_on_loop(v, layout, room),
-                None if on_loop(v) => None,
-                _ => sweep.relaxed(v as usize, layout),
-            };
-            if let Some(p) = moved {
+            if let Some(p) = sweep.relaxed_in(v, layout, room) {
                 layout[v as usize] = p;
             }
         }
@@ -284,6 +273,15 @@ impl Sweep<'_> {
             alpha *= 0.5;
         }
         None
+    }
+
+    /// Where `v` goes: [`Self::relaxed`], or on the outer loop
+    /// [`Self::relaxed_on_loop`].
+    fn relaxed_in(&self, v: u32, layout: &[DVec2], room: Option<LoopRoom>) -> Option<DVec2> {
+        match room {
+            Some(room) if room.outline.contains(v) => self.relaxed_on_loop(v, layout, room),
+            _ => self.relaxed(v as usize, layout),
+        }
     }
 
     /// [`Self::relaxed`] for a vertex of the outer loop, cut back while its

@@ -128,6 +128,15 @@ fn hint_and_proof(
     (hint, certificate.as_ref().map(|c| c.describe(&name)))
 }
 
+fn coarse_level(s: &SolveSummary) -> Option<crate::report::CoarseLevel> {
+    let r = s.solver.record();
+    r.multilevel.clone().map(crate::report::CoarseLevel::Used).or_else(|| {
+        r.multilevel_missed
+            .as_ref()
+            .map(|m| crate::report::CoarseLevel::Missed(m.to_string()))
+    })
+}
+
 /// The chart's warnings, and one for a bulged boundary.
 fn warnings(s: &SolveSummary) -> Vec<String> {
     let mut warnings = s.prepared.warnings.clone();
@@ -221,6 +230,7 @@ pub fn build(s: &SolveSummary) -> Report {
             BoundaryMode::Square
         },
         free: free_report(s),
+        coarse_level: coarse_level(s),
         seam: seam_of(p),
         rest: None,
         charts: Vec::new(),

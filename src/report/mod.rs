@@ -241,6 +241,16 @@ impl CompletionStats {
     }
 }
 
+/// A large chart's coarse level ([`crate::solver::multilevel`]).
+#[derive(Debug, Clone, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CoarseLevel {
+    /// Solved and prolonged: the chart started from it.
+    Used(crate::solver::multilevel::MultilevelStats),
+    /// Not used, and why: the chart was solved at its own level.
+    Missed(String),
+}
+
 /// The full report of one solve.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
@@ -309,6 +319,9 @@ pub struct Report {
     /// A free boundary's region, start and global injectivity.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub free: Option<FreeReport>,
+    /// A large chart's coarse level: what it did, or why it was not used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coarse_level: Option<CoarseLevel>,
     /// Where the chart was cut open to a disk (`None`: it was one).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seam: Option<SeamReport>,

@@ -298,6 +298,7 @@ impl ChartSolver {
                         ..start
                     })?;
                     solver.record.multilevel = Some(stats);
+                    solver.times.stepping_ms = ms(t0);
                     Ok(solver)
                 }
                 Err(missed) => Err(missed),
