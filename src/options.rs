@@ -81,7 +81,7 @@ pub struct SolverOptions {
     /// with a landmark on its outer loop).
     pub multilevel_above: usize,
     /// Multilevel: vertices of the coarse level at most (default 16000, at
-    /// least 500); a chart's coarse level has an eighth of its vertices up
+    /// least 500); a chart's coarse level has a sixteenth of its vertices up
     /// to that.
     pub multilevel_coarse: usize,
 }

@@ -5,8 +5,10 @@
 //! vertex inside the disk (Floater), the similarity of its two loop
 //! neighbours for one on the outer loop. Where that would turn a triangle
 //! of its star over, it goes to the centre of its ring's kernel (the points
-//! from which every triangle of the star is positive); a ring without a
-//! kernel ends the prolongation. So every layout on the way, and the last,
+//! from which every triangle of the star is positive), else right beside
+//! the vertex it was collapsed into (the split undone as a thin sliver,
+//! which the sweeps then open); a vertex with no place even there ends
+//! the prolongation. So every layout on the way, and the last,
 //! has every triangle positive.
 
 use super::coarsen::Hierarchy;
@@ -109,7 +111,11 @@ pub fn prolong(
                         let drawn_in = p.and_then(|p| towards_chord(p, &ring, layout).find(|&q| fits(q)));
                         drawn_in.or_else(|| kernel_centre(&ring, closed, layout, region).filter(|&q| fits(q)))
                     })
-                    .flatten();
+                    .flatten()
+                    .or_else(|| {
+                        let along = on_side.then(|| layout[(if c.v == first { last } else { first }) as usize]);
+                        beside_survivor(c.v, (&ring, closed), along, layout).find(|&q| fits(q))
+                    });
                 let Some(p) = moved else {
                     redo(hierarchy, c, star);
                     return Err(ProlongError::NoKernel {
@@ -127,6 +133,64 @@ pub fn prolong(
         stats.splits += 1;
     }
     Ok(stats)
+}
+
+/// Points ever nearer `v`, the vertex `u` was collapsed into, in the wedge
+/// the split needs, then in every direction (or only towards `along`, on a
+/// side of the square): the split of `v` into `u` and `v` with `u` close
+/// enough to `v` keeps every triangle positive, since `u`'s other
+/// triangles were `v`'s and the one or two new ones are thin, not turned
+/// over, when `u` sits in the wedge between their far corners.
+fn beside_survivor(
+    v: u32,
+    (ring, closed): (&[u32], bool),
+    along: Option<DVec2>,
+    layout: &[DVec2],
+) -> impl Iterator<Item = DVec2> {
+    const DIRECTIONS: usize = 32;
+    const HALVINGS: i32 = 40;
+    let at = layout[v as usize];
+    let reach = ring
+        .iter()
+        .filter(|&&b| b != v)
+        .map(|&b| layout[b as usize].distance(at))
+        .fold(f64::INFINITY, f64::min)
+        * 0.5;
+    let directions: Vec<DVec2> = match along {
+        Some(q) => vec![(q - at).normalize_or_zero()],
+        None => wedge(v, (ring, closed), layout)
+            .into_iter()
+            .chain((0..DIRECTIONS).map(|k| DVec2::from_angle(std::f64::consts::TAU * k as f64 / DIRECTIONS as f64)))
+            .collect(),
+    };
+    (0..HALVINGS).flat_map(move |h| {
+        let step = reach * 0.5f64.powi(h);
+        directions.clone().into_iter().map(move |d| at + step * d)
+    })
+}
+
+/// The direction halving the wedge at `v` between the far corners of the
+/// triangles a split of `v` brings back: the ring's vertex after `v` lies
+/// clockwise of it, the one before counter-clockwise.
+fn wedge(v: u32, (ring, closed): (&[u32], bool), layout: &[DVec2]) -> Option<DVec2> {
+    let i = ring.iter().position(|&b| b == v)?;
+    let k = ring.len();
+    let at = layout[v as usize];
+    let towards = |j: usize| (layout[ring[j] as usize] - at).try_normalize();
+    let next = (closed || i + 1 < k).then(|| towards((i + 1) % k)).flatten();
+    let prev = (closed || i > 0).then(|| towards((i + k - 1) % k)).flatten();
+    match (next, prev) {
+        (Some(n), Some(p)) => {
+            let mut angle = n.angle_to(p);
+            if angle <= 0.0 {
+                angle += std::f64::consts::TAU;
+            }
+            Some(DVec2::from_angle(0.5 * angle).rotate(n))
+        }
+        (Some(n), None) => Some(n.perp()),
+        (None, Some(p)) => Some(-p.perp()),
+        (None, None) => None,
+    }
 }
 
 /// Collapse `c` made again (its star `star`): a vertex that found no place
@@ -364,5 +428,49 @@ mod tests {
         assert!(h.collapses.is_empty());
         assert_eq!(h.triangles, mesh.triangles);
         assert!(crate::guard::all_positive(&layout, &mesh.triangles));
+    }
+
+    #[test]
+    fn a_split_vertex_always_has_a_place_beside_its_survivor() {
+        // A valid fan around v (angles each under a half turn, any radii,
+        // even needle-thin): the ring of a vertex split off v is v and a
+        // run of v's neighbours; a place beside v keeps that star positive.
+        let mut rng = crate::testing::Rng::new(29);
+        for _ in 0..2000 {
+            let k = 3 + rng.below(10);
+            let mut layout = vec![DVec2::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0))];
+            let mut angle = rng.range(0.0, 6.0);
+            let mut total = 0.0;
+            let mut gaps: Vec<f64> = (0..k).map(|_| rng.range(1e-4, 1.0)).collect();
+            let sum: f64 = gaps.iter().sum();
+            let turn = std::f64::consts::TAU;
+            gaps.iter_mut().for_each(|g| *g *= turn / sum);
+            if gaps.iter().any(|&g| g >= 0.99 * std::f64::consts::PI) {
+                continue;
+            }
+            for g in &gaps {
+                let r = 10f64.powf(rng.range(-3.0, 0.0));
+                layout.push(layout[0] + r * DVec2::from_angle(angle));
+                angle += g;
+                total += g;
+            }
+            assert!((total - turn).abs() < 1e-9);
+            let fan: Vec<u32> = (1..=k as u32).collect();
+            let run = 1 + rng.below(k - 1);
+            let start = rng.below(k);
+            // Inside the disk, or on its outer loop with v its neighbour
+            // there (first or last of the open ring).
+            let run: Vec<u32> = (0..=run).map(|i| fan[(start + i) % k]).collect();
+            let rings = [
+                ([&[0u32][..], &run].concat(), true),
+                ([&[0u32][..], &run].concat(), false),
+                ([&run[..], &[0u32][..]].concat(), false),
+            ];
+            for (ring, closed) in rings {
+                let p = beside_survivor(0, (&ring, closed), None, &layout)
+                    .find(|&q| keeps_positive(q, &ring, closed, &layout));
+                assert!(p.is_some(), "no place beside the survivor: ring {ring:?} in {layout:?}");
+            }
+        }
     }
 }

@@ -65,7 +65,7 @@ pub enum Missed {
 
 /// A chart's coarse level has this share of its vertices (up to
 /// `multilevel_coarse`): small enough to solve in a fraction of the time.
-const COARSENING: usize = 8;
+const COARSENING: usize = 16;
 
 /// Each stage of the prolongation brings back this many times the
 /// vertices present before it, then sweeps.
