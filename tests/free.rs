@@ -374,6 +374,30 @@ fn large_charts_are_solved_from_their_coarse_level() {
             );
             assert_eq!(check["crossings"], 0, "{check}");
             assert_eq!(check["overlapping_pairs"], 0, "{check}");
+            // A spent time budget puts the last stages back unswept: still
+            // fold-free, one-to-one and on the targets it reached.
+            let hurried = uvpin::options::SolverOptions {
+                time_budget_ms: Some(1.0),
+                ..multilevel
+            };
+            let h = uvpin::solve_mesh(&mesh, &pins, &hurried.into()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(
+                h.report.orientation.is_clean(),
+                "{name} hurried: {:?}",
+                h.report.orientation
+            );
+            assert_eq!(h.report.free.as_ref().map(|f| f.crossings), Some(0), "{name} hurried");
+            let said = h
+                .report
+                .explain
+                .iter()
+                .find(|l| l.starts_with("coarse level"))
+                .cloned()
+                .unwrap_or_default();
+            if !said.contains("not used") {
+                assert!(said.contains("time_budget_ms ran out"), "{name} hurried: {said}");
+                assert!(h.report.max_residual <= 1e-9, "{name} hurried: {said}");
+            }
         }
         // Random targets: mostly unreachable, never folded or overlapping.
         let random: Vec<(u32, DVec2)> = pick(&mut rng, mesh.positions.len(), 6)

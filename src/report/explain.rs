@@ -46,7 +46,12 @@ fn multilevel_line(s: &SolveSummary) -> Option<String> {
         ) + &m
             .stuck
             .as_ref()
-            .map_or(String::new(), |e| format!("; {e} until its surroundings swept on")),
+            .map_or(String::new(), |e| format!("; {e} until its surroundings swept on"))
+            + if m.out_of_time {
+                "; time_budget_ms ran out: the last stages were put back without sweeps"
+            } else {
+                ""
+            },
     )
 }
 

@@ -44,6 +44,9 @@ pub struct MultilevelStats {
     /// The first vertex the prolongation found no place for until the level
     /// swept on.
     pub stuck: Option<String>,
+    /// `time_budget_ms` ran out while prolonging: the stages after it were
+    /// put back without their sweeps (still fold-free, less polished).
+    pub out_of_time: bool,
 }
 
 /// Why a large chart's coarse level was not used (it was then solved at
@@ -142,11 +145,14 @@ pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStat
         .map(|&r| r == Role::Kept || (!loop_moves && r == Role::Loop(outer)))
         .collect();
     let region = free.map_or((DVec2::ZERO, DVec2::ONE), |f| f.region.layout_box());
+    let deadline = options
+        .time_budget_ms
+        .map(|budget| t0 + std::time::Duration::from_secs_f64((budget - inputs.elapsed_ms).max(0.0) * 1e-3));
     settle_stages(
         &mut hierarchy,
         filled,
         (&held, loop_moves, square),
-        region,
+        (region, deadline),
         &mut layout,
         &mut stats,
     )?;
@@ -303,12 +309,13 @@ fn solve_coarse(inputs: &SolverInputs, coarse: &PreparedChart) -> Result<Vec<DVe
 /// Undoes the collapses in stages of [`STAGE_GROWTH`], each settled by
 /// local sweeps of the stage's own shapes, the vertices `held` marks (the
 /// landmarks, the hole centres) in place; the outer loop moves with
-/// `loop_moves` (inside `region`, never meeting itself), else stays.
+/// `loop_moves` (inside `region`, never meeting itself), else stays. Past
+/// `deadline` (the time budget) the stages are put back without sweeps.
 fn settle_stages(
     hierarchy: &mut Hierarchy,
     filled: &FilledChart,
     (held, loop_moves, square): (&[bool], bool, bool),
-    region: (DVec2, DVec2),
+    (region, deadline): ((DVec2, DVec2), Option<Instant>),
     layout: &mut [DVec2],
     stats: &mut MultilevelStats,
 ) -> Result<(), Missed> {
@@ -325,6 +332,11 @@ fn settle_stages(
     while !hierarchy.collapses.is_empty() {
         let until = (hierarchy.n_coarse() * STAGE_GROWTH).min(n);
         let prolonged = prolong(hierarchy, &filled.mesh.positions, layout, until, &mut rule);
+        stats.out_of_time |= deadline.is_some_and(|d| Instant::now() >= d);
+        if let (true, Ok(p)) = (stats.out_of_time, &prolonged) {
+            stats.in_kernel += p.in_kernel;
+            continue;
+        }
         let (triangles, rest) = stage_shapes(hierarchy, filled, layout);
         let movable: Vec<bool> = (0..n).map(|v| hierarchy.present[v] && !held[v]).collect();
         let room = match &rule {
