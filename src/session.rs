@@ -377,7 +377,8 @@ impl ChartSession {
     /// The report of a finished `solver` of this session's constraints;
     /// remembers its layout as the start of a [`StartFrom::LastLayout`] solve.
     pub fn report(&mut self, solver: &mut ChartSolver) -> Report {
-        self.detour_via_square(solver);
+        self.timed_detour_via_square(solver);
+        self.detour_uncut(solver);
         self.settle(solver);
         let boundary = self.boundary.as_deref().expect("a started solver mapped the boundary");
         // A chart started from its coarse level has no step 1 of its own:
@@ -415,6 +416,51 @@ impl ChartSession {
         let options = *solver.options();
         if let Some(better) = self.via_square(&options, residual, solver.elapsed_ms()) {
             *solver = better;
+        }
+    }
+
+    /// [`Self::detour_via_square`], its time counted: the solves it tried
+    /// and the one it set aside, less the one it kept (counted as the
+    /// solver's own).
+    fn timed_detour_via_square(&mut self, solver: &mut ChartSolver) {
+        let (t0, before) = (Instant::now(), solver.times().total_ms());
+        self.detour_via_square(solver);
+        self.times.detour_ms += before + ms(t0) - solver.times().total_ms();
+    }
+
+    /// A finished solve short of its targets on a disk that was cut open
+    /// only because its boundary is short for its area (a guess that the
+    /// flat layout would be crushed): the chart solved as it is, uncut,
+    /// takes the session's place when it comes closer to the targets. A
+    /// chart that had to be cut (closed, with handles) cannot be opened
+    /// without seams and keeps its solve.
+    fn detour_uncut(&mut self, solver: &mut ChartSolver) {
+        let residual = solver.max_residual();
+        let opening = &self.prepared.opening;
+        let optional = opening.seam.is_some() && !opening.seam_given && opening.separation.is_empty();
+        if residual <= solver.options().tolerance || !optional {
+            return;
+        }
+        let Ok(mut uncut) = ChartSession::open(self.source.without_seams(), self.asset.clone(), 0.0) else {
+            return;
+        };
+        uncut.revision = self.revision;
+        uncut.times.load_ms = self.times.load_ms;
+        uncut.times.detour_ms = self.times.with_solver(solver.times()).total_ms() - self.times.load_ms;
+        let options = *solver.options();
+        let Ok(mut alt) = uncut.new_solver(&options, StartFrom::StepOne) else {
+            return;
+        };
+        while !alt.is_done() {
+            if alt.tick().is_err() {
+                return;
+            }
+        }
+        uncut.timed_detour_via_square(&mut alt);
+        if alt.max_residual() < residual {
+            alt.note_cut_fell_short(residual);
+            *self = uncut;
+            *solver = alt;
         }
     }
 

@@ -148,6 +148,22 @@ impl ConstraintSource {
         }
     }
 
+    /// The same constraints with no seams at all (`seams: Edges([])`): the
+    /// chart laid out as it is, for a disk that was cut only because its
+    /// boundary is short for its area.
+    pub fn without_seams(&self) -> ConstraintSource {
+        match self {
+            ConstraintSource::File(l) => {
+                let mut l = (**l).clone();
+                l.file.seams = Some(SeamsChoice::Edges(Vec::new()));
+                ConstraintSource::File(Arc::new(l))
+            }
+            ConstraintSource::Memory(p) => {
+                ConstraintSource::Memory(Arc::new((**p).clone().with_seams(SeamsChoice::Edges(Vec::new()))))
+            }
+        }
+    }
+
     /// The requested seams, as welded vertex paths (`Auto` when not given).
     ///
     /// # Errors

@@ -17,6 +17,13 @@ pub(super) fn explain_lines(
     max_residual: f64,
 ) -> Vec<String> {
     let mut lines = vec![step1_line(s, step1)];
+    lines.extend(s.solver.record().cut_fell_short.map(|r| {
+        format!(
+            "seams: none (cut open for its short boundary, the chart ended {r:.1e} short of the targets in {:.0} \
+             ms: solved as it is instead)",
+            s.times.detour_ms
+        )
+    }));
     lines.extend(free_line(s));
     lines.extend(multilevel_line(s));
     lines.extend([

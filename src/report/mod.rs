@@ -92,6 +92,9 @@ pub struct StageTimes {
     pub guard_ms: f64,
     /// Metrics, final checks, writing the file.
     pub export_ms: f64,
+    /// A solve set aside for a better one (a disk cut open, then solved as
+    /// it is): all its stages.
+    pub detour_ms: f64,
 }
 
 impl StageTimes {
@@ -118,6 +121,7 @@ impl StageTimes {
             + self.polish_ms
             + self.guard_ms
             + self.export_ms
+            + self.detour_ms
     }
 }
 

@@ -157,6 +157,9 @@ pub struct SolveRecord {
     /// For a partial layout: the stretch of the chart's own shape (its free
     /// layout without landmarks, or step 1's), the yardstick it is held to.
     pub own_stretch: Option<Stretch>,
+    /// A disk cut open only for its short boundary ended this far from the
+    /// targets cut; this solve is of the chart as it is, uncut.
+    pub cut_fell_short: Option<f64>,
 }
 
 /// What came of running a free chart's stalled spline path again with its
@@ -426,6 +429,12 @@ impl ChartSolver {
     pub fn fell_short_by(mut self, residual: f64) -> Self {
         self.record.free_fell_short = Some(residual);
         self
+    }
+
+    /// Notes that this solve, of the chart uncut, replaced one of it cut
+    /// open that ended `residual` short ([`SolveRecord::cut_fell_short`]).
+    pub fn note_cut_fell_short(&mut self, residual: f64) {
+        self.record.cut_fell_short = Some(residual);
     }
 
     /// Notes why this large chart's coarse level was not used.
