@@ -212,7 +212,8 @@ fn nudged(text: &str, label: &str, du: f64) -> String {
         })
         .collect();
     assert!(
-        text.lines().any(|l| l.contains(&format!("\"{label}\"")) && l.contains("uv: (")),
+        text.lines()
+            .any(|l| l.contains(&format!("\"{label}\"")) && l.contains("uv: (")),
         "no constraint labelled {label}"
     );
     lines.join("\n") + "\n"
