@@ -305,21 +305,33 @@ impl ChartSession {
             return Ok(None);
         }
         self.map_boundary()?;
-        let boundary = self.mapped_boundary()?;
+        match self.coarse_inputs(options) {
+            Some(inputs) => ChartSolver::from_coarse_level(inputs).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// Whether a solve with `options` starts from the chart's coarse level,
+    /// without step 1 of its own (which it runs only if that level fails):
+    /// a caller stepping through the stages skips step 1 then.
+    pub fn starts_coarse(&self, options: &SolverOptions) -> bool {
+        self.coarse_inputs(options).is_some()
+    }
+
+    /// The inputs of a solve from the coarse level, once the boundary is
+    /// mapped, if the chart is solved so ([`crate::solver::multilevel::applies`]).
+    fn coarse_inputs<'a>(&'a self, options: &'a SolverOptions) -> Option<SolverInputs<'a>> {
         let inputs = SolverInputs {
             prepared: &self.prepared,
             source: &self.source,
             options,
-            boundary,
+            boundary: self.boundary.as_deref()?,
             step1: &[],
             bar_net: None,
             pattern: self.pattern.as_ref(),
             elapsed_ms: self.times.total_ms(),
         };
-        if !crate::solver::multilevel::applies(&inputs) {
-            return Ok(None);
-        }
-        ChartSolver::from_coarse_level(inputs).map(Some)
+        crate::solver::multilevel::applies(&inputs).then_some(inputs)
     }
 
     /// A free chart solved on the square instead, then free again from

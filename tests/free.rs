@@ -374,30 +374,7 @@ fn large_charts_are_solved_from_their_coarse_level() {
             );
             assert_eq!(check["crossings"], 0, "{check}");
             assert_eq!(check["overlapping_pairs"], 0, "{check}");
-            // A spent time budget puts the last stages back unswept: still
-            // fold-free, one-to-one and on the targets it reached.
-            let hurried = uvpin::options::SolverOptions {
-                time_budget_ms: Some(1.0),
-                ..multilevel
-            };
-            let h = uvpin::solve_mesh(&mesh, &pins, &hurried.into()).unwrap_or_else(|e| panic!("{name}: {e}"));
-            assert!(
-                h.report.orientation.is_clean(),
-                "{name} hurried: {:?}",
-                h.report.orientation
-            );
-            assert_eq!(h.report.free.as_ref().map(|f| f.crossings), Some(0), "{name} hurried");
-            let said = h
-                .report
-                .explain
-                .iter()
-                .find(|l| l.starts_with("coarse level"))
-                .cloned()
-                .unwrap_or_default();
-            if !said.contains("not used") {
-                assert!(said.contains("time_budget_ms ran out"), "{name} hurried: {said}");
-                assert!(h.report.max_residual <= 1e-9, "{name} hurried: {said}");
-            }
+            hurried_coarse_level(&name, &mesh, &pins, multilevel);
         }
         // Random targets: mostly unreachable, never folded or overlapping.
         let random: Vec<(u32, DVec2)> = pick(&mut rng, mesh.positions.len(), 6)
@@ -419,6 +396,33 @@ fn large_charts_are_solved_from_their_coarse_level() {
         assert_eq!(any.report.free.as_ref().map(|f| f.crossings), Some(0), "{name} random");
     }
     assert!(used >= 4, "the coarse level was used in only {used} cases");
+}
+
+/// A spent time budget puts the last stages of the coarse level back
+/// unswept: still fold-free, one-to-one and on the targets it reached.
+fn hurried_coarse_level(name: &str, mesh: &TriMesh, pins: &uvpin::Pins, multilevel: uvpin::options::SolverOptions) {
+    let hurried = uvpin::options::SolverOptions {
+        time_budget_ms: Some(1.0),
+        ..multilevel
+    };
+    let h = uvpin::solve_mesh(mesh, pins, &hurried.into()).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert!(
+        h.report.orientation.is_clean(),
+        "{name} hurried: {:?}",
+        h.report.orientation
+    );
+    assert_eq!(h.report.free.as_ref().map(|f| f.crossings), Some(0), "{name} hurried");
+    let said = h
+        .report
+        .explain
+        .iter()
+        .find(|l| l.starts_with("coarse level"))
+        .cloned()
+        .unwrap_or_default();
+    if !said.contains("not used") {
+        assert!(said.contains("time_budget_ms ran out"), "{name} hurried: {said}");
+        assert!(h.report.max_residual <= 1e-9, "{name} hurried: {said}");
+    }
 }
 
 /// Two charts with UVs side by side; the left one constrained.

@@ -146,6 +146,47 @@ fn a_long_solve_logs_each_stage_it_enters() {
 }
 
 #[test]
+fn a_chart_solved_from_its_coarse_level_gets_no_step_one_of_its_own() {
+    // A 60² grid above a lowered multilevel threshold: the daemon, like the
+    // CLI, starts it from its coarse level and never factors its bar-net.
+    let dir = TempDir::new("watch-coarse");
+    let assets = dir.path("assets");
+    std::fs::create_dir_all(&assets).unwrap();
+    let n = 60;
+    let mut mesh = grid_mesh(n, n);
+    for p in &mut mesh.positions {
+        p.z = 0.2 * (p.x * 4.0).sin() * (p.y * 3.0).cos();
+    }
+    write_mesh_glb(&assets.join("big.glb"), &mesh);
+    let pins: Vec<(u32, f64, f64)> = [(15, 15, 0.2, 0.25), (45, 15, 0.8, 0.2), (30, 40, 0.5, 0.75)]
+        .iter()
+        .map(|&(x, y, u, v)| ((x + y * n) as u32, u, v))
+        .collect();
+    let extra = "    boundary: Free,\n    solver: (multilevel_above: 2000, multilevel_coarse: 600),\n";
+    write_constraints(&assets.join("big.uvpin.ron"), Path::new("big.glb"), &pins, extra);
+    let o = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args(["watch", "--once", "--log", "json"])
+        .current_dir(&dir.0)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &stderr(&o);
+    let solved: Value = text
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .find(|l| l["event"] == "solved")
+        .unwrap_or_else(|| panic!("no solved line: {text}"));
+    assert_eq!(solved["status"], "reached", "{solved}");
+    assert_eq!(solved["times"]["factor_ms"], 0.0, "{solved}");
+    let (uvs, bad) = python_uvs(&dir.path("out/big.glb"), 0);
+    assert_eq!(bad, 0);
+    for (v, u, w) in pins {
+        let got = uvs[v as usize];
+        assert!((got[0] - u).abs() < 1e-6 && (got[1] - w).abs() < 1e-6, "{v}: {got:?}");
+    }
+}
+
+#[test]
 fn every_editor_save_pattern_gives_exactly_one_solve_of_the_final_content() {
     let dir = TempDir::new("watch-saves");
     let ron = make_assets(&dir.0);

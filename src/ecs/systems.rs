@@ -27,10 +27,11 @@ pub fn map_boundary(mut commands: Commands, mut charts: Query<(Entity, &mut Sess
     }
 }
 
-/// Builds and factors D = CᵀQC (Eq. 1–2) once per chart.
-pub fn factor_bar_net(mut commands: Commands, mut charts: Query<(Entity, &mut Session), Without<Failed>>) {
-    for (entity, mut session) in &mut charts {
-        if session.0.bar_net().is_none() && session.0.boundary().is_some() {
+/// Builds and factors D = CᵀQC (Eq. 1–2) once per chart (not for one
+/// solved from its coarse level: its solver runs step 1 only if it must).
+pub fn factor_bar_net(mut commands: Commands, mut charts: Query<(Entity, &SolveJob, &mut Session), Without<Failed>>) {
+    for (entity, job, mut session) in &mut charts {
+        if session.0.bar_net().is_none() && session.0.boundary().is_some() && !session.0.starts_coarse(&job.options) {
             let result = session.0.factor_bar_net();
             fail_on(&mut commands, entity, result);
         }
@@ -56,7 +57,8 @@ pub fn start_stepping(
 ) {
     for (entity, job, mut session, solver) in &mut charts {
         let revision = session.0.revision();
-        if solver.is_some_and(|s| s.1 == revision) || session.0.step_one_layout().is_none() {
+        let ready = session.0.step_one_layout().is_some() || session.0.starts_coarse(&job.options);
+        if solver.is_some_and(|s| s.1 == revision) || !ready {
             continue;
         }
         match session.0.new_solver(&job.options, StartFrom::StepOne) {
