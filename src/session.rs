@@ -389,8 +389,8 @@ impl ChartSession {
     /// The report of a finished `solver` of this session's constraints;
     /// remembers its layout as the start of a [`StartFrom::LastLayout`] solve.
     pub fn report(&mut self, solver: &mut ChartSolver) -> Report {
-        self.timed_detour_via_square(solver);
         self.detour_uncut(solver);
+        self.timed_detour_via_square(solver);
         self.settle(solver);
         let boundary = self.boundary.as_deref().expect("a started solver mapped the boundary");
         // A chart started from its coarse level has no step 1 of its own:
@@ -443,9 +443,11 @@ impl ChartSession {
     /// A finished solve short of its targets on a disk that was cut open
     /// only because its boundary is short for its area (a guess that the
     /// flat layout would be crushed): the chart solved as it is, uncut,
-    /// takes the session's place when it comes closer to the targets. A
-    /// chart that had to be cut (closed, with handles) cannot be opened
-    /// without seams and keeps its solve.
+    /// takes the session's place when it comes closer to the targets (the
+    /// square detour then follows on whichever is kept: the uncut solve is
+    /// the cheaper remedy, tried first). A chart that had to be cut
+    /// (closed, with handles) cannot be opened without seams and keeps its
+    /// solve.
     fn detour_uncut(&mut self, solver: &mut ChartSolver) {
         let residual = solver.max_residual();
         let opening = &self.prepared.opening;
@@ -468,7 +470,6 @@ impl ChartSession {
                 return;
             }
         }
-        uncut.timed_detour_via_square(&mut alt);
         if alt.max_residual() < residual {
             alt.note_cut_fell_short(residual);
             *self = uncut;
