@@ -23,15 +23,15 @@ pub enum Role {
     Kept,
 }
 
-/// One collapse: `u` went into `v`. `star` ranges over
-/// [`Hierarchy::star`]: `u`'s triangles then, each as `id · 4 + slot`, the
-/// slot of `u` in a triangle that took `v` for it, or 3 for one that had
-/// both and went.
+/// One collapse: `u` went into `v`. [`Hierarchy::star`] from `star` up to
+/// the next collapse's (the stars are stacked in order) holds `u`'s
+/// triangles then, each as `id · 4 + slot`, the slot of `u` in a triangle
+/// that took `v` for it, or 3 for one that had both and went.
 #[derive(Debug, Clone, Copy)]
 pub struct Collapse {
     pub u: u32,
     pub v: u32,
-    pub star: (u32, u32),
+    pub star: u32,
 }
 
 /// The fine mesh's triangles as the coarse level has them, and the
@@ -267,11 +267,7 @@ impl Coarsening<'_> {
         if let Role::Loop(k) = self.role[u as usize] {
             self.loop_size[k as usize] -= 1;
         }
-        self.collapses.push(Collapse {
-            u,
-            v,
-            star: (start, self.star.len() as u32),
-        });
+        self.collapses.push(Collapse { u, v, star: start });
         true
     }
 
@@ -390,6 +386,39 @@ impl Hierarchy {
     pub fn n_coarse(&self) -> usize {
         self.present.len() - self.collapses.len()
     }
+
+    /// Undoes the last collapse: its vertex back, its star's triangles
+    /// given it again and the ones it removed alive. The collapse and its
+    /// star, or `None` at the fine level.
+    pub fn split_last(&mut self) -> Option<(Collapse, Vec<u32>)> {
+        let c = self.collapses.pop()?;
+        let star = self.star.split_off(c.star as usize);
+        self.set_star(&star, c.u, true);
+        self.present[c.u as usize] = true;
+        Some((c, star))
+    }
+
+    /// Makes collapse `c` (its star `star`) again: [`Self::split_last`]
+    /// undone.
+    pub fn collapse_again(&mut self, c: Collapse, star: Vec<u32>) {
+        self.set_star(&star, c.v, false);
+        self.present[c.u as usize] = false;
+        self.star.extend(star);
+        self.collapses.push(c);
+    }
+
+    /// Each star entry (triangle × 4 + corner slot, slot 3 for the triangle
+    /// itself) set: a corner to `vertex`, a triangle to `alive`.
+    fn set_star(&mut self, star: &[u32], vertex: u32, alive: bool) {
+        for &s in star {
+            let (t, slot) = ((s / 4) as usize, (s % 4) as usize);
+            if slot == 3 {
+                self.alive[t] = alive;
+            } else {
+                self.triangles[t][slot] = vertex;
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -451,16 +480,7 @@ mod tests {
         let mesh = grid_mesh(20, 20);
         let (role, outer) = roles(&mesh, &[]);
         let mut h = coarsen(&mesh, plan(&role, outer, 30));
-        for c in h.collapses.clone().iter().rev() {
-            for &s in &h.star[c.star.0 as usize..c.star.1 as usize] {
-                let (t, slot) = ((s / 4) as usize, (s % 4) as usize);
-                if slot == 3 {
-                    h.alive[t] = true;
-                } else {
-                    h.triangles[t][slot] = c.u;
-                }
-            }
-        }
+        while h.split_last().is_some() {}
         assert_eq!(h.triangles, mesh.triangles);
         assert!(h.alive.iter().all(|&a| a));
     }

@@ -63,19 +63,8 @@ pub fn prolong(
     let mut stats = ProlongStats::default();
     let mut ring = Vec::new();
     while hierarchy.n_coarse() < until
-        && let Some(c) = hierarchy.collapses.pop()
+        && let Some((c, star)) = hierarchy.split_last()
     {
-        let star = hierarchy.star[c.star.0 as usize..c.star.1 as usize].to_vec();
-        hierarchy.star.truncate(c.star.0 as usize);
-        for &s in &star {
-            let (t, slot) = ((s / 4) as usize, (s % 4) as usize);
-            if slot == 3 {
-                hierarchy.alive[t] = true;
-            } else {
-                hierarchy.triangles[t][slot] = c.u;
-            }
-        }
-        hierarchy.present[c.u as usize] = true;
         let closed = ring_of(
             c.u,
             star.iter().map(|&s| hierarchy.triangles[(s / 4) as usize]),
@@ -117,7 +106,7 @@ pub fn prolong(
                         beside_survivor(c.v, (&ring, closed), along, layout).find(|&q| fits(q))
                     });
                 let Some(p) = moved else {
-                    redo(hierarchy, c, star);
+                    hierarchy.collapse_again(c, star);
                     return Err(ProlongError::NoKernel {
                         vertex: c.u,
                         ring: ring.clone(),
@@ -191,22 +180,6 @@ fn wedge(v: u32, (ring, closed): (&[u32], bool), layout: &[DVec2]) -> Option<DVe
         (None, Some(p)) => Some(-p.perp()),
         (None, None) => None,
     }
-}
-
-/// Collapse `c` made again (its star `star`): a vertex that found no place
-/// leaves the hierarchy as it was before it was tried.
-fn redo(hierarchy: &mut Hierarchy, c: super::coarsen::Collapse, star: Vec<u32>) {
-    for &s in &star {
-        let (t, slot) = ((s / 4) as usize, (s % 4) as usize);
-        if slot == 3 {
-            hierarchy.alive[t] = false;
-        } else {
-            hierarchy.triangles[t][slot] = c.v;
-        }
-    }
-    hierarchy.present[c.u as usize] = false;
-    hierarchy.star.extend(star);
-    hierarchy.collapses.push(c);
 }
 
 /// A loop vertex between its loop neighbours `a` and `b`, as far from `a`
