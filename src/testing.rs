@@ -139,13 +139,17 @@ pub fn swirl(p: glam::DVec2, angle: f64) -> glam::DVec2 {
     centre + glam::DVec2::from_angle(angle * t * t).rotate(d)
 }
 
-/// No landmarks, `boundary`, and no seams: a witness is a layout of the
-/// mesh as it is (one UV per vertex), even where uvpin would cut it open
-/// by default (a boundary short for its area).
-fn uncut(boundary: crate::pins::BoundaryChoice) -> crate::pins::Pins {
-    crate::pins::Pins::new(&[])
+/// uvpin's layout of `mesh` with `boundary`, no landmarks and no seams, if
+/// fold-free: a witness is a layout of the mesh as it is (one UV per
+/// vertex), even where uvpin would cut it open by default (a boundary
+/// short for its area).
+fn uncut_layout(mesh: &TriMesh, boundary: crate::pins::BoundaryChoice) -> Option<crate::MeshSolution> {
+    let pins = crate::pins::Pins::new(&[])
         .with_boundary(boundary)
-        .with_seams(crate::pins::SeamsChoice::Edges(Vec::new()))
+        .with_seams(crate::pins::SeamsChoice::Edges(Vec::new()));
+    let solved = crate::solve_mesh(mesh, &pins, &crate::options::SolverOptions::DEFAULT.into()).ok()?;
+    let split = solved.report.seam.as_ref().is_some_and(|s| s.vertices_split > 0);
+    (solved.report.orientation.is_clean() && !split).then_some(solved)
 }
 
 /// Landmarks (vertex, target in texture coordinates) and the witness layout.
@@ -161,13 +165,8 @@ pub type WitnessedCase = (Vec<(u32, glam::DVec2)>, Vec<glam::DVec2>);
 pub fn witnessed_free_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<WitnessedCase> {
     use crate::param::uv_to_xy;
     use glam::DVec2;
-    let pins = uncut(crate::pins::BoundaryChoice::Free);
-    let free = crate::solve_mesh(mesh, &pins, &crate::options::SolverOptions::DEFAULT.into()).ok()?;
-    let one_to_one = free.report.free.as_ref().is_some_and(|f| f.crossings == 0);
-    if !one_to_one
-        || free.report.seam.as_ref().is_some_and(|s| s.vertices_split > 0)
-        || !free.report.orientation.is_clean()
-    {
+    let free = uncut_layout(mesh, crate::pins::BoundaryChoice::Free)?;
+    if free.report.free.as_ref().is_none_or(|f| f.crossings > 0) {
         return None;
     }
     let warped: Vec<DVec2> = free
@@ -194,11 +193,7 @@ pub fn witnessed_free_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<Witnes
 pub fn witnessed_square_case(mesh: &TriMesh, k: usize, seed: u64) -> Option<WitnessedCase> {
     use crate::param::uv_to_xy;
     use glam::DVec2;
-    let pins = uncut(crate::pins::BoundaryChoice::Square);
-    let square = crate::solve_mesh(mesh, &pins, &crate::options::SolverOptions::DEFAULT.into()).ok()?;
-    if !square.report.orientation.is_clean() || square.report.seam.as_ref().is_some_and(|s| s.vertices_split > 0) {
-        return None;
-    }
+    let square = uncut_layout(mesh, crate::pins::BoundaryChoice::Square)?;
     let warped: Vec<DVec2> = square
         .uvs
         .iter()
