@@ -53,6 +53,16 @@ fn assert_output(out: &Path, s: f64) {
     }
 }
 
+/// `uvpin watch --once ARGS` run in `dir`, to its end.
+fn watch_once(dir: &Path, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        .args(["watch", "--once"])
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
 /// The outputs below `dir` (not the status file) with their bytes; with
 /// `hidden`, uvpin's temporaries too.
 fn output_files(dir: &Path, hidden: bool) -> Vec<(PathBuf, Vec<u8>)> {
@@ -164,11 +174,7 @@ fn a_chart_solved_from_its_coarse_level_gets_no_step_one_of_its_own() {
         .collect();
     let extra = "    boundary: Free,\n    solver: (multilevel_above: 2000, multilevel_coarse: 600),\n";
     write_constraints(&assets.join("big.uvpin.ron"), Path::new("big.glb"), &pins, extra);
-    let o = Command::new(env!("CARGO_BIN_EXE_uvpin"))
-        .args(["watch", "--once", "--log", "json"])
-        .current_dir(&dir.0)
-        .output()
-        .unwrap();
+    let o = watch_once(&dir.0, &["--log", "json"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout).to_string() + &stderr(&o);
     let solved: Value = text
@@ -394,11 +400,7 @@ fn in_place_mode_writes_the_watched_asset_and_never_retriggers_on_it() {
 fn once_solves_everything_present_and_exits_with_a_summary() {
     let dir = TempDir::new("watch-once");
     make_assets(&dir.0);
-    let o = Command::new(env!("CARGO_BIN_EXE_uvpin"))
-        .args(["watch", "--once", "--log", "json"])
-        .current_dir(&dir.0)
-        .output()
-        .unwrap();
+    let o = watch_once(&dir.0, &["--log", "json"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_output(&dir.path("out/grid.glb"), 0.0);
     // A second, broken constraint file: exit code 1, the good one still written.
@@ -407,11 +409,7 @@ fn once_solves_everything_present_and_exits_with_a_summary() {
         "(asset: \"grid.glb\", constraints: [(vertex: 1)])",
     )
     .unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_uvpin"))
-        .args(["watch", "--once", "--out", "out2"])
-        .current_dir(&dir.0)
-        .output()
-        .unwrap();
+    let o = watch_once(&dir.0, &["--out", "out2"]);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
@@ -467,11 +465,7 @@ fn an_asset_outside_the_watched_folders_is_watched_too() {
         "",
     );
     // Not read unless allowed: an error that says so.
-    let o = Command::new(env!("CARGO_BIN_EXE_uvpin"))
-        .args(["watch", "--once"])
-        .current_dir(&dir.0)
-        .output()
-        .unwrap();
+    let o = watch_once(&dir.0, &[]);
     assert_eq!(o.status.code(), Some(1));
     assert!(
         stderr(&o).contains("outside the folders uvpin may read"),
