@@ -161,8 +161,11 @@ pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStat
 }
 
 /// The free domain of `inputs`' chart started from the prolonged `layout`
-/// (shrunk just enough to fit its room); `None` if its room admits no such
-/// placement.
+/// as it is.
+///
+/// # Errors
+/// Why not: its room does not admit it, a triangle folds (in double
+/// precision or as stored), or the domain cannot start from it.
 pub fn start_in(
     inputs: &SolverInputs,
     chart: &ChartParts,
