@@ -38,6 +38,9 @@ use glam::DVec2;
 use std::sync::Arc;
 use std::time::Instant;
 
+mod coarse;
+pub use coarse::{CoarseMesh, CoarseSolution, CoarseView};
+
 /// A chart of an asset and what its solves share (see the module docs).
 #[derive(Debug, Clone)]
 pub struct ChartSession {

@@ -385,16 +385,20 @@ fn oversized_requests_are_refused_and_the_editor_stays_small() {
     assert!(d.terminate().success(), "{}", d.dump());
 }
 
-fn in_chromium() {
-    let dir = TempDir::new("editor-browser");
+/// Runs `script` (in tests/browser) in Node against `uvpin edit` on a copy
+/// of the sample started with `flags`, with `args` after the URL and the folder.
+fn browser_script(script: &str, flags: &[&str], args: &[String]) {
+    let dir = TempDir::new(&format!("editor-browser-{script}"));
     sample(&dir.0);
-    let mut d = Daemon::edit(&dir.0, &["assets/face.uvpin.ron", "--out", "out"]);
+    let mut edit = vec!["assets/face.uvpin.ron", "--out", "out"];
+    edit.extend(flags);
+    let mut d = Daemon::edit(&dir.0, &edit);
     let addr = address(&d);
-    let script = repo().join("tests/browser/editor.mjs");
     let o = std::process::Command::new("node")
-        .arg(&script)
+        .arg(repo().join("tests/browser").join(script))
         .arg(format!("http://{addr}/"))
         .arg(&dir.0)
+        .args(args)
         .env("NODE_PATH", repo().join(".tools/node_modules"))
         .output()
         .expect("run node");
@@ -406,6 +410,19 @@ fn in_chromium() {
         stderr(&o)
     );
     assert!(d.terminate().success());
+}
+
+fn in_chromium() {
+    browser_script("editor.mjs", &[], &[]);
+}
+
+/// A drag on a chart previewed on its coarse level (`--coarse-above 0`
+/// makes the sample's chart one): the landmark exact on it, the mesh
+/// drawn, the release solved in full.
+fn a_drag_is_previewed_on_the_coarse_level_in_chromium() {
+    let asset = uvpin::io::load_asset(&repo().join("assets/face.glb"), None, 0, &Default::default()).unwrap();
+    let vertices: usize = asset.primitives.iter().map(|p| p.positions.len()).sum();
+    browser_script("coarse.mjs", &["--coarse-above", "0"], &[vertices.to_string()]);
 }
 
 fn main() -> std::process::ExitCode {
@@ -431,5 +448,10 @@ fn main() -> std::process::ExitCode {
             oversized_requests_are_refused_and_the_editor_stays_small,
         ),
         ("in_chromium", &[Needs::Browser], in_chromium),
+        (
+            "a_drag_is_previewed_on_the_coarse_level_in_chromium",
+            &[Needs::Browser],
+            a_drag_is_previewed_on_the_coarse_level_in_chromium,
+        ),
     ])
 }

@@ -35,6 +35,11 @@ pub struct EditArgs {
     /// Log format.
     #[arg(long, value_enum)]
     log: Option<LogArg>,
+    /// While a target is dragged, a chart of more vertices than this is
+    /// shown on its coarse level (a few thousand vertices, the landmarks
+    /// exact), and solved in full on release.
+    #[arg(long, value_name = "N", default_value_t = crate::edit::preview::COARSE_ABOVE)]
+    coarse_above: usize,
 }
 
 /// `target` relative to the folder `base` (both absolute), with `..` where
@@ -133,7 +138,8 @@ pub fn run(args: EditArgs) -> ExitCode {
         limits: config.limits,
         once: false,
     };
-    let editor = crate::edit::publish::EditorAttachment::new(args.addr, args.open);
+    let mut editor = crate::edit::publish::EditorAttachment::new(args.addr, args.open);
+    editor.coarse_above = args.coarse_above;
     match crate::daemon::run::run(options, vec![Box::new(editor)]) {
         Ok(outcome) => ExitCode::from(outcome.exit_code()),
         Err(e) => fail(&format!("{e:#}")),

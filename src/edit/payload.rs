@@ -1,7 +1,7 @@
 //! The JSON the editor's page reads and sends.
 
 use super::hub::FileView;
-use super::preview::Preview;
+use super::preview::{Preview, Shown};
 use super::text::WantedConstraint;
 use crate::chart::PrimitiveUvs;
 use crate::io::SourceAsset;
@@ -111,14 +111,33 @@ pub fn mesh(asset: &SourceAsset) -> Value {
     })
 }
 
-/// A drag preview's answer.
-pub fn preview(p: &Preview, seq: Value) -> Value {
-    json!({
+/// A drag preview's answer: the chart's UVs (`uvs`), or its coarse
+/// level's (`coarse`: its key, UVs per coarse vertex, and its mesh unless
+/// the page holds the level named `held`).
+pub fn preview(p: &Preview, seq: Value, held: Option<&str>) -> Value {
+    let mut out = json!({
         "seq": seq,
         "report": report(&p.report),
-        "uvs": flat_uvs(&p.uvs),
         "ms": p.ms,
-    })
+    });
+    match &p.shown {
+        Shown::Chart(uvs) => out["uvs"] = flat_uvs(uvs),
+        Shown::Coarse { key, mesh, uvs } => {
+            let key = hash_text(*key);
+            let mut coarse = json!({
+                "key": key,
+                "uvs": uvs.iter().flatten().copied().collect::<Vec<f32>>(),
+            });
+            if held != Some(key.as_str()) {
+                coarse["mesh"] = json!({
+                    "vertices": mesh.vertices.iter().flat_map(|&(k, v)| [k, v]).collect::<Vec<u32>>(),
+                    "indices": mesh.triangles.iter().flatten().copied().collect::<Vec<u32>>(),
+                });
+            }
+            out["coarse"] = coarse;
+        }
+    }
+    out
 }
 
 /// The page's constraint list: `[{primitive, vertex, uv: [u, v], label}]`;

@@ -5,6 +5,14 @@
 //! it. Solves retarget the previous one's chart session (its chart, step 1
 //! and Newton pattern), start from its layout (the targets moved a little),
 //! and skip the distortion polish (the daemon's solve on release polishes).
+//!
+//! A chart larger than `coarse_above` vertices is previewed on its coarse
+//! level ([`CoarseView`]): a few thousand vertices with the landmarks among
+//! them, made once per landmark set, so a move costs milliseconds whatever
+//! the chart's size; the page draws that level's triangles until the
+//! release is solved in full. The level is exact on the landmarks and
+//! fold-free as stored, like every answer; one that fails is answered on
+//! the chart itself.
 
 use super::hub::EditInputs;
 use super::text::WantedConstraint;
@@ -12,7 +20,7 @@ use crate::chart::{self, PrimitiveUvs};
 use crate::constraints::{ConstraintSource, ConstraintSpec, LoadedConstraints};
 use crate::options::SolverOptions;
 use crate::report::Report;
-use crate::session::{ChartSession, Solution, StartFrom};
+use crate::session::{ChartSession, CoarseMesh, CoarseView, StartFrom};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::Instant;
@@ -32,10 +40,32 @@ pub enum PreviewReply {
 #[derive(Debug, Clone)]
 pub struct Preview {
     pub report: Report,
-    pub uvs: PrimitiveUvs,
+    pub shown: Shown,
     /// Milliseconds from the request to the answer.
     pub ms: f64,
 }
+
+/// What a preview shows.
+#[derive(Debug, Clone)]
+pub enum Shown {
+    /// The chart itself: its asset's UVs per primitive.
+    Chart(PrimitiveUvs),
+    /// The chart's coarse level: its mesh (`key` names it; the same key,
+    /// the same mesh) and glTF UVs per coarse vertex.
+    Coarse {
+        key: u64,
+        mesh: Arc<CoarseMesh>,
+        uvs: Vec<[f32; 2]>,
+    },
+}
+
+/// Drag previews of a chart with more vertices than this are solved on its
+/// coarse level (`uvpin edit --coarse-above`).
+pub const COARSE_ABOVE: usize = 6000;
+
+/// A coarse level has at most this many vertices (and half the chart's):
+/// a move solves it in milliseconds.
+const LEVEL_VERTICES: usize = 3000;
 
 struct Job {
     ticket: u64,
@@ -62,13 +92,15 @@ pub struct Previewer {
 }
 
 impl Previewer {
-    pub fn start() -> Previewer {
+    /// A previewer solving charts above `coarse_above` vertices on their
+    /// coarse level.
+    pub fn start(coarse_above: usize) -> Previewer {
         let shared = Arc::new(Shared::default());
         let worker = {
             let shared = shared.clone();
             std::thread::Builder::new()
                 .name("uvpin-preview".into())
-                .spawn(move || work(&shared))
+                .spawn(move || work(&shared, coarse_above))
                 .expect("a thread")
         };
         Previewer {
@@ -121,9 +153,22 @@ impl Drop for Previewer {
     }
 }
 
-fn work(shared: &Shared) {
-    // The session of the last preview, with the inputs it was opened for.
-    let mut last: Option<(Arc<EditInputs>, ChartSession)> = None;
+/// What the worker keeps between previews: the session of the last one,
+/// with the inputs it was opened for, and the coarse level it used.
+struct Held {
+    inputs: Arc<EditInputs>,
+    session: ChartSession,
+    level: Option<Level>,
+}
+
+/// A coarse level and its mesh as the page draws it.
+struct Level {
+    view: CoarseView,
+    mesh: Arc<CoarseMesh>,
+}
+
+fn work(shared: &Shared, coarse_above: usize) {
+    let mut last: Option<Held> = None;
     loop {
         let job = {
             let mut waiting = shared.waiting.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -142,24 +187,41 @@ fn work(shared: &Shared) {
         };
         let kept = last
             .take()
-            .filter(|(inputs, _)| Arc::ptr_eq(&inputs.asset, &job.inputs.asset));
-        let session = kept.map(|(_, s)| s).or_else(|| job.seed.as_deref().cloned());
+            .filter(|held| Arc::ptr_eq(&held.inputs.asset, &job.inputs.asset));
+        let (session, level) = match kept {
+            Some(held) => (Some(held.session), held.level),
+            None => (job.seed.as_deref().cloned(), None),
+        };
         let stop = || shared.newest.load(Ordering::SeqCst) != job.ticket;
         // A bug in one solve must not stop the worker (every later preview
         // would wait for it forever).
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let mut session = session;
-            let solved = solve(&job.inputs, &job.wanted, &mut session, &stop);
-            (session, solved)
+            let (mut session, mut level) = (session, level);
+            let solved = solve(
+                &job.inputs,
+                &job.wanted,
+                (&mut session, &mut level),
+                coarse_above,
+                &stop,
+            );
+            (session, level, solved)
         }))
-        .unwrap_or_else(|_| (None, Err("internal error while solving the preview".into())));
-        let (session, solved) = outcome;
-        let reply = match (&session, solved) {
-            (Some(session), Ok(Some(solved))) => answer(&job, session, &solved),
-            (_, Ok(_)) => PreviewReply::Superseded,
-            (_, Err(message)) => PreviewReply::Invalid(message),
+        .unwrap_or_else(|_| (None, None, Err("internal error while solving the preview".into())));
+        let (session, level, solved) = outcome;
+        let reply = match solved {
+            Ok(Some((report, shown))) => PreviewReply::Solved(Box::new(Preview {
+                report,
+                shown,
+                ms: job.at.elapsed().as_secs_f64() * 1e3,
+            })),
+            Ok(None) => PreviewReply::Superseded,
+            Err(message) => PreviewReply::Invalid(message),
         };
-        last = session.map(|s| (job.inputs.clone(), s));
+        last = session.map(|session| Held {
+            inputs: job.inputs.clone(),
+            session,
+            level,
+        });
         let _ = job.reply.send(reply);
     }
 }
@@ -182,14 +244,17 @@ fn with_targets(loaded: &LoadedConstraints, wanted: &[WantedConstraint]) -> Load
     out
 }
 
-/// Solves `wanted` in `session` (retargeted; opened when `None`), from
-/// its last layout; `None` when stopped.
+/// Solves `wanted` in `session` (retargeted; opened when `None`), on its
+/// coarse `level` (made anew when it no longer fits) when the chart has
+/// more than `coarse_above` vertices, else from its last layout; `None`
+/// when stopped.
 fn solve(
     inputs: &EditInputs,
     wanted: &[WantedConstraint],
-    session: &mut Option<ChartSession>,
+    (session, level): (&mut Option<ChartSession>, &mut Option<Level>),
+    coarse_above: usize,
     stop: &dyn Fn() -> bool,
-) -> Result<Option<Solution>, String> {
+) -> Result<Option<(Report, Shown)>, String> {
     super::text::check_wanted(wanted).map_err(|e| e.to_string())?;
     let loaded = with_targets(&inputs.loaded, wanted);
     // While a target is dragged the layout is shown without the distortion
@@ -207,23 +272,62 @@ fn solve(
         }
         None => session.insert(ChartSession::open(source, inputs.asset.clone(), 0.0).map_err(|e| e.to_string())?),
     };
-    session
+    let n = session.prepared().filled.mesh.n_vertices();
+    if n > coarse_above
+        && let Some(answer) = on_coarse_level(session, level, &options, stop)
+    {
+        return Ok(answer);
+    }
+    let Some(solved) = session
         .solve_until(&options, StartFrom::LastLayout, stop)
-        .map_err(|e| e.to_string())
+        .map_err(|e| e.to_string())?
+    else {
+        return Ok(None);
+    };
+    let layout = solved.solver.layout();
+    if !chart::written_orientation(session.prepared(), layout).is_clean() {
+        // The solver never ends folded; if it ever did, nothing is shown.
+        return Err("the solve ended with a folded layout; nothing is shown".into());
+    }
+    Ok(Some((solved.report, Shown::Chart(session.uvs(layout)))))
 }
 
-fn answer(job: &Job, session: &ChartSession, solved: &Solution) -> PreviewReply {
-    let layout = solved.solver.layout();
-    let stored_clean = chart::written_orientation(session.prepared(), layout).is_clean();
-    if !stored_clean {
-        // The solver never ends folded; if it ever did, nothing is shown.
-        return PreviewReply::Invalid("the solve ended with a folded layout; nothing is shown".into());
+/// The preview on `session`'s coarse level (made first if `level` does not
+/// fit the chart's landmarks); `None` when there is no level or its solve
+/// fails or folds as stored (the chart is then solved itself), `Some(None)`
+/// when stopped.
+fn on_coarse_level(
+    session: &mut ChartSession,
+    level: &mut Option<Level>,
+    options: &SolverOptions,
+    stop: &dyn Fn() -> bool,
+) -> Option<Option<(Report, Shown)>> {
+    if !level.as_ref().is_some_and(|l| l.view.fits(session)) {
+        let vertices = (session.prepared().filled.mesh.n_vertices() / 2).min(LEVEL_VERTICES);
+        *level = session.coarse_view(vertices).ok().flatten().map(|view| Level {
+            mesh: Arc::new(view.mesh()),
+            view,
+        });
     }
-    PreviewReply::Solved(Box::new(Preview {
-        report: solved.report.clone(),
-        uvs: session.uvs(layout),
-        ms: job.at.elapsed().as_secs_f64() * 1e3,
-    }))
+    let level = level.as_mut()?;
+    let solved = match level.view.solve_until(session, options, stop) {
+        Ok(Some(solved)) => solved,
+        Ok(None) => return Some(None),
+        Err(_) => return None,
+    };
+    if !level.view.stored_clean(&solved.layout) {
+        return None;
+    }
+    let uvs = solved.layout[..level.mesh.vertices.len()]
+        .iter()
+        .map(|&p| crate::guard::stored_uv(p))
+        .collect();
+    let shown = Shown::Coarse {
+        key: level.view.key(),
+        mesh: level.mesh.clone(),
+        uvs,
+    };
+    Some(Some((solved.report, shown)))
 }
 
 #[cfg(test)]
@@ -266,7 +370,7 @@ mod tests {
     #[test]
     fn the_newest_request_wins_and_answers_are_fold_free() {
         let inputs = sample();
-        let previewer = Arc::new(Previewer::start());
+        let previewer = Arc::new(Previewer::start(COARSE_ABOVE));
         let threads: Vec<_> = (0..6)
             .map(|k| {
                 let (p, i) = (previewer.clone(), inputs.clone());
@@ -295,5 +399,38 @@ mod tests {
         assert!(p.report.constraints.iter().all(|c| c.reached));
         let bad = previewer.solve(inputs.clone(), None, targets(&inputs, 2.0));
         assert!(matches!(bad, PreviewReply::Invalid(m) if m.contains("outside")));
+    }
+
+    #[test]
+    fn a_chart_above_the_threshold_is_previewed_on_its_coarse_level() {
+        let inputs = sample();
+        let previewer = Previewer::start(0);
+        let mut keys = Vec::new();
+        for k in 0..3 {
+            let reply = previewer.solve(inputs.clone(), None, targets(&inputs, 0.003 * k as f64));
+            let PreviewReply::Solved(p) = reply else {
+                panic!("{reply:?}")
+            };
+            let Shown::Coarse { key, mesh, uvs } = &p.shown else {
+                panic!("the chart itself was shown")
+            };
+            assert_eq!(uvs.len(), mesh.vertices.len());
+            assert!(mesh.vertices.len() < inputs.asset.primitives[0].positions.len());
+            assert!(p.report.constraints.iter().all(|c| c.reached));
+            for c in &p.report.constraints {
+                let at = mesh
+                    .vertices
+                    .iter()
+                    .position(|&(_, v)| v == c.vertex)
+                    .expect("a coarse vertex");
+                let uv = glam::DVec2::new(uvs[at][0] as f64, uvs[at][1] as f64);
+                assert!(uv.distance(c.target) < 1e-6, "{uv} {}", c.target);
+            }
+            keys.push(*key);
+        }
+        assert!(
+            keys.windows(2).all(|w| w[0] == w[1]),
+            "one level while only targets move"
+        );
     }
 }

@@ -122,6 +122,9 @@ pub struct EditorAttachment {
     pub addr: String,
     /// Open its page in a browser once it is served.
     pub open: bool,
+    /// Drag previews of charts above this many vertices are solved on their
+    /// coarse level.
+    pub coarse_above: usize,
     server: Option<super::server::EditorServer>,
 }
 
@@ -130,6 +133,7 @@ impl EditorAttachment {
         EditorAttachment {
             addr,
             open,
+            coarse_above: super::preview::COARSE_ABOVE,
             server: None,
         }
     }
@@ -141,7 +145,7 @@ impl crate::daemon::run::Attachment for EditorAttachment {
     fn attach(&mut self, world: &mut World, schedule: &mut Schedule, logger: &Logger) -> anyhow::Result<()> {
         let hub = Arc::new(Hub::default());
         let input = world.resource::<Settings>().0.input.clone();
-        let server = super::server::EditorServer::start(&self.addr, hub.clone(), input)?;
+        let server = super::server::EditorServer::start(&self.addr, hub.clone(), input, self.coarse_above)?;
         world.insert_resource(EditorFeed(hub));
         schedule.add_systems(publish_to_editor.after(report_results).before(write_status_file));
         let message = format!("editor at {} (open it in a browser)", server.url);

@@ -111,11 +111,12 @@ fn allowed_hosts(addr: SocketAddr) -> Vec<String> {
 }
 
 impl EditorServer {
-    /// Binds `addr` and starts serving `hub`; reads textures within `input`.
+    /// Binds `addr` and starts serving `hub`; reads textures within `input`;
+    /// previews charts above `coarse_above` vertices on their coarse level.
     ///
     /// # Errors
     /// The address cannot be parsed or bound (in use, not permitted).
-    pub fn start(addr: &str, hub: Arc<Hub>, input: InputRules) -> anyhow::Result<EditorServer> {
+    pub fn start(addr: &str, hub: Arc<Hub>, input: InputRules, coarse_above: usize) -> anyhow::Result<EditorServer> {
         let wanted: SocketAddr = addr.parse().map_err(|_| {
             anyhow::anyhow!("--addr {addr}: expected HOST:PORT with an IP address, such as {DEFAULT_ADDR}")
         })?;
@@ -129,7 +130,7 @@ impl EditorServer {
         let bound = server.addr();
         let context = Arc::new(Context {
             hub,
-            previewer: Previewer::start(),
+            previewer: Previewer::start(coarse_above),
             hosts: allowed_hosts(bound),
             port: bound.port(),
             any_ip: bound.ip().is_unspecified(),
@@ -428,7 +429,10 @@ fn preview(context: &Context, view: &FileView, body: &serde_json::Value) -> Repl
         .filter(|s| Arc::ptr_eq(&s.asset, &inputs.asset))
         .map(|s| s.session.clone());
     match context.previewer.solve(inputs, seed, wanted) {
-        PreviewReply::Solved(p) => Reply::json(200, &payload::preview(&p, seq)),
+        PreviewReply::Solved(p) => {
+            let held = body.get("coarse_key").and_then(serde_json::Value::as_str);
+            Reply::json(200, &payload::preview(&p, seq, held))
+        }
         PreviewReply::Superseded => Reply::json(200, &serde_json::json!({ "seq": seq, "superseded": true })),
         PreviewReply::Invalid(message) => Reply::json(200, &serde_json::json!({ "seq": seq, "invalid": message })),
     }

@@ -22,7 +22,7 @@ use crate::multilevel::outline::Outline;
 use crate::multilevel::prolong::{LoopRule, ProlongError, prolong};
 use crate::multilevel::smooth::{LoopRoom, smooth, smooth_near};
 use crate::param::bar_net::{FilledChart, fill_holes};
-use crate::param::boundary::TrapCandidates;
+use crate::param::boundary::{BoundaryMap, TrapCandidates};
 use crate::rbf::stepping::StepProblem;
 use glam::DVec2;
 use std::sync::Arc;
@@ -114,14 +114,7 @@ pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStat
     let corners = square.then(|| inputs.boundary.corner_vertices());
     let (roles, outer) = roles(prepared, corners);
     let target = (n / COARSENING).clamp(options.multilevel_coarse.min(500), options.multilevel_coarse);
-    let plan = Plan {
-        role: &roles,
-        outer,
-        virtual_from: filled.n_real_vertices,
-        target,
-        square,
-    };
-    let mut hierarchy = coarsen(&filled.mesh, plan);
+    let mut hierarchy = level(prepared, (&roles, outer), corners, target);
     let mut stats = MultilevelStats {
         coarse_vertices: hierarchy.n_coarse(),
         coarsen_ms: ms(t0),
@@ -193,6 +186,42 @@ pub fn start_in(
         ..(**setup).clone()
     }));
     SolveDomain::start(&given, chart, problem).map_err(|e| Missed::NoRoom(e.to_string()))
+}
+
+/// `prepared`'s filled chart coarsened to about `target` vertices, each
+/// vertex doing what `roles` says.
+fn level(
+    prepared: &PreparedChart,
+    (roles, outer): (&[Role], u32),
+    corners: Option<[u32; 4]>,
+    target: usize,
+) -> Hierarchy {
+    let filled = &prepared.filled;
+    let plan = Plan {
+        role: roles,
+        outer,
+        virtual_from: filled.n_real_vertices,
+        target,
+        square: corners.is_some(),
+    };
+    coarsen(&filled.mesh, plan)
+}
+
+/// A coarse level of `prepared` with about `target` vertices, as a chart
+/// of its own (its landmarks and, on the square, the corners `boundary`
+/// placed are kept), and each of its filled vertices' fine id: a quick
+/// stand-in for the chart while its targets move. Exact where it matters
+/// to the eye: the landmarks are its vertices. `None` if it is not a disk
+/// with the chart's holes.
+pub fn coarse_level(
+    prepared: &PreparedChart,
+    boundary: &BoundaryMap,
+    target: usize,
+) -> Option<(PreparedChart, Vec<u32>)> {
+    let corners = prepared.domain.free().is_none().then(|| boundary.corner_vertices());
+    let (roles, outer) = roles(prepared, corners);
+    let hierarchy = level(prepared, (&roles, outer), corners, target);
+    coarse_chart(prepared, &hierarchy, corners)
 }
 
 /// What each filled vertex may do in the coarsening: the landmarks, the

@@ -4,43 +4,16 @@
 // Usage: node editor.mjs URL DIR
 //   URL  the editor's address; DIR  the folder holding assets/ and out/.
 // With UVPIN_SCREENSHOTS=FOLDER it also saves the README's screenshots.
-import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import http from 'node:http';
-import { createRequire } from 'node:module';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { check, launch, meshColours, outputUvs as read, textureToPage, until } from './common.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-// playwright-core from the repository's .tools (the README's test command installs it).
-const { chromium } = createRequire(path.join(here, '../../.tools/node_modules/'))('playwright-core');
 const [url, dir] = process.argv.slice(2);
 const ron = path.join(dir, 'assets/face.uvpin.ron');
 const output = path.join(dir, 'out/face.glb');
 const shots = process.env.UVPIN_SCREENSHOTS;
-const WAIT = 60000;
-
-function check(ok, what) {
-  if (!ok) throw new Error(`check failed: ${what}`);
-  console.log(`ok: ${what}`);
-}
-
-async function until(what, f) {
-  const t0 = Date.now();
-  for (;;) {
-    const v = await f();
-    if (v) return v;
-    if (Date.now() - t0 > WAIT) throw new Error(`timed out: ${what}`);
-    await new Promise((r) => setTimeout(r, 50));
-  }
-}
-
-// The output's UVs of primitive 0, read by the independent reader.
-function outputUvs() {
-  const reader = path.join(here, '../helpers/read_gltf.py');
-  const out = JSON.parse(execFileSync('python3', [reader, output, '0', 'uvs']).toString());
-  return out[0];
-}
+const outputUvs = () => read(output);
 
 function rawGet(target, host) {
   const u = new URL(url);
@@ -54,15 +27,7 @@ function rawGet(target, host) {
   });
 }
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
-  headless: true,
-  args: [
-    '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run',
-    '--disable-quic',
-  ],
-});
+const browser = await launch();
 const errors = [];
 try {
   const page = await browser.newPage({ viewport: { width: 1600, height: 820 }, deviceScaleFactor: 1 });
@@ -80,18 +45,7 @@ try {
   // once the page says this frame painted the solved mesh and its texture.
   const meshView = page.getByTestId('mesh-view');
   await until('the mesh view is painted', async () => (await meshView.getAttribute('data-ready')) === 'true');
-  const colours = await page.evaluate(() => {
-    const c = document.querySelector('[data-testid=mesh-view]');
-    const t = document.createElement('canvas');
-    t.width = c.width;
-    t.height = c.height;
-    const x = t.getContext('2d');
-    x.drawImage(c, 0, 0);
-    const d = x.getImageData(0, 0, t.width, t.height).data;
-    const seen = new Set();
-    for (let i = 0; i < d.length; i += 4 * 13) seen.add(((d[i] >> 3) << 10) | ((d[i + 1] >> 3) << 5) | (d[i + 2] >> 3));
-    return seen.size;
-  });
+  const colours = await meshColours(page);
   check(colours > 30, `the mesh view is drawn (${colours} colours)`);
   if (shots) await page.screenshot({ path: path.join(shots, 'editor.png') });
 
@@ -111,11 +65,7 @@ try {
   await until('the selection is shown', async () => (await page.getByTestId('selection').textContent()).includes(`vertex ${picked.vertex}`));
   const now = await page.evaluate((v) => window.uvpinEditor.uvOf(v), picked.vertex);
   const target = [now[0] + 0.01, now[1] + 0.01];
-  const toScreen = async (uv) => {
-    const f = await page.evaluate((p) => window.uvpinEditor.textureToScreen(p), uv);
-    const box = await page.getByTestId('texture-view').boundingBox();
-    return [box.x + f[0], box.y + f[1]];
-  };
+  const toScreen = (uv) => textureToPage(page, uv);
   const at = await toScreen(target);
   await page.mouse.click(at[0], at[1]);
   await until('13 constraints listed', async () => (await items.count()) === 13);

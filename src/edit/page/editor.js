@@ -12,7 +12,8 @@ const app = {
   meshKey: null,
   textureKey: undefined, // the server's key of the texture shown (null: none)
   constraints: [], // [{primitive, vertex, uv: [u, v], label}]
-  results: null, // {report, uvs: [Float32Array]} of the last solve or preview
+  results: null, // {report, uvs: [Float32Array], coarse?: {level, uvs}} of the last solve or preview
+  coarse: null, // the coarse level the server previews a large chart on (its key, mesh, lookups)
   inChart: null,
   selected: null, // {primitive, vertex}
   undo: [],
@@ -35,9 +36,14 @@ window.uvpinEditor = {
   // Where a vertex is in the layout shown (glTF texture coordinates).
   uvOf: (vertex, primitive = 0) => {
     const k = app.mesh ? app.mesh.primitives.findIndex((p) => p.index === primitive) : -1;
-    const uvs = app.results && k >= 0 ? app.results.uvs[k] : null;
+    const coarse = app.results && app.results.coarse;
+    const i = coarse ? coarse.level.index.get(`${k}:${vertex}`) : undefined;
+    if (i !== undefined) return [coarse.uvs[i * 2], coarse.uvs[i * 2 + 1]];
+    const uvs = app.results && app.results.uvs && k >= 0 ? app.results.uvs[k] : null;
     return uvs ? [uvs[vertex * 2], uvs[vertex * 2 + 1]] : null;
   },
+  // Vertices of the coarse level the layout is shown on (0: the chart itself).
+  shownLevel: () => (app.results && app.results.coarse ? app.results.coarse.level.positions.length / 3 : 0),
   // A texture coordinate's position in the texture view (CSS pixels).
   textureToScreen: (uv) => textureView.toScreen(uv),
 };
@@ -113,6 +119,38 @@ function uvArrays(uvs) {
   return uvs.map((u) => new Float32Array(u));
 }
 
+// A coarse level as the server sends it once: each vertex as (primitive
+// position, vertex) of the mesh, its triangles. Positions are looked up
+// here; `index` finds a mesh vertex's coarse vertex.
+function coarseLevel(key, sent) {
+  const n = sent.vertices.length / 2;
+  const positions = new Float32Array(n * 3);
+  const index = new Map();
+  const primitives = new Set();
+  for (let i = 0; i < n; i++) {
+    const k = sent.vertices[i * 2];
+    const v = sent.vertices[i * 2 + 1];
+    const from = app.mesh.primitives[k].positions;
+    positions[i * 3] = from[v * 3];
+    positions[i * 3 + 1] = from[v * 3 + 1];
+    positions[i * 3 + 2] = from[v * 3 + 2];
+    index.set(`${k}:${v}`, i);
+    primitives.add(k);
+  }
+  return { key, positions, indices: new Uint32Array(sent.indices), index, primitives };
+}
+
+// A preview's layout: the chart's UVs, or its coarse level's (the level
+// kept while its key holds). The chart's last UVs stay for the rest.
+function previewResults(body) {
+  if (!body.coarse) return { report: body.report, uvs: uvArrays(body.uvs), from: 'preview' };
+  const c = body.coarse;
+  if (c.mesh) app.coarse = coarseLevel(c.key, c.mesh);
+  if (!app.coarse || app.coarse.key !== c.key) return null;
+  const uvs = app.results ? app.results.uvs : null;
+  return { report: body.report, uvs, coarse: { level: app.coarse, uvs: new Float32Array(c.uvs) }, from: 'preview' };
+}
+
 async function refreshFile() {
   const id = app.fileId;
   const file = await getJson(`/api/file/${id}`);
@@ -130,6 +168,7 @@ async function refreshFile() {
     if (app.file !== file) return;
     app.mesh = mesh;
     app.meshKey = file.asset;
+    app.coarse = null;
     meshView.setMesh(app.mesh);
     textureView.setMesh(app.mesh);
   }
@@ -205,7 +244,7 @@ function showStatus() {
   const state = app.results.from === 'preview' ? (r.status === 'reached' ? 'reached' : 'partial') : f.state;
   const words = `${reached} of ${r.constraints.length} on target, max residual ${r.max_residual.toExponential(1)}, ` +
     `stretch ${r.stretch_l2.toFixed(3)}, ${r.total_ms.toFixed(0)} ms` +
-    (app.results.from === 'preview' ? ' (preview)' : '') + (r.message && state !== 'reached' ? ` — ${r.message}` : '');
+    (app.results.from !== 'preview' ? '' : app.results.coarse ? ' (preview on a coarse level)' : ' (preview)') + (r.message && state !== 'reached' ? ` — ${r.message}` : '');
   setStatus(state, words);
 }
 
@@ -252,8 +291,8 @@ function render() {
     };
   });
   if (dirty.layout && app.results) {
-    meshView.setUvs(app.results.uvs);
-    textureView.setLayout(app.results.uvs, app.inChart);
+    meshView.setUvs(app.results.uvs, app.results.coarse);
+    textureView.setLayout(app.results.uvs, app.inChart, app.results.coarse);
   }
   meshView.setMarkers(markers, app.selected);
   textureView.setMarkers(markers);
@@ -436,11 +475,13 @@ async function requestPreview(moveTime) {
   }
   p.inFlight = true;
   const seq = p.seq;
-  const r = await postJson(`/api/file/${app.fileId}/preview`, { seq, constraints: wantedList() }).catch(() => null);
+  const held = app.coarse ? app.coarse.key : null;
+  const r = await postJson(`/api/file/${app.fileId}/preview`, { seq, constraints: wantedList(), coarse_key: held }).catch(() => null);
   p.inFlight = false;
-  if (r && r.ok && r.body.report && seq > p.shown) {
+  const results = r && r.ok && r.body.report && seq > p.shown ? previewResults(r.body) : null;
+  if (results) {
     p.shown = seq;
-    app.results = { report: r.body.report, uvs: uvArrays(r.body.uvs), from: 'preview' };
+    app.results = results;
     window.uvpinEditor.previews += 1;
     showStatus();
     const moved = p.moves && p.moves.get(seq);

@@ -115,28 +115,11 @@ export class MeshView {
       gl.deleteBuffer(p.uvBuffer);
       gl.deleteBuffer(p.indexBuffer);
     }
+    this.coarse = null;
     this.primitives = mesh.primitives.map((p) => {
       const positions = new Float32Array(p.positions);
       const indices = new Uint32Array(p.indices);
-      const vao = gl.createVertexArray();
-      gl.bindVertexArray(vao);
-      const positionBuffer = gl.createBuffer();
-      gl.bindBuffer(gl.ARRAY_BUFFER, positionBuffer);
-      gl.bufferData(gl.ARRAY_BUFFER, positions, gl.STATIC_DRAW);
-      const positionAt = gl.getAttribLocation(this.program, 'position');
-      gl.enableVertexAttribArray(positionAt);
-      gl.vertexAttribPointer(positionAt, 3, gl.FLOAT, false, 0, 0);
-      const uvBuffer = gl.createBuffer();
-      gl.bindBuffer(gl.ARRAY_BUFFER, uvBuffer);
-      gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(positions.length / 3 * 2), gl.DYNAMIC_DRAW);
-      const uvAt = gl.getAttribLocation(this.program, 'uv');
-      gl.enableVertexAttribArray(uvAt);
-      gl.vertexAttribPointer(uvAt, 2, gl.FLOAT, false, 0, 0);
-      const indexBuffer = gl.createBuffer();
-      gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, indexBuffer);
-      gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
-      gl.bindVertexArray(null);
-      return { index: p.index, positions, indices, vao, positionBuffer, uvBuffer, indexBuffer };
+      return { index: p.index, positions, indices, ...this.buffers(positions, indices) };
     });
     const b = mesh.bounds || { min: [-1, -1, -1], max: [1, 1, 1] };
     this.camera.target = scale(add(b.min, b.max), 0.5);
@@ -147,14 +130,62 @@ export class MeshView {
     this.draw();
   }
 
-  setUvs(uvs) {
+  // A vertex array of `positions` and `indices`, with an empty UV buffer.
+  buffers(positions, indices) {
     const gl = this.gl;
+    const vao = gl.createVertexArray();
+    gl.bindVertexArray(vao);
+    const positionBuffer = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, positionBuffer);
+    gl.bufferData(gl.ARRAY_BUFFER, positions, gl.STATIC_DRAW);
+    const positionAt = gl.getAttribLocation(this.program, 'position');
+    gl.enableVertexAttribArray(positionAt);
+    gl.vertexAttribPointer(positionAt, 3, gl.FLOAT, false, 0, 0);
+    const uvBuffer = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, uvBuffer);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(positions.length / 3 * 2), gl.DYNAMIC_DRAW);
+    const uvAt = gl.getAttribLocation(this.program, 'uv');
+    gl.enableVertexAttribArray(uvAt);
+    gl.vertexAttribPointer(uvAt, 2, gl.FLOAT, false, 0, 0);
+    const indexBuffer = gl.createBuffer();
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, indexBuffer);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
+    return { vao, positionBuffer, uvBuffer, indexBuffer };
+  }
+
+  // The chart's UVs per primitive; or, with `coarse` ({level, uvs}), its
+  // coarse level drawn in place of the primitives it covers (the others
+  // keep the UVs they had).
+  setUvs(uvs, coarse) {
+    const gl = this.gl;
+    if (coarse) {
+      this.setCoarse(coarse);
+      this.draw();
+      return;
+    }
+    this.coarse = null;
     this.primitives.forEach((p, k) => {
       const data = uvs && uvs[k] && uvs[k].length === p.positions.length / 3 * 2 ? uvs[k] : null;
       gl.bindBuffer(gl.ARRAY_BUFFER, p.uvBuffer);
       gl.bufferData(gl.ARRAY_BUFFER, data || new Float32Array(p.positions.length / 3 * 2), gl.DYNAMIC_DRAW);
     });
     this.draw();
+  }
+
+  setCoarse({ level, uvs }) {
+    const gl = this.gl;
+    let c = this.coarseBuffers;
+    if (!c || c.key !== level.key) {
+      if (c) {
+        gl.deleteVertexArray(c.vao);
+        [c.positionBuffer, c.uvBuffer, c.indexBuffer].forEach((b) => gl.deleteBuffer(b));
+      }
+      c = this.coarseBuffers = { key: level.key, count: level.indices.length, ...this.buffers(level.positions, level.indices) };
+    }
+    gl.bindBuffer(gl.ARRAY_BUFFER, c.uvBuffer);
+    gl.bufferData(gl.ARRAY_BUFFER, uvs, gl.DYNAMIC_DRAW);
+    this.coarse = { level, buffers: c };
   }
 
   setImage(image) {
@@ -231,9 +262,15 @@ export class MeshView {
     gl.activeTexture(gl.TEXTURE0);
     gl.bindTexture(gl.TEXTURE_2D, this.texture);
     gl.uniform1i(this.uniforms.image, 0);
-    for (const p of this.primitives) {
+    const coarse = this.coarse;
+    this.primitives.forEach((p, k) => {
+      if (coarse && coarse.level.primitives.has(k)) return;
       gl.bindVertexArray(p.vao);
       gl.drawElements(gl.TRIANGLES, p.indices.length, gl.UNSIGNED_INT, 0);
+    });
+    if (coarse) {
+      gl.bindVertexArray(coarse.buffers.vao);
+      gl.drawElements(gl.TRIANGLES, coarse.buffers.count, gl.UNSIGNED_INT, 0);
     }
     gl.bindVertexArray(null);
     this.drawOverlay();
@@ -446,8 +483,11 @@ export class TextureView {
     this.draw();
   }
 
-  setLayout(uvs, inChart) {
+  // The chart's UVs per primitive, which of their vertices are the chart's;
+  // `coarse` ({level, uvs}): its coarse level in place of the primitives it covers.
+  setLayout(uvs, inChart, coarse) {
     this.uvs = uvs;
+    this.coarse = coarse || null;
     if (inChart) this.inChart = inChart;
     this.layerKey = null;
     this.draw();
@@ -527,18 +567,13 @@ export class TextureView {
 
   // The layout's edges, the solved chart's coloured by Sander stretch.
   drawLayout(ctx, f) {
-    if (!this.mesh || !this.uvs) return;
+    if (!this.mesh || (!this.uvs && !this.coarse)) return;
     const buckets = new Map();
     const others = new Path2D();
     let area3 = 0;
     let area2 = 0;
     const tris = [];
-    this.mesh.primitives.forEach((p, k) => {
-      const uv = this.uvs[k];
-      const inChart = this.inChart && this.inChart[k];
-      if (!uv) return;
-      const pos = p.positions;
-      const idx = p.indices;
+    const add = (pos, uv, idx, inChart) => {
       for (let t = 0; t < idx.length; t += 3) {
         const a = idx[t], b = idx[t + 1], c = idx[t + 2];
         const pts = [a, b, c].map((v) => this.toScreen([uv[v * 2], uv[v * 2 + 1]], f));
@@ -551,7 +586,14 @@ export class TextureView {
         area2 += s.area2;
         tris.push({ pts, s });
       }
+    };
+    const coarse = this.coarse;
+    this.mesh.primitives.forEach((p, k) => {
+      const uv = this.uvs && this.uvs[k];
+      if (!uv || (coarse && coarse.level.primitives.has(k))) return;
+      add(p.positions, uv, p.indices, this.inChart && this.inChart[k]);
     });
+    if (coarse) add(coarse.level.positions, coarse.uvs, coarse.level.indices, null);
     // Stretch relative to the whole chart's scale (Sander's normalisation).
     const norm = area2 > 0 ? Math.sqrt(area2 / area3) : 1;
     for (const { pts, s } of tris) {
