@@ -138,8 +138,11 @@ pub fn write_response(out: &mut impl Write, status: u16, headers: &[(&str, &str)
         head += &format!("{k}: {v}\r\n");
     }
     head += &format!("Content-Length: {}\r\nConnection: close\r\n\r\n", body.len());
-    out.write_all(head.as_bytes())?;
-    out.write_all(body)?;
+    // One write: a head sent apart from its body waits for the client's
+    // delayed acknowledgement (Nagle), 40 ms on every answer.
+    let mut response = head.into_bytes();
+    response.extend_from_slice(body);
+    out.write_all(&response)?;
     out.flush()
 }
 
@@ -245,6 +248,8 @@ fn accept(listener: &TcpListener, send: &Sender<Request>, limits: Limits, closed
             return;
         }
         let Ok(stream) = stream else { continue };
+        // Answers and events go out as written, not held for an acknowledgement.
+        let _ = stream.set_nodelay(true);
         if reading.fetch_add(1, Ordering::SeqCst) >= limits.connections {
             reading.fetch_sub(1, Ordering::SeqCst);
             let mut stream = stream;
