@@ -63,9 +63,12 @@ pub enum Shown {
 /// coarse level (`uvpin edit --coarse-above`).
 pub const COARSE_ABOVE: usize = 6000;
 
+/// Milliseconds a move's solve on the coarse level may take.
+const LEVEL_BUDGET_MS: f64 = 50.0;
+
 /// A coarse level has at most this many vertices (and half the chart's):
 /// a move solves it in milliseconds.
-const LEVEL_VERTICES: usize = 3000;
+const LEVEL_VERTICES: usize = 1000;
 
 struct Job {
     ticket: u64,
@@ -310,7 +313,13 @@ fn on_coarse_level(
         });
     }
     let level = level.as_mut()?;
-    let solved = match level.view.solve_until(session, options, stop) {
+    // A move the level cannot follow at once is shown as far as it got (the
+    // next move goes on from there; the release is solved in full).
+    let options = SolverOptions {
+        time_budget_ms: Some(options.time_budget_ms.unwrap_or(f64::INFINITY).min(LEVEL_BUDGET_MS)),
+        ..*options
+    };
+    let solved = match level.view.solve_until(session, &options, stop) {
         Ok(Some(solved)) => solved,
         Ok(None) => return Some(None),
         Err(_) => return None,
@@ -423,7 +432,7 @@ mod tests {
                     .iter()
                     .position(|&(_, v)| v == c.vertex)
                     .expect("a coarse vertex");
-                let uv = glam::DVec2::new(uvs[at][0] as f64, uvs[at][1] as f64);
+                let uv = DVec2::new(uvs[at][0] as f64, uvs[at][1] as f64);
                 assert!(uv.distance(c.target) < 1e-6, "{uv} {}", c.target);
             }
             keys.push(*key);
