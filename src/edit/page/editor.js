@@ -25,6 +25,8 @@ const app = {
   saving: false, // a save is on its way
   saveAgain: false, // a change came while a save was pending
   preview: { inFlight: false, pending: false, seq: 0, shown: 0 },
+  warmed: null, // the landmark set the server was last asked to get ready for
+  warm: null, // ... once it answered
 };
 
 // Measurements the drag benchmark and the browser test read.
@@ -42,6 +44,8 @@ window.uvpinEditor = {
     const uvs = app.results && app.results.uvs && k >= 0 ? app.results.uvs[k] : null;
     return uvs ? [uvs[vertex * 2], uvs[vertex * 2 + 1]] : null;
   },
+  // Whether the server is ready for a drag of the current landmarks.
+  dragReady: () => app.warm !== null && app.warm === app.warmed,
   // Vertices of the coarse level the layout is shown on (0: the chart itself).
   shownLevel: () => (app.results && app.results.coarse ? app.results.coarse.level.positions.length / 3 : 0),
   // A texture coordinate's position in the texture view (CSS pixels).
@@ -185,6 +189,7 @@ async function refreshFile() {
   if (file.solved && !app.dragStart && !app.preview.inFlight && !ahead) {
     app.inChart = file.solved.in_chart;
     app.results = { report: file.solved.report, uvs: uvArrays(file.solved.uvs), from: 'file' };
+    warmPreviews();
   }
   showStatus();
   redraw({ layout: true });
@@ -260,11 +265,17 @@ function resultOf(c) {
 const dirty = { layout: false, list: false };
 let frameRequested = false;
 
-// Schedules a redraw: the markers always, the layout when a new solve came
-// (`layout`), the list unless a drag is running (`list`).
-function redraw({ layout = false, list = true } = {}) {
+// Schedules a redraw at the next frame, or at once with `now` (a preview's
+// answer: the drag's redraw does not wait for a frame): the markers always,
+// the layout when a new solve came (`layout`), the list unless a drag is
+// running (`list`).
+function redraw({ layout = false, list = true, now = false } = {}) {
   dirty.layout ||= layout;
   dirty.list ||= list;
+  if (now) {
+    render();
+    return;
+  }
   // Something changed since the last frame: not ready until it is painted.
   $('mesh-view').dataset.ready = 'false';
   if (!frameRequested) {
@@ -465,6 +476,22 @@ async function save() {
   }
 }
 
+// Asks the server to get ready for a drag of the current landmarks (a large
+// chart's coarse level is made once per landmark set, in about a second at
+// 400k vertices), so the first move does not wait for it. The answer is
+// not shown; its coarse level's mesh is kept.
+async function warmPreviews() {
+  const key = `${app.meshKey} ${app.constraints.map((c) => `${primitiveOf(c)}:${c.vertex}`).sort().join(',')}`;
+  if (app.warmed === key || !app.file || !app.file.editable) return;
+  app.warmed = key;
+  app.warm = null;
+  const held = app.coarse ? app.coarse.key : null;
+  const r = await postJson(`/api/file/${app.fileId}/preview`, { seq: 0, constraints: wantedList(), coarse_key: held }).catch(() => null);
+  const c = r && r.ok && r.body.coarse;
+  if (c && c.mesh && app.mesh && key.startsWith(`${app.meshKey} `)) app.coarse = coarseLevel(c.key, c.mesh);
+  if (app.warmed === key) app.warm = key;
+}
+
 async function requestPreview(moveTime) {
   const p = app.preview;
   p.seq += 1;
@@ -489,7 +516,7 @@ async function requestPreview(moveTime) {
       app.drawnMove = moved;
       p.moves.clear();
     }
-    redraw({ layout: true, list: !app.dragStart });
+    redraw({ layout: true, list: !app.dragStart, now: true });
   } else if (r && r.ok && r.body.invalid) {
     setStatus('error', r.body.invalid);
   }

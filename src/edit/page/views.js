@@ -73,12 +73,66 @@ function compile(gl, type, source) {
 
 // A 2D colour for a stretch value (1 = isometry).
 export function stretchColour(s) {
+  const c = stretchRgb(s);
+  return `rgb(${c[0]},${c[1]},${c[2]})`;
+}
+
+function stretchRgb(s) {
   const t = Math.max(0, Math.min(1, Math.log2(Math.max(s, 1)) / 2));
   const stops = [[62, 207, 110], [240, 210, 60], [255, 90, 82]];
   const k = t < 0.5 ? 0 : 1;
   const f = t < 0.5 ? t * 2 : (t - 0.5) * 2;
-  const c = stops[k].map((v, i) => Math.round(v + (stops[k + 1][i] - v) * f));
-  return `rgb(${c[0]},${c[1]},${c[2]})`;
+  return stops[k].map((v, i) => Math.round(v + (stops[k + 1][i] - v) * f));
+}
+
+// Layouts of more triangles than this are drawn pixel by pixel: a canvas
+// path of millions of edges takes minutes to stroke, and at that density
+// the edges are pixels anyway.
+const RASTER_ABOVE = 60000;
+
+// Draws the edges of `tris` ({pts, s}: CSS-pixel corners, stretch) onto
+// `ctx`, one pixel wide, coloured by stretch times `norm`.
+function rasterEdges(ctx, tris, norm) {
+  const dpr = window.devicePixelRatio || 1;
+  const w = ctx.canvas.width;
+  const h = ctx.canvas.height;
+  const image = new ImageData(w, h);
+  const px = new Uint32Array(image.data.buffer);
+  const plot = (a, b, colour) => {
+    const [x0, y0, x1, y1] = [a[0] * dpr, a[1] * dpr, b[0] * dpr, b[1] * dpr];
+    const n = Math.max(1, Math.ceil(Math.max(Math.abs(x1 - x0), Math.abs(y1 - y0))));
+    for (let i = 0; i <= n; i++) {
+      const x = Math.round(x0 + ((x1 - x0) * i) / n);
+      const y = Math.round(y0 + ((y1 - y0) * i) / n);
+      if (x >= 0 && y >= 0 && x < w && y < h) px[y * w + x] = colour;
+    }
+  };
+  for (const { pts, s } of tris) {
+    const [r, g, b] = stretchRgb(Number.isFinite(s.l2) ? s.l2 * norm : Infinity);
+    const colour = ((255 << 24) | (b << 16) | (g << 8) | r) >>> 0;
+    plot(pts[0], pts[1], colour);
+    plot(pts[1], pts[2], colour);
+    plot(pts[2], pts[0], colour);
+  }
+  const edges = document.createElement('canvas');
+  edges.width = w;
+  edges.height = h;
+  edges.getContext('2d', { willReadFrequently: true }).putImageData(image, 0, 0);
+  ctx.save();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.drawImage(edges, 0, 0);
+  ctx.restore();
+}
+
+// Whether WebGL draws in software (SwiftShader or llvmpipe, no GPU): there
+// multisampling costs a full-canvas resolve on every frame, which halved
+// the redraws while dragging on a large mesh, so edges are left aliased.
+function softwareRenderer() {
+  const gl = document.createElement('canvas').getContext('webgl2');
+  const info = gl && gl.getExtension('WEBGL_debug_renderer_info');
+  const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : '';
+  if (gl) gl.getExtension('WEBGL_lose_context')?.loseContext();
+  return /swiftshader|llvmpipe|software/i.test(name);
 }
 
 export class MeshView {
@@ -87,7 +141,7 @@ export class MeshView {
     this.overlay = overlay;
     this.hover = hover;
     this.handlers = handlers;
-    this.gl = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true });
+    this.gl = canvas.getContext('webgl2', { antialias: !softwareRenderer(), preserveDrawingBuffer: true });
     if (!this.gl) throw new Error('WebGL2 is not available in this browser');
     const gl = this.gl;
     this.program = gl.createProgram();
@@ -596,7 +650,9 @@ export class TextureView {
     if (coarse) add(coarse.level.positions, coarse.uvs, coarse.level.indices, null);
     // Stretch relative to the whole chart's scale (Sander's normalisation).
     const norm = area2 > 0 ? Math.sqrt(area2 / area3) : 1;
-    for (const { pts, s } of tris) {
+    const raster = tris.length > RASTER_ABOVE;
+    if (raster) rasterEdges(ctx, tris, norm);
+    for (const { pts, s } of raster ? [] : tris) {
       const value = Number.isFinite(s.l2) ? s.l2 * norm : Infinity;
       const key = stretchColour(value);
       if (!buckets.has(key)) buckets.set(key, new Path2D());
