@@ -1,7 +1,8 @@
 // Drags a target marker in the editor for a few seconds in headless Chromium
 // and prints what the page measured, as JSON: the latency from each pointer
 // move to the redraw of its solve, how many solves were drawn, and for how
-// long the drag ran. Used by `cargo bench --bench editor`.
+// long the drag ran, and the coarse level's vertices it was shown on (0:
+// the chart itself). Used by `cargo bench --bench editor`.
 //
 // Usage: node drag.mjs URL SECONDS
 import { createRequire } from 'node:module';
@@ -26,6 +27,8 @@ try {
     if (Date.now() - t0 > 120000) throw new Error('the sample never solved');
     await page.waitForTimeout(50);
   }
+  // As a user would: the layout is shown and the page ready to drag.
+  while (!(await page.evaluate(() => window.uvpinEditor.dragReady()))) await page.waitForTimeout(50);
   const start = await page.evaluate(() => window.uvpinEditor.state().constraints[0].uv);
   const screen = async (uv) => {
     const f = await page.evaluate((p) => window.uvpinEditor.textureToScreen(p), uv);
@@ -47,9 +50,10 @@ try {
     await page.waitForTimeout(16);
   }
   const elapsed = (Date.now() - began) / 1000;
+  const level = await page.evaluate(() => window.uvpinEditor.shownLevel());
   await page.mouse.up();
   const m = await page.evaluate(() => ({ latencies: window.uvpinEditor.latencies, previews: window.uvpinEditor.previews }));
-  console.log(JSON.stringify({ ...m, seconds: elapsed, moves: k }));
+  console.log(JSON.stringify({ ...m, level, seconds: elapsed, moves: k }));
 } finally {
   await browser.close();
 }
