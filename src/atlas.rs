@@ -168,6 +168,8 @@ fn free_layout(
         warnings: Vec::new(),
         opening: Arc::new(opening),
         secondary: Vec::new(),
+        // Its domain is given: the share only decides a chart's region.
+        rest_share: 0.0,
     };
     let source = ConstraintSource::Memory(Arc::new(Pins::new(&[]).with_boundary(BoundaryChoice::Free)));
     let mut session = ChartSession::from_prepared(source, asset.clone(), piece);

@@ -46,6 +46,9 @@ pub struct PreparedChart {
     /// The other charts holding constraints, in the order they are solved
     /// after this one (each in its own island, clear of the others).
     pub secondary: Vec<u32>,
+    /// The share of the surface that other charts needing UVs take
+    /// (they are packed around this one): depends on the geometry only.
+    pub rest_share: f64,
 }
 
 /// Which chart to prepare, and what this solve has laid out around it.
@@ -169,6 +172,8 @@ fn prepare_on(
     let landmarks: Vec<u32> = constraints.iter().map(|c| c.welded).collect();
     let budget = separation_budget(source, asset, &welded, chart_id, &constraints);
     let reusable = previous.filter(|p| p.chart.id == chart_id && p.opening.key.fits(&seams, &landmarks, budget));
+    // An area sum over every triangle: kept with the geometry it depends on.
+    let kept_share = reusable.map(|p| p.rest_share);
     let geometry = match reusable {
         Some(p) => (
             p.chart.clone(),
@@ -188,7 +193,7 @@ fn prepare_on(
     let mut warnings: Vec<String> = Vec::new();
     warnings.extend(repair_warnings(&opening));
     let cut = opening.seam.is_some() || !opening.separation.is_empty();
-    let rest_share = rest_share(asset, &welded, &chart, &opening);
+    let rest_share = kept_share.unwrap_or_else(|| rest_share(asset, &welded, &chart, &opening));
     let domain = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints, (cut, rest_share), pick)?;
     if corners.is_some() && matches!(domain, Domain::Free(_)) {
         warnings.push("corners are ignored: the boundary is free".into());
@@ -206,6 +211,7 @@ fn prepare_on(
         warnings,
         opening,
         secondary,
+        rest_share,
     })
 }
 
