@@ -7,7 +7,7 @@
 //! and skip the distortion polish (the daemon's solve on release polishes).
 //!
 //! A chart larger than `coarse_above` vertices is previewed on its coarse
-//! level ([`CoarseView`]): a few thousand vertices with the landmarks among
+//! level ([`CoarseView`]): about a thousand vertices with the landmarks among
 //! them, made once per landmark set, so a move costs milliseconds whatever
 //! the chart's size; the page draws that level's triangles until the
 //! release is solved in full. The level is exact on the landmarks and

@@ -24,7 +24,7 @@ const app = {
   savedHash: null, // what our last save wrote, until the daemon has read it
   saving: false, // a save is on its way
   saveAgain: false, // a change came while a save was pending
-  preview: { inFlight: false, pending: false, seq: 0, shown: 0 },
+  preview: { inFlight: false, pending: false, seq: 0, shown: 0, followUps: 0 },
   warmed: null, // the landmark set the server was last asked to get ready for
   warm: null, // ... once it answered
 };
@@ -495,7 +495,11 @@ async function warmPreviews() {
 async function requestPreview(moveTime) {
   const p = app.preview;
   p.seq += 1;
-  if (moveTime !== undefined) p.moves = p.moves || new Map(), p.moves.set(p.seq, moveTime);
+  if (moveTime !== undefined) {
+    p.moves = p.moves || new Map();
+    p.moves.set(p.seq, moveTime);
+    p.followUps = 0;
+  }
   if (p.inFlight) {
     p.pending = true;
     return;
@@ -523,6 +527,11 @@ async function requestPreview(moveTime) {
   if (p.pending) {
     p.pending = false;
     requestPreview(p.moves && p.moves.size ? Math.min(...p.moves.values()) : undefined);
+  } else if (results && results.coarse && results.report.status !== 'reached' && app.dragStart && p.followUps < 4) {
+    // The coarse level stopped short within its time and the pointer rests:
+    // the solve goes on from where it stopped.
+    p.followUps += 1;
+    requestPreview();
   }
 }
 
