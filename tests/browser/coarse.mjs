@@ -7,19 +7,15 @@
 //   VERTICES  the sample's vertex count.
 // With UVPIN_SCREENSHOTS=FOLDER it also saves a screenshot of the drag.
 import path from 'node:path';
-import { check, launch, meshColours, outputUvs, textureToPage, until } from './common.mjs';
+import { check, launch, openEditor, meshColours, outputUvs, textureToPage, until } from './common.mjs';
 
 const [url, dir, vertices] = process.argv.slice(2);
 const output = path.join(dir, 'out/face.glb');
 const shots = process.env.UVPIN_SCREENSHOTS;
 
 const browser = await launch();
-const errors = [];
 try {
-  const page = await browser.newPage({ viewport: { width: 1600, height: 820 }, deviceScaleFactor: 1 });
-  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
-  page.on('pageerror', (e) => errors.push(String(e)));
-  await page.goto(url);
+  const { page, errors } = await openEditor(browser, url);
   const status = page.getByTestId('status');
   const editor = (f, arg) => page.evaluate(f, arg);
   await until('the sample is solved', async () => (await status.getAttribute('data-state')) === 'reached');

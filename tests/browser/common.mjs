@@ -22,6 +22,17 @@ export function launch() {
   });
 }
 
+// The editor at `url` in a new page of `browser`; `errors` collects what
+// its console reports as errors and what it throws.
+export async function openEditor(browser, url) {
+  const page = await browser.newPage({ viewport: { width: 1600, height: 820 }, deviceScaleFactor: 1 });
+  const errors = [];
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('pageerror', (e) => errors.push(String(e)));
+  await page.goto(url);
+  return { page, errors };
+}
+
 export function check(ok, what) {
   if (!ok) throw new Error(`check failed: ${what}`);
   console.log(`ok: ${what}`);

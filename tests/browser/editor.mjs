@@ -7,7 +7,7 @@
 import fs from 'node:fs';
 import http from 'node:http';
 import path from 'node:path';
-import { check, launch, meshColours, outputUvs as read, textureToPage, until } from './common.mjs';
+import { check, launch, openEditor, meshColours, outputUvs as read, textureToPage, until } from './common.mjs';
 
 const [url, dir] = process.argv.slice(2);
 const ron = path.join(dir, 'assets/face.uvpin.ron');
@@ -28,12 +28,8 @@ function rawGet(target, host) {
 }
 
 const browser = await launch();
-const errors = [];
 try {
-  const page = await browser.newPage({ viewport: { width: 1600, height: 820 }, deviceScaleFactor: 1 });
-  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
-  page.on('pageerror', (e) => errors.push(String(e)));
-  await page.goto(url);
+  const { page, errors } = await openEditor(browser, url);
   const status = page.getByTestId('status');
   const stateIs = (s) => until(`status ${s}`, async () => (await status.getAttribute('data-state')) === s);
   await stateIs('reached');
