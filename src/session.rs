@@ -371,13 +371,7 @@ impl ChartSession {
         square.run().ok()?;
         let mapped: Vec<DVec2> = square.layout().iter().map(|&p| lo + p * (hi - lo)).collect();
         let mut free = self.prepared.clone();
-        free.domain = Domain::Free(Arc::new(crate::free::FreeSetup {
-            given: Some(crate::free::GivenStart {
-                layout: Arc::new(mapped),
-                kind: StartKind::Square,
-            }),
-            ..(**setup).clone()
-        }));
+        free.domain = Domain::Free(Arc::new(setup.starting_from(mapped, StartKind::Square)));
         let mut solver = ChartSolver::new(SolverInputs {
             elapsed_ms: elapsed_ms + square.times().total_ms(),
             pattern: self.pattern.as_ref(),

@@ -128,6 +128,20 @@ pub struct FreeSetup {
     pub given: Option<GivenStart>,
 }
 
+impl FreeSetup {
+    /// This room with a start made outside the free solve: `layout`, made
+    /// `kind`'s way.
+    pub fn starting_from(&self, layout: Vec<DVec2>, kind: crate::domain::start::StartKind) -> FreeSetup {
+        FreeSetup {
+            given: Some(GivenStart {
+                layout: Arc::new(layout),
+                kind,
+            }),
+            ..self.clone()
+        }
+    }
+}
+
 /// A start made outside the free solve, and how.
 #[derive(Debug, Clone)]
 pub struct GivenStart {

@@ -1,5 +1,5 @@
 //! A chart's coarse level standing in for it while its targets move (the
-//! editor's drag). The chart is coarsened once to a few thousand vertices
+//! editor's drag). The chart is coarsened once to as many vertices as asked
 //! with its landmarks (and on the square its corners) kept as vertices
 //! ([`crate::solver::multilevel::coarse_level`]); that level's step 1
 //! (Eq. 1–2) is computed once, and each move solves it from its last layout
@@ -14,7 +14,6 @@ use crate::complete::pattern::PendingNewtonPattern;
 use crate::domain::Domain;
 use crate::domain::start::StartKind;
 use crate::error::Error;
-use crate::free::{FreeSetup, GivenStart};
 use crate::options::SolverOptions;
 use crate::param::bar_net::BarNet;
 use crate::param::boundary::BoundaryMap;
@@ -100,9 +99,7 @@ impl ChartSession {
         let Some((prepared, _)) = crate::solver::multilevel::coarse_level(&self.prepared, boundary, vertices) else {
             return Ok(None);
         };
-        let boundary = step_one::map_boundary(&prepared, &self.source)?;
-        let bar_net = step_one::factor_bar_net(&prepared, &boundary, &self.asset.path)?;
-        let step_one = step_one::solve_force_density(&prepared, &boundary, &bar_net);
+        let (boundary, bar_net, step_one) = step_one::run(&prepared, &self.source, &self.asset.path)?;
         Ok(Some(CoarseView {
             key: LEVELS.fetch_add(1, Ordering::Relaxed),
             made_for: MadeFor::of(&self.prepared),
@@ -211,13 +208,7 @@ impl CoarseView {
         let mut step1: &[DVec2] = &self.step_one;
         match (&self.prepared.domain, last) {
             (Domain::Free(setup), Some(last)) => {
-                prepared.domain = Domain::Free(Arc::new(FreeSetup {
-                    given: Some(GivenStart {
-                        layout: Arc::new(last.to_vec()),
-                        kind: StartKind::Coarse,
-                    }),
-                    ..(**setup).clone()
-                }));
+                prepared.domain = Domain::Free(Arc::new(setup.starting_from(last.to_vec(), StartKind::Coarse)));
             }
             (_, Some(last)) => step1 = last,
             (_, None) => {}

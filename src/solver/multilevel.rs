@@ -14,7 +14,6 @@ use crate::complete::energy::{RestTriangle, rest_shapes};
 use crate::domain::Domain;
 use crate::domain::solve::{ChartParts, SolveDomain};
 use crate::domain::start::StartKind;
-use crate::free::{FreeSetup, GivenStart};
 use crate::mesh::TriMesh;
 use crate::mesh::topology::Topology;
 use crate::multilevel::coarsen::{Hierarchy, Plan, Role, coarsen};
@@ -112,9 +111,8 @@ pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStat
     let t0 = Instant::now();
     let square = prepared.domain.free().is_none();
     let corners = square.then(|| inputs.boundary.corner_vertices());
-    let (roles, outer) = roles(prepared, corners);
     let target = (n / COARSENING).clamp(options.multilevel_coarse.min(500), options.multilevel_coarse);
-    let mut hierarchy = level(prepared, (&roles, outer), corners, target);
+    let (mut hierarchy, roles, outer) = level(prepared, corners, target);
     let mut stats = MultilevelStats {
         coarse_vertices: hierarchy.n_coarse(),
         coarsen_ms: ms(t0),
@@ -178,33 +176,24 @@ pub fn start_in(
     if !crate::guard::all_positive_as_stored(&layout, &chart.filled.mesh.triangles) {
         return Err(Missed::NoRoom("a triangle folds as stored (f32)".into()));
     }
-    let given = Domain::Free(Arc::new(FreeSetup {
-        given: Some(GivenStart {
-            layout: Arc::new(layout),
-            kind: StartKind::Coarse,
-        }),
-        ..(**setup).clone()
-    }));
+    let given = Domain::Free(Arc::new(setup.starting_from(layout, StartKind::Coarse)));
     SolveDomain::start(&given, chart, problem).map_err(|e| Missed::NoRoom(e.to_string()))
 }
 
-/// `prepared`'s filled chart coarsened to about `target` vertices, each
-/// vertex doing what `roles` says.
-fn level(
-    prepared: &PreparedChart,
-    (roles, outer): (&[Role], u32),
-    corners: Option<[u32; 4]>,
-    target: usize,
-) -> Hierarchy {
+/// `prepared`'s filled chart coarsened to about `target` vertices (on the
+/// square with its `corners` kept), with each vertex's [`roles`] and the
+/// outer loop's index.
+fn level(prepared: &PreparedChart, corners: Option<[u32; 4]>, target: usize) -> (Hierarchy, Vec<Role>, u32) {
     let filled = &prepared.filled;
+    let (roles, outer) = roles(prepared, corners);
     let plan = Plan {
-        role: roles,
+        role: &roles,
         outer,
         virtual_from: filled.n_real_vertices,
         target,
         square: corners.is_some(),
     };
-    coarsen(&filled.mesh, plan)
+    (coarsen(&filled.mesh, plan), roles, outer)
 }
 
 /// A coarse level of `prepared` with about `target` vertices, as a chart
@@ -219,8 +208,7 @@ pub fn coarse_level(
     target: usize,
 ) -> Option<(PreparedChart, Vec<u32>)> {
     let corners = prepared.domain.free().is_none().then(|| boundary.corner_vertices());
-    let (roles, outer) = roles(prepared, corners);
-    let hierarchy = level(prepared, (&roles, outer), corners, target);
+    let (hierarchy, ..) = level(prepared, corners, target);
     coarse_chart(prepared, &hierarchy, corners)
 }
 
@@ -313,9 +301,7 @@ fn virtual_ids(filled: &FilledChart, coarse: &FilledChart, fine_of: &[u32]) -> O
 /// The coarse chart solved in full; its layout if it reached the targets.
 fn solve_coarse(inputs: &SolverInputs, coarse: &PreparedChart) -> Result<Vec<DVec2>, Missed> {
     let failed = |e: crate::error::Error| Missed::SolveFailed(e.to_string());
-    let boundary = step_one::map_boundary(coarse, inputs.source).map_err(failed)?;
-    let net = step_one::factor_bar_net(coarse, &boundary, std::path::Path::new("")).map_err(failed)?;
-    let step1 = step_one::solve_force_density(coarse, &boundary, &net);
+    let (boundary, net, step1) = step_one::run(coarse, inputs.source, std::path::Path::new("")).map_err(failed)?;
     let options = super::SolverOptions {
         multilevel_above: usize::MAX,
         ..*inputs.options

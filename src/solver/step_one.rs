@@ -60,6 +60,22 @@ pub fn factor_bar_net(prepared: &PreparedChart, boundary: &BoundaryMap, asset: &
     })
 }
 
+/// Step 1 of `prepared` in a row: [`map_boundary`], [`factor_bar_net`]
+/// and [`solve_force_density`].
+///
+/// # Errors
+/// As those functions.
+pub fn run(
+    prepared: &PreparedChart,
+    source: &ConstraintSource,
+    asset: &Path,
+) -> Result<(BoundaryMap, BarNet, Vec<DVec2>), Error> {
+    let boundary = map_boundary(prepared, source)?;
+    let net = factor_bar_net(prepared, &boundary, asset)?;
+    let layout = solve_force_density(prepared, &boundary, &net);
+    Ok((boundary, net, layout))
+}
+
 /// Eq. 1 solved for the free nodes with the outer loop where `boundary`
 /// puts it: the step-1 layout of the filled chart.
 pub fn solve_force_density(prepared: &PreparedChart, boundary: &BoundaryMap, net: &BarNet) -> Vec<DVec2> {
