@@ -476,6 +476,13 @@ async function save() {
   }
 }
 
+// Asks for a preview of the page's list (numbered `seq`), naming the coarse
+// level the page holds (its mesh is not sent again); null if unanswered.
+function postPreview(seq) {
+  const held = app.coarse ? app.coarse.key : null;
+  return postJson(`/api/file/${app.fileId}/preview`, { seq, constraints: wantedList(), coarse_key: held }).catch(() => null);
+}
+
 // Asks the server to get ready for a drag of the current landmarks (a large
 // chart's coarse level is made once per landmark set, in about a second at
 // 400k vertices), so the first move does not wait for it. The answer is
@@ -485,8 +492,7 @@ async function warmPreviews() {
   if (app.warmed === key || !app.file || !app.file.editable) return;
   app.warmed = key;
   app.warm = null;
-  const held = app.coarse ? app.coarse.key : null;
-  const r = await postJson(`/api/file/${app.fileId}/preview`, { seq: 0, constraints: wantedList(), coarse_key: held }).catch(() => null);
+  const r = await postPreview(0);
   const c = r && r.ok && r.body.coarse;
   if (c && c.mesh && app.mesh && key.startsWith(`${app.meshKey} `)) app.coarse = coarseLevel(c.key, c.mesh);
   if (app.warmed === key) app.warm = key;
@@ -506,8 +512,7 @@ async function requestPreview(moveTime) {
   }
   p.inFlight = true;
   const seq = p.seq;
-  const held = app.coarse ? app.coarse.key : null;
-  const r = await postJson(`/api/file/${app.fileId}/preview`, { seq, constraints: wantedList(), coarse_key: held }).catch(() => null);
+  const r = await postPreview(seq);
   p.inFlight = false;
   const results = r && r.ok && r.body.report && seq > p.shown ? previewResults(r.body) : null;
   if (results) {
