@@ -36,7 +36,7 @@ pub struct EditArgs {
     #[arg(long, value_enum)]
     log: Option<LogArg>,
     /// While a target is dragged, a chart of more vertices than this is
-    /// shown on its coarse level (a few thousand vertices, the landmarks
+    /// shown on its coarse level (about a thousand vertices, the landmarks
     /// exact), and solved in full on release.
     #[arg(long, value_name = "N", default_value_t = crate::edit::preview::COARSE_ABOVE)]
     coarse_above: usize,
