@@ -9,17 +9,6 @@ use crate::options::SolverOptions;
 use crate::rbf::stepping::StepProblem;
 use glam::DVec2;
 
-/// A free chart whose worst real triangle starts the polish above this
-/// energy (ψ per unit area, 4 = isometry; about a 30 × squeeze) is first
-/// polished with its scaffold's slivers held fuller
-/// ([`super::context::SCAFFOLD_MIN_HEIGHT`]), then in their own shapes. At
-/// rest in its own shape a sliver never pushes back, so a triangle the
-/// completion squeezed against another part of the boundary (the
-/// alligator's closed mouth) stays squeezed: every step toward relief is
-/// cut at the sliver (0.2 % of the Newton step), and the polish stops at
-/// once (L2 1.571, L∞ 129; seed 7, 24 landmarks).
-pub const SQUEEZED_PSI: f64 = 1000.0;
-
 /// Why the polish runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PolishGoal {
@@ -49,8 +38,15 @@ pub struct Polish {
     newton: NewtonContext,
     /// The constrained vertices, held where they are.
     held: Vec<bool>,
-    /// The scaffold still has its slivers held fuller (see [`SQUEEZED_PSI`]);
-    /// its own shapes follow once that stage stops gaining.
+    /// A free chart's polish holds its scaffold's slivers fuller first
+    /// ([`super::context::SCAFFOLD_MIN_HEIGHT`]); their own shapes follow
+    /// once that stage stops gaining. At rest in its own shape a sliver
+    /// never pushes back, so a part of the chart pressed against its
+    /// region's border (targets that fill the texture) or against another
+    /// part of its boundary (the alligator's closed mouth) stays pressed:
+    /// every step toward relief is cut at the sliver (3 % and then 0.6 % of
+    /// the Newton step on the camel's head, 0.2 % on the alligator), and
+    /// the polish stops at once.
     floored: bool,
     energy_now: f64,
     pub stats: PolishStats,
@@ -58,11 +54,11 @@ pub struct Polish {
 
 impl Polish {
     /// The polish of `layout` toward `goal`, holding `problem`'s constrained
-    /// vertices; a free chart's scaffold rests in its own shapes (after a
-    /// first stage with its slivers held fuller if a triangle starts
-    /// squeezed, [`SQUEEZED_PSI`]; `newton` comes with them so).
+    /// vertices; a free chart's scaffold rests in its own shapes after a
+    /// first stage with its slivers held fuller (`newton` comes with them
+    /// so).
     pub fn new(mut newton: NewtonContext, problem: &StepProblem, layout: &[DVec2], goal: PolishGoal) -> Self {
-        let floored = newton.is_free() && goal == PolishGoal::Distortion && newton.worst_psi(layout) > SQUEEZED_PSI;
+        let floored = newton.is_free() && goal == PolishGoal::Distortion;
         if !floored {
             newton.scaffold_in_own_shapes(layout);
         }
