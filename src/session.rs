@@ -21,6 +21,7 @@
 #![warn(missing_docs)]
 
 use crate::chart::{self, PreparedChart, PrimitiveUvs};
+use crate::complete::attempts::PathBudget;
 use crate::complete::pattern::PendingNewtonPattern;
 use crate::constraints::ConstraintSource;
 use crate::domain::Domain;
@@ -103,6 +104,11 @@ pub struct Solution {
     pub solver: ChartSolver,
     /// What was reached, and how.
     pub report: Report,
+}
+
+/// `solver` run to its end, if no tick fails.
+fn finished(mut solver: ChartSolver) -> Option<ChartSolver> {
+    solver.run().ok().map(|()| solver)
 }
 
 fn ms(since: Instant) -> f64 {
@@ -254,9 +260,27 @@ impl ChartSession {
     /// Step-1 errors; a constraint on the outer boundary whose target
     /// contradicts the boundary map.
     pub fn new_solver(&mut self, options: &SolverOptions, from: StartFrom) -> Result<ChartSolver, Error> {
+        let paths = if self.cut_is_optional() {
+            PathBudget::First
+        } else {
+            PathBudget::Every
+        };
+        self.new_solver_with(options, from, paths)
+    }
+
+    /// As [`Self::new_solver`], its completion trying the paths `paths` allows.
+    fn new_solver_with(
+        &mut self,
+        options: &SolverOptions,
+        from: StartFrom,
+        paths: PathBudget,
+    ) -> Result<ChartSolver, Error> {
         let missed = match self.solver_from_coarse_level(options)? {
-            Some(Ok(solver)) => {
+            Some(Ok(mut solver)) => {
                 self.pattern = Some(solver.pattern().clone());
+                if paths == PathBudget::First {
+                    solver.first_path_only();
+                }
                 return Ok(solver);
             }
             Some(Err(missed)) => Some(missed),
@@ -289,6 +313,9 @@ impl ChartSession {
         };
         if let Some(missed) = missed {
             solver.note_multilevel_missed(missed);
+        }
+        if paths == PathBudget::First {
+            solver.first_path_only();
         }
         self.pattern = Some(solver.pattern().clone());
         Ok(solver)
@@ -437,41 +464,61 @@ impl ChartSession {
         self.times.detour_ms += before + ms(t0) - solver.times().total_ms();
     }
 
-    /// A finished solve short of its targets on a disk that was cut open
-    /// only because its boundary is short for its area (a guess that the
-    /// flat layout would be crushed): the chart solved as it is, uncut,
-    /// takes the session's place when it comes closer to the targets (the
-    /// square detour then follows on whichever is kept: the uncut solve is
-    /// the cheaper remedy, tried first). A chart that had to be cut
-    /// (closed, with handles) cannot be opened without seams and keeps its
-    /// solve.
+    /// Whether the chart was cut open only because its boundary is short
+    /// for its area (a guess that the flat layout would be crushed), not
+    /// because it must be (closed, with handles) or was told to.
+    fn cut_is_optional(&self) -> bool {
+        let opening = &self.prepared.opening;
+        opening.seam.is_some() && !opening.seam_given && opening.separation.is_empty()
+    }
+
+    /// A finished solve short of its targets on a disk cut open only for
+    /// its short boundary ([`Self::cut_is_optional`]): the chart solved as
+    /// it is, uncut, takes the session's place when it comes closer to the
+    /// targets (the square detour then follows on whichever is kept: the
+    /// uncut solve is the cheaper remedy, tried first). Such a cut solve
+    /// tries its completion's first path only
+    /// ([`ChartSolver::first_path_only`]); when the uncut one does no
+    /// better, it is solved again with every path, and the closer kept.
     fn detour_uncut(&mut self, solver: &mut ChartSolver) {
         let residual = solver.max_residual();
-        let opening = &self.prepared.opening;
-        let optional = opening.seam.is_some() && !opening.seam_given && opening.separation.is_empty();
-        if residual <= solver.options().tolerance || !optional {
+        if residual <= solver.options().tolerance || !self.cut_is_optional() {
             return;
         }
-        let Ok(mut uncut) = ChartSession::open(self.source.without_seams(), self.asset.clone(), 0.0) else {
+        let options = *solver.options();
+        let t0 = Instant::now();
+        match self.uncut_solve(solver, &options) {
+            Some((uncut, mut alt)) if alt.max_residual() < residual => {
+                alt.note_cut_fell_short(residual);
+                *self = uncut;
+                *solver = alt;
+                return;
+            }
+            _ => self.times.detour_ms += ms(t0),
+        }
+        if !solver.skipped_paths() {
             return;
-        };
+        }
+        let (t1, first_path_ms) = (Instant::now(), solver.times().total_ms());
+        let every = self.new_solver_with(&options, StartFrom::StepOne, PathBudget::Every);
+        match every.ok().and_then(finished) {
+            Some(every) if every.max_residual() < residual => {
+                *solver = every;
+                self.times.detour_ms += first_path_ms;
+            }
+            _ => self.times.detour_ms += ms(t1),
+        }
+    }
+
+    /// This session's chart solved uncut with `options` after the cut
+    /// `solver` (its time counted as detour), or `None` if it fails.
+    fn uncut_solve(&self, solver: &ChartSolver, options: &SolverOptions) -> Option<(ChartSession, ChartSolver)> {
+        let mut uncut = ChartSession::open(self.source.without_seams(), self.asset.clone(), 0.0).ok()?;
         uncut.revision = self.revision;
         uncut.times.load_ms = self.times.load_ms;
         uncut.times.detour_ms = self.times.with_solver(solver.times()).total_ms() - self.times.load_ms;
-        let options = *solver.options();
-        let Ok(mut alt) = uncut.new_solver(&options, StartFrom::StepOne) else {
-            return;
-        };
-        while !alt.is_done() {
-            if alt.tick().is_err() {
-                return;
-            }
-        }
-        if alt.max_residual() < residual {
-            alt.note_cut_fell_short(residual);
-            *self = uncut;
-            *solver = alt;
-        }
+        let alt = finished(uncut.new_solver(options, StartFrom::StepOne).ok()?)?;
+        Some((uncut, alt))
     }
 
     /// A finished solve that is short of its targets keeps a usable layout:

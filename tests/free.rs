@@ -607,34 +607,47 @@ fn the_alligators_witnessed_cases_are_reached() {
 /// The camel's head is open only at its neck: a disk whose boundary is
 /// short for its area, which uvpin cuts open by default. Targets taken from
 /// its own layouts as it is (uncut) are reachable on it; where the cut
-/// chart falls short, the chart is solved uncut instead.
+/// chart falls short (its completion's first path), the chart is solved
+/// uncut instead, and where it reaches them it keeps its seams. Targets
+/// from the square fill the texture and press the chart against its
+/// border: the polish still lowers the stretch there.
 fn a_disk_cut_for_its_short_boundary_never_misses_what_it_reaches_uncut() {
     let source = uvpin::io::load_asset(&shared_mesh("camelhead.glb"), None, 0, &Default::default()).unwrap();
     let mesh = uvpin::mesh::weld::weld(&source.primitives).mesh;
     let options: uvpin::Options = uvpin::options::SolverOptions::DEFAULT.into();
-    let (constraints, _) = uvpin::testing::witnessed_square_case(&mesh, 24, 7).expect("a witness");
-    let pins = uvpin::Pins::new(&constraints).with_boundary(uvpin::pins::BoundaryChoice::Free);
-    let s = uvpin::solve_mesh(&mesh, &pins, &options).unwrap();
-    let r = &s.report;
-    assert_eq!(r.status, uvpin::Status::Reached, "{}", r.explain.join("\n"));
-    assert!(r.max_residual <= 1e-9);
-    assert!(r.orientation.is_clean(), "{:?}", r.orientation);
-    assert_eq!(r.free.as_ref().map(|f| f.crossings), Some(0));
-    let split = r.seam.as_ref().map_or(0, |seam| seam.vertices_split);
-    if split == 0 {
-        // Uncut: one UV per vertex, every triangle of the mesh positive.
-        let xy: Vec<DVec2> = s
-            .uvs
-            .iter()
-            .map(|uv| DVec2::new(uv[0] as f64, 1.0 - uv[1] as f64))
-            .collect();
-        assert!(uvpin::guard::all_positive(&xy, &mesh.triangles));
+    let cases = [
+        ("square witness", uvpin::testing::witnessed_square_case(&mesh, 24, 7)),
+        ("free witness", uvpin::testing::witnessed_free_case(&mesh, 24, 7)),
+    ];
+    for (name, case) in cases {
+        let (constraints, _) = case.expect("a witness");
+        let pins = uvpin::Pins::new(&constraints).with_boundary(uvpin::pins::BoundaryChoice::Free);
+        let s = uvpin::solve_mesh(&mesh, &pins, &options).unwrap();
+        let r = &s.report;
+        let explain = r.explain.join("\n");
+        assert_eq!(r.status, uvpin::Status::Reached, "{name}: {explain}");
+        assert!(r.max_residual <= 1e-9);
+        assert!(r.orientation.is_clean(), "{name}: {:?}", r.orientation);
+        assert_eq!(r.free.as_ref().map(|f| f.crossings), Some(0));
+        let split = r.seam.as_ref().map_or(0, |seam| seam.vertices_split);
+        let fell_back = r.explain.iter().any(|l| l.starts_with("seams: none"));
+        assert!(split > 0 || fell_back, "{name}: {explain}");
+        if split == 0 {
+            // Uncut: one UV per vertex, every triangle of the mesh positive.
+            let xy: Vec<DVec2> = s
+                .uvs
+                .iter()
+                .map(|uv| DVec2::new(uv[0] as f64, 1.0 - uv[1] as f64))
+                .collect();
+            assert!(uvpin::guard::all_positive(&xy, &mesh.triangles));
+        }
+        // Stopped at the border, the polish left 1.473 / 12.7 on the first case.
+        let stretch = r.stretch_final;
+        assert!(
+            stretch.l2 < 1.45 && stretch.linf < 10.0,
+            "{name}: {stretch:?}\n{explain}"
+        );
     }
-    assert!(
-        split > 0 || r.explain.iter().any(|l| l.starts_with("seams: none")),
-        "{}",
-        r.explain.join("\n")
-    );
 }
 
 /// Landmarks whose spline path stalls holding a free outer loop (the nose

@@ -28,6 +28,18 @@ pub enum TargetPath {
     },
 }
 
+/// How many of a completion's paths it may try.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PathBudget {
+    /// Every path in its order (straight and both arcs).
+    #[default]
+    Every,
+    /// The first path only: the caller has a cheaper remedy to try before
+    /// the others (a disk cut open only for its short boundary, solved
+    /// uncut), and comes back for them if that does no better.
+    First,
+}
+
 /// What the end of a round means for the attempt.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RoundEnd {
@@ -45,6 +57,8 @@ pub struct Attempts {
     /// Per constraint, where it starts and its target.
     paths: Vec<(DVec2, DVec2)>,
     order: Vec<TargetPath>,
+    /// Paths left out by a [`PathBudget::First`].
+    skipped: usize,
     current: usize,
     /// Largest residual at the end of the last round, and how many rounds
     /// in a row have not lowered it.
@@ -70,7 +84,8 @@ impl Attempts {
     /// paths meet head-on (they would collide against the barrier), else
     /// straight first; a single straight pull when the targets are proven
     /// unreachable (no path reaches them; the straight pull lands closest).
-    pub fn begin(start: &[DVec2], problem: &StepProblem, proven_unreachable: bool) -> Self {
+    /// `budget` may keep only the first.
+    pub fn begin(start: &[DVec2], problem: &StepProblem, proven_unreachable: bool, budget: PathBudget) -> Self {
         let paths: Vec<(DVec2, DVec2)> = problem
             .constraint_vertices
             .iter()
@@ -78,17 +93,22 @@ impl Attempts {
             .map(|(&v, &t)| (start[v as usize], t))
             .collect();
         let (right, left) = (TargetPath::Arc { side: 1.0 }, TargetPath::Arc { side: -1.0 });
-        let order = if proven_unreachable {
+        let mut order = if proven_unreachable {
             vec![TargetPath::Straight]
         } else if paths_cross(&paths) {
             vec![right, left, TargetPath::Straight]
         } else {
             vec![TargetPath::Straight, right, left]
         };
+        let skipped = match budget {
+            PathBudget::Every => 0,
+            PathBudget::First => order.drain(1..).count(),
+        };
         Attempts {
             start: start.to_vec(),
             paths,
             order,
+            skipped,
             current: 0,
             last_round_residual: f64::INFINITY,
             stalled_rounds: 0,
@@ -112,6 +132,11 @@ impl Attempts {
     /// Whether two constraints' straight paths meet head-on.
     pub fn paths_cross(&self) -> bool {
         paths_cross(&self.paths)
+    }
+
+    /// How many paths the budget left out.
+    pub fn skipped(&self) -> usize {
+        self.skipped
     }
 
     pub fn path(&self) -> TargetPath {
@@ -251,19 +276,30 @@ mod tests {
     fn the_order_of_attempts_follows_the_paths() {
         let start = [DVec2::new(0.2, 0.5), DVec2::new(0.8, 0.5)];
         let swap = problem(&[(0.8, 0.5), (0.2, 0.5)]);
-        let a = Attempts::begin(&start, &swap, false);
+        let a = Attempts::begin(&start, &swap, false, PathBudget::Every);
         assert!(a.paths_cross());
         assert_eq!(a.path(), TargetPath::Arc { side: 1.0 });
         let apart = problem(&[(0.2, 0.6), (0.8, 0.6)]);
-        assert_eq!(Attempts::begin(&start, &apart, false).path(), TargetPath::Straight);
-        let proven = Attempts::begin(&start, &swap, true);
+        assert_eq!(
+            Attempts::begin(&start, &apart, false, PathBudget::Every).path(),
+            TargetPath::Straight
+        );
+        let proven = Attempts::begin(&start, &swap, true, PathBudget::Every);
         assert_eq!(proven.order, vec![TargetPath::Straight]);
+        // A budget of one keeps the path that would go first, and says what it left.
+        let first = Attempts::begin(&start, &swap, false, PathBudget::First);
+        assert_eq!(
+            (first.order.clone(), first.skipped()),
+            (vec![TargetPath::Arc { side: 1.0 }], 2)
+        );
+        let mut layout = start.to_vec();
+        assert!(!Attempts::begin(&start, &apart, false, PathBudget::First).next_attempt(&mut layout, 0.1));
     }
 
     #[test]
     fn arc_targets_travel_then_arrive() {
         let start = [DVec2::new(0.2, 0.5), DVec2::new(0.8, 0.5)];
-        let a = Attempts::begin(&start, &problem(&[(0.8, 0.5), (0.2, 0.5)]), false);
+        let a = Attempts::begin(&start, &problem(&[(0.8, 0.5), (0.2, 0.5)]), false, PathBudget::Every);
         let first = a.moving_targets(0).expect("on the way");
         // A quarter of the way, bulging right of travel (down, for +x travel).
         assert!(first[0].x > 0.2 && first[0].x < 0.5 && first[0].y < 0.5);
@@ -274,7 +310,7 @@ mod tests {
     #[test]
     fn stuck_attempts_end_and_the_closest_layout_is_kept() {
         let start = [DVec2::new(0.2, 0.5), DVec2::new(0.8, 0.5)];
-        let mut a = Attempts::begin(&start, &problem(&[(0.3, 0.5), (0.7, 0.5)]), false);
+        let mut a = Attempts::begin(&start, &problem(&[(0.3, 0.5), (0.7, 0.5)]), false, PathBudget::Every);
         // Straight: three rounds without progress after the first.
         assert_eq!(a.end_round(0, 0.1, false), RoundEnd::Continue);
         for round in 1..3 {

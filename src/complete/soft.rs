@@ -3,7 +3,7 @@
 //! each round, and snap the constrained vertices onto their targets as soon
 //! as that keeps every triangle positive (as stored).
 
-use super::attempts::{Attempts, RoundEnd, TargetPath};
+use super::attempts::{Attempts, PathBudget, RoundEnd, TargetPath};
 use super::context::{NewtonContext, StepRequest};
 use super::energy::{self, RestTriangle};
 use super::newton::SoftTargets;
@@ -50,6 +50,8 @@ pub struct SoftStats {
     /// The most triangles any step measured against a progressive reference
     /// shape instead of their rest shape ([`PROGRESSIVE_CAP`]).
     pub capped_triangles: usize,
+    /// Paths a [`PathBudget::First`] left untried.
+    pub skipped_paths: usize,
 }
 
 /// Where the soft-to-hard phase stands after a step.
@@ -84,16 +86,18 @@ pub struct SoftCompletion {
     /// The current layout's energy (scales the pull: a badly squeezed start
     /// has energy ~1e20 and must not drown it).
     energy_now: f64,
+    budget: PathBudget,
     pub stats: SoftStats,
 }
 
 impl SoftCompletion {
-    /// The completion from `layout` with the Newton machinery `newton`.
+    /// The completion from `layout` with the Newton machinery `newton`,
+    /// trying the paths `budget` allows.
     pub fn new(
         newton: NewtonContext,
         filled: &FilledChart,
         problem: &StepProblem,
-        layout: &[DVec2],
+        (layout, budget): (&[DVec2], PathBudget),
         options: &SolverOptions,
     ) -> Self {
         let energy_start = newton.energy(layout);
@@ -119,6 +123,7 @@ impl SoftCompletion {
             attempts: None,
             reference: Vec::new(),
             energy_now: energy_start,
+            budget,
             stats,
         }
     }
@@ -181,8 +186,9 @@ impl SoftCompletion {
         (round, weight, steps): (u32, f64, u32),
     ) -> SoftProgress {
         let attempts = self.attempts.get_or_insert_with(|| {
-            let a = Attempts::begin(layout, problem, self.stats.obstruction.is_some());
+            let a = Attempts::begin(layout, problem, self.stats.obstruction.is_some(), self.budget);
             self.stats.paths_cross = a.paths_cross();
+            self.stats.skipped_paths = a.skipped();
             a
         });
         let capped = energy::progressive_rest(

@@ -16,6 +16,7 @@ pub mod policy;
 pub mod step_one;
 
 use crate::chart::{self, PreparedChart};
+use crate::complete::attempts::PathBudget;
 use crate::complete::context::NewtonContext;
 use crate::complete::pattern::{Build, PendingNewtonPattern};
 use crate::complete::polish::{Polish, PolishGoal, PolishStats};
@@ -232,6 +233,8 @@ pub struct ChartSolver {
     record: SolveRecord,
     times: SolverTimes,
     elapsed_before_ms: f64,
+    /// The completion's paths this solve may try.
+    paths: PathBudget,
 }
 
 fn ms(since: Instant) -> f64 {
@@ -395,7 +398,20 @@ impl ChartSolver {
                 ..SolverTimes::default()
             },
             elapsed_before_ms: start.elapsed_ms,
+            paths: PathBudget::Every,
         }
+    }
+
+    /// Lets a completion of this solve try its first path only
+    /// ([`PathBudget::First`]): the caller has a cheaper remedy for a stalled
+    /// path, and solves again with every path if that does no better.
+    pub fn first_path_only(&mut self) {
+        self.paths = PathBudget::First;
+    }
+
+    /// Whether the completion left paths untried ([`Self::first_path_only`]).
+    pub fn skipped_paths(&self) -> bool {
+        self.record.soft.as_ref().is_some_and(|s| s.skipped_paths > 0)
     }
 
     /// Replaces a finished solve's layout (the filled chart's, checked by
@@ -696,7 +712,13 @@ impl ChartSolver {
                 let spline = std::mem::replace(&mut self.layout, self.start.clone());
                 self.spline_layout = Some(spline);
                 let context = self.newton_context()?;
-                let soft = SoftCompletion::new(context, &self.filled, &self.problem, &self.layout, &self.options);
+                let soft = SoftCompletion::new(
+                    context,
+                    &self.filled,
+                    &self.problem,
+                    (&self.layout, self.paths),
+                    &self.options,
+                );
                 self.record.energy_end = soft.energy();
                 self.phase = Phase::Completion(Box::new(soft));
             }
