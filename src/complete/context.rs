@@ -167,6 +167,13 @@ impl NewtonContext {
         self.rebuild_scaffold(layout);
     }
 
+    /// Scaffold triangles no thinner than [`SCAFFOLD_MIN_HEIGHT`] again, the
+    /// scaffold of `layout` remade: slivers push back.
+    pub fn scaffold_floored(&mut self, layout: &[DVec2]) {
+        self.scaffold_floor = SCAFFOLD_MIN_HEIGHT;
+        self.rebuild_scaffold(layout);
+    }
+
     /// Scales the real triangles' rest shapes to the size `layout` fits
     /// best ([`energy::best_fit_scale`]); returns their total area now.
     pub fn fit_rest_scale(&mut self, layout: &[DVec2]) -> f64 {
