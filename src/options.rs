@@ -76,7 +76,7 @@ pub struct SolverOptions {
     /// (default none): the best fold-free layout so far is kept.
     pub time_budget_ms: Option<f64>,
     /// A chart with more vertices than this is solved on a coarse level
-    /// first, then prolonged and settled by local sweeps (default 40000):
+    /// first, then prolonged and settled by local sweeps (default 5000):
     /// near-linear cost and a polish at any size (not a chart on the square
     /// with a landmark on its outer loop).
     pub multilevel_above: usize,
@@ -105,7 +105,7 @@ impl SolverOptions {
         polish_iterations: 20,
         polish_max_vertices: 50_000,
         time_budget_ms: None,
-        multilevel_above: 40_000,
+        multilevel_above: 5_000,
         multilevel_coarse: 16_000,
     };
 }

@@ -147,7 +147,13 @@ fn uncut_layout(mesh: &TriMesh, boundary: crate::pins::BoundaryChoice) -> Option
     let pins = crate::pins::Pins::new(&[])
         .with_boundary(boundary)
         .with_seams(crate::pins::SeamsChoice::Edges(Vec::new()));
-    let solved = crate::solve_mesh(mesh, &pins, &crate::options::SolverOptions::DEFAULT.into()).ok()?;
+    // Solved on the chart itself, so that a witness does not move with the
+    // size above which charts start from a coarse level.
+    let options = crate::options::SolverOptions {
+        multilevel_above: usize::MAX,
+        ..crate::options::SolverOptions::DEFAULT
+    };
+    let solved = crate::solve_mesh(mesh, &pins, &options.into()).ok()?;
     let split = solved.report.seam.as_ref().is_some_and(|s| s.vertices_split > 0);
     (solved.report.orientation.is_clean() && !split).then_some(solved)
 }
