@@ -275,12 +275,19 @@ impl ChartSession {
         from: StartFrom,
         paths: PathBudget,
     ) -> Result<ChartSolver, Error> {
+        let mut solver = self.solver_of(options, from)?;
+        if paths == PathBudget::First {
+            solver.first_path_only();
+        }
+        Ok(solver)
+    }
+
+    /// A solver of the current constraints from the coarse level, or from
+    /// step 1 started `from` where asked, every path allowed.
+    fn solver_of(&mut self, options: &SolverOptions, from: StartFrom) -> Result<ChartSolver, Error> {
         let missed = match self.solver_from_coarse_level(options)? {
-            Some(Ok(mut solver)) => {
+            Some(Ok(solver)) => {
                 self.pattern = Some(solver.pattern().clone());
-                if paths == PathBudget::First {
-                    solver.first_path_only();
-                }
                 return Ok(solver);
             }
             Some(Err(missed)) => Some(missed),
@@ -313,9 +320,6 @@ impl ChartSession {
         };
         if let Some(missed) = missed {
             solver.note_multilevel_missed(missed);
-        }
-        if paths == PathBudget::First {
-            solver.first_path_only();
         }
         self.pattern = Some(solver.pattern().clone());
         Ok(solver)

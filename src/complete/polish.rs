@@ -29,6 +29,21 @@ pub const SQUEEZED_PSI: f64 = 1000.0;
 /// held fuller, then in own shapes again.
 pub const BLOCKED_STEP: f64 = 0.25;
 
+/// The rest shapes of a free chart's scaffold slivers in the polish.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Slivers {
+    /// Held fuller ([`super::context::SCAFFOLD_MIN_HEIGHT`], see
+    /// [`SQUEEZED_PSI`] and [`BLOCKED_STEP`]); their own shapes follow once
+    /// this stage stops gaining.
+    Floored,
+    /// Their own shapes; a sliver that stops the polish sends it to
+    /// [`Slivers::Floored`] ([`BLOCKED_STEP`]).
+    OwnMayFloor,
+    /// Their own shapes to the end (a chart on the square, a polish only to
+    /// store, or after [`Slivers::Floored`]).
+    Own,
+}
+
 /// Why the polish runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PolishGoal {
@@ -58,13 +73,7 @@ pub struct Polish {
     newton: NewtonContext,
     /// The constrained vertices, held where they are.
     held: Vec<bool>,
-    /// The scaffold has its slivers held fuller (see [`SQUEEZED_PSI`] and
-    /// [`BLOCKED_STEP`]); its own shapes follow once that stage stops gaining.
-    floored: bool,
-    /// Whether the polish can still go on floored when a sliver stops it
-    /// in own shapes ([`BLOCKED_STEP`]): a free chart's distortion polish
-    /// that has not been floored yet.
-    may_floor: bool,
+    slivers: Slivers,
     energy_now: f64,
     pub stats: PolishStats,
 }
@@ -76,9 +85,12 @@ impl Polish {
     /// squeezed, [`SQUEEZED_PSI`], or a sliver stops it, [`BLOCKED_STEP`];
     /// `newton` comes with them so).
     pub fn new(mut newton: NewtonContext, problem: &StepProblem, layout: &[DVec2], goal: PolishGoal) -> Self {
-        let distortion = newton.is_free() && goal == PolishGoal::Distortion;
-        let floored = distortion && newton.worst_psi(layout) > SQUEEZED_PSI;
-        if !floored {
+        let slivers = match newton.is_free() && goal == PolishGoal::Distortion {
+            true if newton.worst_psi(layout) > SQUEEZED_PSI => Slivers::Floored,
+            true => Slivers::OwnMayFloor,
+            false => Slivers::Own,
+        };
+        if slivers != Slivers::Floored {
             newton.scaffold_in_own_shapes(layout);
         }
         let mut held = vec![false; layout.len()];
@@ -97,8 +109,7 @@ impl Polish {
             },
             newton,
             held,
-            floored,
-            may_floor: distortion && !floored,
+            slivers,
             energy_now: energy_start,
         }
     }
@@ -133,19 +144,21 @@ impl Polish {
         let finished =
             self.stats.goal == PolishGoal::Storable || step.converged || gain < POLISH_TOLERANCE || out_of_steps;
         let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
-        if self.may_floor && finished && !out_of_steps && step.alpha < BLOCKED_STEP && self.newton.is_storable() {
-            // Stopped by a sliver: on with the slivers pushing back.
-            self.may_floor = false;
-            self.floored = true;
-            self.newton.scaffold_floored(layout);
-            self.energy_now = self.newton.energy(layout);
-            return false;
-        }
-        if self.floored && finished && !out_of_steps && self.newton.is_storable() {
-            // The squeeze is relieved as far as the fuller slivers push: on
-            // with the scaffold in its own shapes, a barrier only.
-            self.floored = false;
-            self.newton.scaffold_in_own_shapes(layout);
+        if finished && !out_of_steps && self.newton.is_storable() {
+            match self.slivers {
+                // Stopped by a sliver: on with the slivers pushing back.
+                Slivers::OwnMayFloor if step.alpha < BLOCKED_STEP => {
+                    self.slivers = Slivers::Floored;
+                    self.newton.scaffold_floored(layout);
+                }
+                // The squeeze is relieved as far as the fuller slivers push:
+                // on with the scaffold in its own shapes, a barrier only.
+                Slivers::Floored => {
+                    self.slivers = Slivers::Own;
+                    self.newton.scaffold_in_own_shapes(layout);
+                }
+                _ => return true,
+            }
             self.energy_now = self.newton.energy(layout);
             return false;
         }
