@@ -103,5 +103,7 @@ impl Outline {
 pub fn inside(p: DVec2, (lo, hi): (DVec2, DVec2)) -> bool {
     let stored = crate::guard::stored_uv(p);
     let q = DVec2::new(f64::from(stored[0]), 1.0 - f64::from(stored[1]));
-    p.cmpgt(lo).all() && p.cmplt(hi).all() && q.cmpgt(lo).all() && q.cmplt(hi).all()
+    let vt = crate::guard::stored_vt(p);
+    let r = DVec2::new(f64::from(vt[0]), f64::from(vt[1]));
+    [p, q, r].iter().all(|x| x.cmpgt(lo).all() && x.cmplt(hi).all())
 }
