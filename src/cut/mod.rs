@@ -9,6 +9,7 @@
 
 pub mod cones;
 pub mod cost;
+pub mod facing;
 pub mod graph;
 pub mod handles;
 pub mod prepare;
@@ -329,6 +330,27 @@ fn place_cones(
         placed.push(v as u32);
     }
     placed
+}
+
+/// `chart`'s pieces (`piece_of` each triangle's) sorted for a solve: piece
+/// `main`, the other pieces holding landmarks (`held[p]` > 0), and the
+/// pieces without.
+pub(crate) fn sorted_pieces(
+    chart: &crate::mesh::weld::Chart,
+    piece_of: &[u32],
+    held: &[usize],
+    main: usize,
+) -> (crate::mesh::weld::Chart, Vec<crate::mesh::weld::Chart>, Vec<crate::mesh::weld::Chart>) {
+    let (mut first, mut pieces, mut rest) = (None, Vec::new(), Vec::new());
+    for (p, &h) in held.iter().enumerate() {
+        let piece = chart.piece(&piece_of.iter().map(|&q| q as usize == p).collect::<Vec<bool>>());
+        match (p == main, h > 0) {
+            (true, _) => first = Some(piece),
+            (false, true) => pieces.push(piece),
+            (false, false) => rest.push(piece),
+        }
+    }
+    (first.expect("the main piece is one of them"), pieces, rest)
 }
 
 #[cfg(test)]
