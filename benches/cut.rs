@@ -108,7 +108,7 @@ fn run(case: &Case, runs: usize) -> Figures {
     for line in &report.explain {
         eprintln!("  {line}");
     }
-    let free_l2 = uvpin::atlas::unconstrained(session.asset(), session.prepared(), &options).map_or(f64::NAN, |u| {
+    let free_l2 = uvpin::atlas::unconstrained(session.prepared(), &options).map_or(f64::NAN, |u| {
         let c = &u.chart.mesh;
         uvpin::metrics::sander_stretch(&c.positions, &u.shape.points, &c.triangles).l2
     });

@@ -7,7 +7,6 @@
 //! each flat at its own 3D shape.
 
 use crate::chart::{Opening, PreparedChart};
-use crate::constraints::ConstraintSource;
 use crate::cut::prepare::make_solvable;
 use crate::cut::{SeamRules, SeamSpec};
 use crate::domain::Domain;
@@ -17,8 +16,6 @@ use crate::mesh::weld::Chart;
 use crate::options::SolverOptions;
 use crate::pack::{PackError, PackRules, Placement, Shape};
 use crate::param::region::Region;
-use crate::pins::{BoundaryChoice, Pins};
-use crate::session::ChartSession;
 use glam::DVec2;
 use std::sync::Arc;
 
@@ -121,11 +118,18 @@ pub fn unwrap_all(
             spread_disks: true,
             ..SeamRules::DEFAULT
         };
-        match make_solvable(&chart, &SeamSpec::Auto, &[], &diagonals, None, &rules) {
+        match make_solvable(
+            &chart,
+            &crate::cut::prepare::Form::Cut,
+            &SeamSpec::Auto,
+            &[],
+            &diagonals,
+            &rules,
+        ) {
             Ok(solvable) => {
                 queue.extend(solvable.rest.iter().cloned().map(Arc::new));
                 let opening = Opening::without_landmarks(&solvable);
-                let unwrapped = free_layout(asset, prepared, solvable.chart, solvable.topology, opening, options);
+                let unwrapped = free_layout(prepared, solvable.chart, solvable.topology, opening, options);
                 out.push(unwrapped.unwrap_or_else(|chart| soup(&chart)));
             }
             Err(_) => out.push(soup(&chart)),
@@ -137,7 +141,6 @@ pub fn unwrap_all(
 /// The free, unconstrained layout of a solvable chart, at its 3D scale;
 /// the chart back when it cannot be laid out one-to-one.
 fn free_layout(
-    asset: &Arc<SourceAsset>,
     prepared: &PreparedChart,
     chart: Chart,
     topology: crate::mesh::topology::Topology,
@@ -170,16 +173,18 @@ fn free_layout(
         secondary: Vec::new(),
         // Its domain is given: the share only decides a chart's region.
         rest_share: 0.0,
+        whole: Region::TEXTURE,
     };
-    let source = ConstraintSource::Memory(Arc::new(Pins::new(&[]).with_boundary(BoundaryChoice::Free)));
-    let mut session = ChartSession::from_prepared(source, asset.clone(), piece);
-    let solved = session.solve(options).map_err(|_| Box::new((*chart).clone()))?;
-    let clean = solved.report.orientation.is_clean() && solved.report.free.as_ref().is_some_and(|f| f.crossings == 0);
+    let solver = crate::plan::own::solve(&piece, options).ok_or_else(|| Box::new((*chart).clone()))?;
+    let clean = crate::guard::all_positive_as_stored(solver.layout(), &piece.filled.mesh.triangles)
+        && solver
+            .free()
+            .is_some_and(|f| f.domain.room.admits(solver.layout()).is_ok());
     if !clean {
         return Err(Box::new((*chart).clone()));
     }
     let n = chart.mesh.n_vertices();
-    let full = solved.solver.layout();
+    let full = solver.layout();
     let k = mesh_scale(&chart, &full[..n]);
     Ok(Unwrapped {
         filled: full.iter().map(|&p| p * k).collect(),
@@ -196,10 +201,10 @@ fn free_layout(
 /// The free layout of `prepared`'s chart, cut as it is, without its
 /// landmarks (the yardstick of the constrained layout's stretch); `None`
 /// when it cannot be laid out one-to-one.
-pub fn unconstrained(asset: &Arc<SourceAsset>, prepared: &PreparedChart, options: &SolverOptions) -> Option<Unwrapped> {
+pub fn unconstrained(prepared: &PreparedChart, options: &SolverOptions) -> Option<Unwrapped> {
     let opening = Opening::clone(&prepared.opening);
     let topology = (*prepared.topology).clone();
-    free_layout(asset, prepared, (*prepared.chart).clone(), topology, opening, options).ok()
+    free_layout(prepared, (*prepared.chart).clone(), topology, opening, options).ok()
 }
 
 /// The factor that scales `layout` of `chart` to the chart's 3D area.
@@ -244,13 +249,13 @@ fn soup(chart: &Chart) -> Unwrapped {
 }
 
 /// Packs `rest` around the `occupied` triangles (layout coordinates) into
-/// the texture.
+/// `whole` (the texture, or the given region).
 ///
 /// # Errors
 /// No room left.
-pub fn place(rest: &Rest, occupied: &[[DVec2; 3]], rules: &PackRules) -> Result<PlacedRest, PackError> {
+pub fn place(rest: &Rest, occupied: &[[DVec2; 3]], whole: Region, rules: &PackRules) -> Result<PlacedRest, PackError> {
     let shapes: Vec<Shape> = rest.charts.iter().map(|u| u.shape.clone()).collect();
-    let placements: Vec<Placement> = crate::pack::pack(occupied, Region::TEXTURE.layout_box(), &shapes, rules)?;
+    let placements: Vec<Placement> = crate::pack::pack(occupied, whole.layout_box(), &shapes, rules)?;
     let scale = placements.first().map_or(0.0, |p| p.scale);
     let charts = rest
         .charts

@@ -2,7 +2,7 @@
 //! constraints and corners in chart-local ids; and the final per-primitive UVs.
 
 use crate::constraints::ConstraintSource;
-use crate::cut::prepare::make_solvable;
+use crate::cut::prepare::{Form, SolvableError, make_solvable};
 use crate::cut::separate::Budget;
 use crate::cut::{SeamRules, SeamSpec};
 use crate::domain::Domain;
@@ -49,6 +49,9 @@ pub struct PreparedChart {
     /// The share of the surface that other charts needing UVs take
     /// (they are packed around this one): depends on the geometry only.
     pub rest_share: f64,
+    /// Where every UV this solve writes stays: the given region, or the
+    /// texture (the charts packed beside this one too).
+    pub whole: Region,
 }
 
 /// Which chart to prepare, and what this solve has laid out around it.
@@ -62,6 +65,16 @@ pub struct Pick {
     pub placed: Arc<Vec<[DVec2; 3]>>,
     /// Charts whose stored UVs this solve replaces: not obstacles.
     pub replaced: Vec<u32>,
+    /// How the chart is made a disk (`None`: as given when it is one,
+    /// else cut open).
+    pub form: Option<Form>,
+    /// The boundary when the constraint file names none and gives no
+    /// region (`None`: the default, [`crate::domain::setup::decide`]).
+    pub boundary: Option<crate::pins::BoundaryChoice>,
+    /// A piece of chart `chart` holding landmarks, split off another
+    /// solve's chart ([`Opening::pieces`]): solved with its own landmarks
+    /// instead of the whole chart.
+    pub piece: Option<Arc<Chart>>,
 }
 
 /// What was done to a chart so it could be solved: where it was cut open
@@ -80,8 +93,11 @@ pub struct Opening {
     /// whose UVs it takes).
     pub duplicates: Vec<(u32, u32)>,
     /// The other pieces the chart fell into when repaired, or was split
-    /// into for being too large for its targets: laid out apart.
+    /// into around its landmarks: laid out apart, without landmarks.
     pub rest: Vec<Arc<Chart>>,
+    /// The other pieces holding landmarks: each solved as a chart of its
+    /// own after this one ([`Pick::piece`]).
+    pub pieces: Vec<Arc<Chart>>,
     /// Where the landmarks' chart was cut from the rest of a chart too
     /// large for its targets (welded pairs).
     pub separation: Vec<[u32; 2]>,
@@ -100,6 +116,7 @@ impl Opening {
             repairs: solvable.repairs.clone(),
             duplicates: solvable.duplicates.clone(),
             rest: Vec::new(),
+            pieces: Vec::new(),
             separation: Vec::new(),
             key: GeometryKey::default(),
         }
@@ -107,13 +124,12 @@ impl Opening {
 }
 
 /// What a chart's geometry depends on beyond the chart itself.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 struct GeometryKey {
     seams: crate::pins::SeamsChoice,
     landmarks: Option<Vec<u32>>,
-    /// The targets' scale, in steps of a quarter octave, when the chart
-    /// could be split for being too large for them.
-    scale_step: Option<i32>,
+    /// The form asked for (`None`: as given, or cut when it is no disk).
+    form: Option<Form>,
 }
 
 /// Welds the asset's mesh, resolves the constraints, picks the chart that
@@ -166,12 +182,16 @@ fn prepare_on(
     let (chart_id, secondary) = choose_chart(&all_constraints, &welded, asset, pick)?;
     let constraints: Vec<ResolvedConstraint> = all_constraints
         .into_iter()
-        .filter(|c| welded.chart_of_vertex[c.welded as usize] == Some(chart_id))
+        .filter(|c| match &pick.piece {
+            Some(piece) => piece.local_of(c.welded).is_some(),
+            None => welded.chart_of_vertex[c.welded as usize] == Some(chart_id),
+        })
         .collect();
     let seams = source.seams(&asset.primitives, &welded)?;
     let landmarks: Vec<u32> = constraints.iter().map(|c| c.welded).collect();
-    let budget = separation_budget(source, asset, &welded, chart_id, &constraints);
-    let reusable = previous.filter(|p| p.chart.id == chart_id && p.opening.key.fits(&seams, &landmarks, budget));
+    // A piece is solved as it is; its start is its form's (the camera's view).
+    let form = if pick.piece.is_some() { None } else { pick.form.as_ref() };
+    let reusable = previous.filter(|p| p.chart.id == chart_id && p.opening.key.fits(&seams, &landmarks, form));
     // An area sum over every triangle: kept with the geometry it depends on.
     let kept_share = reusable.map(|p| p.rest_share);
     let geometry = match reusable {
@@ -182,9 +202,17 @@ fn prepare_on(
             p.filled.clone(),
             p.opening.clone(),
         ),
-        None => chart_geometry(&welded, chart_id, asset, source, (&seams, &landmarks, budget))?,
+        None => {
+            let base = pick.piece.as_deref().cloned().unwrap_or_else(|| welded.chart(chart_id));
+            chart_geometry(base, &welded, asset, source, (&seams, &landmarks, form))?
+        }
     };
     let (chart, topology, traps, filled, opening) = geometry;
+    // Landmarks on the other pieces are solved with those.
+    let constraints: Vec<ResolvedConstraint> = constraints
+        .into_iter()
+        .filter(|c| chart.local_of(c.welded).is_some())
+        .collect();
     let constraint_vertices = constraints
         .iter()
         .map(|c| chart.local_of(c.welded).expect("constraint in the chart"))
@@ -194,7 +222,15 @@ fn prepare_on(
     warnings.extend(repair_warnings(&opening));
     let cut = opening.seam.is_some() || !opening.separation.is_empty();
     let rest_share = kept_share.unwrap_or_else(|| rest_share(asset, &welded, &chart, &opening));
-    let domain = crate::domain::setup::decide(source, asset, &welded, &chart, &constraints, (cut, rest_share), pick)?;
+    let mut domain =
+        crate::domain::setup::decide(source, asset, &welded, &chart, &constraints, (cut, rest_share), pick)?;
+    if let (Some(Form::Facing { camera, .. }), Domain::Free(setup)) = (&pick.form, &domain)
+        && let Some(layout) = crate::domain::start::projection_start(camera, &filled)
+    {
+        domain = Domain::Free(Arc::new(
+            setup.starting_from(layout, crate::domain::start::StartKind::Projection),
+        ));
+    }
     if corners.is_some() && matches!(domain, Domain::Free(_)) {
         warnings.push("corners are ignored: the boundary is free".into());
     }
@@ -212,17 +248,21 @@ fn prepare_on(
         opening,
         secondary,
         rest_share,
+        whole: source.boundary().1.unwrap_or(Region::TEXTURE),
     })
 }
 
 impl GeometryKey {
-    /// Whether geometry made for this key serves `seams` and `landmarks`
-    /// (welded ids): the same seams asked for and, if the chart was cut
-    /// automatically, the same landmark vertices.
-    fn fits(&self, seams: &crate::pins::SeamsChoice, landmarks: &[u32], budget: Option<Budget>) -> bool {
-        self.seams == *seams
-            && self.landmarks.as_ref().is_none_or(|l| *l == sorted(landmarks))
-            && self.scale_step.is_none_or(|s| Some(s) == budget.map(scale_step))
+    /// Whether geometry made for this key serves `seams`, `landmarks`
+    /// (welded ids) and `form`: the same seams and form asked for and, if
+    /// the chart was cut or split around them, the same landmark vertices
+    /// (a split at a scale within a quarter octave of this one's).
+    fn fits(&self, seams: &crate::pins::SeamsChoice, landmarks: &[u32], form: Option<&Form>) -> bool {
+        let same_form = match (&self.form, form) {
+            (Some(Form::Around(a)), Some(Form::Around(b))) => scale_step(*a) == scale_step(*b),
+            (a, b) => a.as_ref() == b,
+        };
+        self.seams == *seams && same_form && self.landmarks.as_ref().is_none_or(|l| *l == sorted(landmarks))
     }
 }
 
@@ -231,9 +271,9 @@ fn scale_step(budget: Budget) -> i32 {
 }
 
 /// The scale the targets ask for and the room they leave, when the chart
-/// is laid out anew (it has no UVs) and freely: a chart far too large for
-/// its targets at that scale is split ([`crate::cut::separate`]).
-fn separation_budget(
+/// is laid out anew (it has no UVs) and freely: the budget of a chart cut
+/// down to the landmarks' surroundings ([`crate::cut::separate`]).
+pub fn separation_budget(
     source: &ConstraintSource,
     asset: &SourceAsset,
     welded: &WeldedMesh,
@@ -384,13 +424,13 @@ type ChartGeometry = (
 );
 
 fn chart_geometry(
+    chart: Chart,
     welded: &WeldedMesh,
-    chart_id: u32,
     asset: &SourceAsset,
     source: &ConstraintSource,
-    (seams, landmarks, budget): (&crate::pins::SeamsChoice, &[u32], Option<Budget>),
+    (seams, landmarks, form): (&crate::pins::SeamsChoice, &[u32], Option<&Form>),
 ) -> Result<ChartGeometry, Error> {
-    let chart = welded.chart(chart_id);
+    let chart_id = chart.id;
     let spec = match seams {
         crate::pins::SeamsChoice::Auto => SeamSpec::Auto,
         crate::pins::SeamsChoice::Edges(paths) => {
@@ -406,20 +446,26 @@ fn chart_geometry(
         }
     };
     let diagonals = polygon_diagonals(asset, welded);
-    let solvable =
-        make_solvable(&chart, &spec, landmarks, &diagonals, budget, &SeamRules::DEFAULT).map_err(|source| {
-            Error::Topology {
-                path: asset.path.clone(),
-                mesh: asset.mesh_index,
-                chart: chart_id,
-                n_vertices: chart.mesh.n_vertices(),
-                n_triangles: chart.mesh.n_triangles(),
-                source,
-            }
-        })?;
+    let made = |form: &Form| make_solvable(&chart, form, &spec, landmarks, &diagonals, &SeamRules::DEFAULT);
+    let solvable = match form {
+        Some(form) => made(form),
+        None => match made(&Form::AsGiven) {
+            Err(SolvableError::NotADisk(_)) => made(&Form::Cut),
+            other => other,
+        },
+    }
+    .map_err(|source| Error::Topology {
+        path: asset.path.clone(),
+        mesh: asset.mesh_index,
+        chart: chart_id,
+        n_vertices: chart.mesh.n_vertices(),
+        n_triangles: chart.mesh.n_triangles(),
+        source,
+    })?;
     let auto_cut = (solvable.seam.is_some() || !solvable.separation.is_empty()) && matches!(spec, SeamSpec::Auto);
     let opening = Opening {
         rest: solvable.rest.into_iter().map(Arc::new).collect(),
+        pieces: solvable.pieces.into_iter().map(Arc::new).collect(),
         separation: solvable.separation,
         seam: solvable.seam,
         seam_given: matches!(spec, SeamSpec::Edges(_)),
@@ -429,7 +475,7 @@ fn chart_geometry(
         key: GeometryKey {
             seams: seams.clone(),
             landmarks: auto_cut.then(|| sorted(landmarks)),
-            scale_step: budget.filter(|_| solvable.scale_weighed).map(scale_step),
+            form: form.cloned(),
         },
     };
     let (chart, topology) = (solvable.chart, solvable.topology);

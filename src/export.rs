@@ -154,7 +154,8 @@ pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Pat
 /// makes; `None` (and `report` an error) when they refuse the layout.
 pub fn final_uvs(finished: &Finished, report: &mut Report) -> Option<Vec<crate::io::corners::CornerUvs>> {
     let placed = checked(finished, report)?;
-    let parts = placed.parts(finished.prepared, finished.layout);
+    let mut parts = placed.parts(finished.prepared, finished.layout);
+    parts.extend(finished.secondary.iter().map(|s| s.prepared.part(&s.layout)));
     Some(chart::assemble_corner_uvs(
         finished.asset,
         &finished.prepared.welded,
@@ -232,7 +233,7 @@ fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::
         let o = &setup.obstacles;
         occupied.extend(o.triangles.iter().map(|t| t.map(|v| o.layout[v as usize])));
     }
-    let placed = crate::atlas::place(rest, &occupied, &crate::pack::PackRules::DEFAULT)
+    let placed = crate::atlas::place(rest, &occupied, prepared.whole, &crate::pack::PackRules::DEFAULT)
         .map_err(|e| format!("{e}; nothing written"))?;
     for (chart, _, layout) in &placed.charts {
         let stored: Vec<[f32; 2]> = layout.iter().map(|&p| crate::guard::stored_uv(p)).collect();

@@ -64,6 +64,7 @@ pub mod options;
 pub mod pack;
 pub mod param;
 pub mod pins;
+pub mod plan;
 #[cfg(feature = "pictures")]
 pub mod preview;
 pub mod rbf;

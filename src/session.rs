@@ -70,6 +70,8 @@ pub struct ChartSession {
     /// The other charts holding constraints, solved by the last
     /// [`Self::report`] around its layout, for [`Self::export`].
     secondary: Arc<Vec<export::Secondary>>,
+    /// How the chart was picked and made ([`Self::reshaped`] keeps it).
+    pick: chart::Pick,
 }
 
 /// What a [`ChartSession::retarget`] kept of the session's earlier work.
@@ -142,6 +144,7 @@ impl ChartSession {
             revision: 0,
             rest: Arc::default(),
             secondary: Arc::default(),
+            pick: chart::Pick::default(),
         })
     }
 
@@ -161,6 +164,49 @@ impl ChartSession {
             revision: 0,
             rest: Arc::default(),
             secondary: Arc::default(),
+            pick: chart::Pick::default(),
+        }
+    }
+
+    /// The same asset and constraints with the chart made as `pick` says
+    /// (another form, or another boundary where the file names none), on
+    /// this session's weld: a candidate of [`crate::plan`].
+    ///
+    /// # Errors
+    /// As [`ChartSession::open`].
+    pub fn reshaped(
+        &self,
+        form: &crate::cut::prepare::Form,
+        boundary: Option<crate::pins::BoundaryChoice>,
+    ) -> Result<ChartSession, Error> {
+        let t0 = Instant::now();
+        let pick = chart::Pick {
+            form: Some(form.clone()),
+            boundary,
+            ..self.pick.clone()
+        };
+        let prepared = chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick)?;
+        let mut session = ChartSession::from_prepared(self.source.clone(), self.asset.clone(), prepared);
+        session.pick = pick;
+        session.times = StageTimes {
+            load_ms: self.times.load_ms,
+            topology_ms: self.times.topology_ms + ms(t0),
+            ..StageTimes::default()
+        };
+        session.revision = self.revision;
+        Ok(session)
+    }
+
+    /// The last finished layout on the square with these corners, the warm
+    /// start of a [`StartFrom::LastLayout`] solve.
+    pub fn last_layout(&self) -> Option<Arc<Vec<DVec2>>> {
+        self.last_layout.clone().filter(|_| self.on_square())
+    }
+
+    /// Keeps `solver`'s finished layout as the next warm start, when on the square.
+    pub fn keep_layout(&mut self, solver: &ChartSolver) {
+        if self.on_square() {
+            self.last_layout = Some(Arc::new(solver.layout().to_vec()));
         }
     }
 
@@ -576,7 +622,7 @@ impl ChartSession {
         let Some(free) = solver.free() else {
             return Some((self.step_one.as_deref().cloned()?, Vec::new()));
         };
-        let unwrapped = crate::atlas::unconstrained(&self.asset, &self.prepared, solver.options())?;
+        let unwrapped = crate::atlas::unconstrained(&self.prepared, solver.options())?;
         let base: Vec<DVec2> = unwrapped.filled.get(..f.mesh.n_vertices())?.to_vec();
         let room = &free.domain.room;
         let fits = |layout: &[DVec2]| {
@@ -617,15 +663,21 @@ impl ChartSession {
         let mut replaced = vec![self.prepared.chart.id];
         replaced.extend(&self.prepared.secondary);
         let (mut solved, mut reports, mut failures) = (Vec::new(), Vec::new(), Vec::new());
-        for &id in &self.prepared.secondary {
+        let charts = self.prepared.secondary.iter().map(|&id| (id, None));
+        let pieces = self.prepared.opening.pieces.iter().map(|p| (p.id, Some(p.clone())));
+        for (id, piece) in pieces.chain(charts) {
             let pick = chart::Pick {
                 chart: Some(id),
                 placed: Arc::new(placed.clone()),
                 replaced: replaced.clone(),
+                form: piece.as_ref().and(self.pick.form.clone()),
+                boundary: piece.as_ref().map(|_| crate::pins::BoundaryChoice::Free),
+                piece,
             };
             let outcome =
                 chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick).and_then(|p| {
                     let mut session = ChartSession::from_prepared(self.source.clone(), self.asset.clone(), p);
+                    session.pick = pick.clone();
                     let solution = session.solve(solver.options())?;
                     Ok((session.prepared, solution))
                 });
@@ -688,16 +740,24 @@ impl ChartSession {
         watch: &mut dyn FnMut(Progress),
     ) -> Result<Option<Solution>, Error> {
         watch(Progress::at(Stage::StepOne));
-        let mut solver = self.new_solver(options, from)?;
-        while !solver.is_done() {
+        let mut plan = crate::plan::ChartPlan::new(self.clone(), *options, from);
+        while !plan.is_done() {
             if stop() {
                 return Ok(None);
             }
-            solver.tick()?;
-            watch(solver.progress());
+            plan.tick()?;
+            watch(plan.progress());
         }
         watch(Progress::at(Stage::Finishing));
-        let report = self.report(&mut solver);
+        let solved = plan.into_solution()?;
+        *self = solved.session;
+        let mut report = solved.report;
+        let solver = solved.solver;
+        if !self.prepared.secondary.is_empty() || !self.prepared.opening.pieces.is_empty() {
+            let (secondary, reports, failures) = self.solve_secondary(&solver);
+            report.add_charts(reports, failures);
+            self.secondary = Arc::new(secondary);
+        }
         Ok(Some(Solution { solver, report }))
     }
 

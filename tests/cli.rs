@@ -294,8 +294,9 @@ fn broken_ron_reports_line_and_column_and_writes_nothing() {
     assert_fails_writing_nothing(&ron, &tmp, &["constraints[1].uv", "already constrained"]);
     write_constraints(&ron, &asset, &[(6, 1.5, 0.5)], "");
     assert_fails_writing_nothing(&ron, &tmp, &["outside the unit square"]);
-    // A boundary vertex (1 is on the bottom row) asked to go to the middle.
-    write_constraints(&ron, &asset, &[(1, 0.5, 0.5)], "");
+    // A boundary vertex (1 is on the bottom row) asked to go to the middle,
+    // on the square the file asks for.
+    write_constraints(&ron, &asset, &[(1, 0.5, 0.5)], "  boundary: Square,\n");
     assert_fails_writing_nothing(&ron, &tmp, &["constraints[0].uv", "outer boundary", "contradicts"]);
     // Corners in mirrored order.
     write_constraints(

@@ -226,16 +226,24 @@ fn a_closed_sphere_is_cut_behind_its_landmarks_and_solved() {
     assert_eq!(report["seam"]["handle_edges"], 0);
     assert_eq!(report["seam"]["separation_edges"], 0);
     assert!(report["rest"].is_null());
-    // Spanning 70 %: laid out whole, the back would be crushed into the
-    // texture's corners; the front is cut out as its own chart and the
-    // back packed beside it.
+    // Spanning 70 %: laid out whole, the back is pressed into the texture's
+    // corners. The chart is kept whole only if its stretch measured within
+    // 1.5× its own free layout's; else the front is split off as its own
+    // chart and the back packed beside it.
     let report = solve_closed("sphere-photo", &uvpin::testing::uv_sphere(24, 36), 24, 0.7);
-    assert!(
-        report["seam"]["separation_edges"].as_u64().unwrap() > 0,
-        "{}",
-        report["seam"]
-    );
-    assert_eq!(report["rest"]["charts"], 1, "{}", report["rest"]);
+    let plan = &report["plan"];
+    let kept = &plan["tried"][plan["chosen"].as_u64().unwrap() as usize];
+    assert_eq!(kept["reached"], true, "{plan}");
+    let split = report["seam"]["separation_edges"].as_u64().unwrap_or(0) > 0;
+    if split {
+        assert_eq!(report["rest"]["charts"], 1, "{}", report["rest"]);
+    } else {
+        let (l2, own) = (
+            kept["stretch"]["l2"].as_f64().unwrap(),
+            kept["own"]["l2"].as_f64().unwrap(),
+        );
+        assert!(l2 <= 1.5 * own, "kept whole at {l2}, its own {own}: {plan}");
+    }
 }
 
 fn a_torus_and_a_double_torus_have_their_handles_cut() {
@@ -390,8 +398,9 @@ fn the_shared_cow_is_repaired_cut_and_solved() {
 /// other piece is unwrapped and packed around it.
 fn the_shared_ogre_gets_every_piece_laid_out() {
     let (_, glb) = solve_shared_obj_on("ogre.obj", Some(25.0), DVec3::NEG_Z, DVec3::Y, 24, 0.6);
-    // Its 43 other pieces, and the body below the head.
-    assert_eq!(glb["rest"]["charts"].as_u64(), Some(44), "{}", glb["rest"]);
+    // Its 43 other pieces, and at least the body below the head (every
+    // triangle laid out fold-free is checked above).
+    assert!(glb["rest"]["charts"].as_u64().unwrap() >= 44, "{}", glb["rest"]);
     assert!(glb["seam"]["separation_edges"].as_u64().unwrap() > 0);
 }
 

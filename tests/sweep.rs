@@ -212,7 +212,7 @@ fn preview_pictures_decode_at_their_size_and_mark_the_constraints() {
 
     // An unreached constraint (the crossing without completion) is marked red where it stopped.
     let ron = dir.path("stuck.uvpin.ron");
-    write_swap(&ron, "    solver: (completion: Never),\n");
+    write_swap(&ron, "    solver: (completion: Never),\n    boundary: Square,\n");
     let o = uvpin(&[
         "solve",
         ron.to_str().unwrap(),

@@ -3,11 +3,13 @@
 //! disagreeing windings repaired by splitting vertices ([`split_wedges`]),
 //! and the result opened to a disk along seams ([`super::open`]).
 
+use super::facing::Camera;
 use super::separate::{Budget, separate};
 use super::{CutError, Seam, SeamRules, SeamSpec};
 use crate::mesh::topology::{Topology, TopologyError, triangle_components};
 use crate::mesh::wedges::{Repairs, split_wedges};
 use crate::mesh::weld::Chart;
+use glam::DVec2;
 use thiserror::Error;
 
 /// A chart ready for the solve.
@@ -29,14 +31,15 @@ pub struct Solvable {
     /// The other pieces the chart fell into when repaired (it touched them
     /// only at a fin, a pinch or an edge wound both ways), repaired but
     /// neither cut nor solved: they need layouts of their own. And the
-    /// rest of a chart too large for its targets ([`super::separate`]).
+    /// rest of a chart split around its landmarks.
     pub rest: Vec<Chart>,
+    /// The other pieces holding landmarks (split apart where the chart is
+    /// not a surface, or seen apart by the camera): each is solved as a
+    /// chart of its own, after this one.
+    pub pieces: Vec<Chart>,
     /// Where the landmarks' chart was cut from the rest, welded pairs
     /// (empty when it fitted).
     pub separation: Vec<[u32; 2]>,
-    /// Whether the targets' scale was weighed (the chart had to be cut
-    /// open): then a new scale may split it differently.
-    pub scale_weighed: bool,
 }
 
 /// Why a chart cannot be made solvable.
@@ -51,57 +54,93 @@ pub enum SolvableError {
          orientations; remove one of them"
     )]
     DoubleSided { t0: u32, t1: u32 },
-    #[error(
-        "the chart falls into {n_pieces} pieces once split where it is not a surface ({where_}), and the landmarks are on more \
-         than one of them (welded vertices {a} and {b}): put them on one piece, or mend the mesh there"
-    )]
-    Pieces {
-        n_pieces: usize,
-        where_: String,
-        a: u32,
-        b: u32,
-    },
+    #[error("{0}")]
+    NotADisk(TopologyError),
+    #[error("no part {form} holds every landmark")]
+    NoPart { form: &'static str },
 }
 
-/// `chart` repaired and opened along the seams `spec` asks for, keeping
-/// them off `landmarks` and off the `unseamable` edges (polygon diagonals);
-/// seams, landmarks and edges as welded ids. When the repair splits the chart into pieces, the
-/// one holding the landmarks (or the largest) is solved; the others are
-/// handed back in [`Solvable::rest`].
+/// How a landmarked chart is made a disk: the candidates a solve weighs
+/// on its coarse level before it picks one.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Form {
+    /// As it comes, repaired (a disk, holes allowed), cut only along the
+    /// seams given.
+    AsGiven,
+    /// Cut open along automatic seams: handles, then out to cone points
+    /// (a disk too, from its boundary).
+    Cut,
+    /// The landmarks' geodesic surroundings, as large as the targets'
+    /// scale leaves room for ([`super::separate`]); the rest apart.
+    Around(Budget),
+    /// What a camera fitted to the targets sees facing it, projected
+    /// inside `room` (a layout box) ([`super::facing`]); the rest apart.
+    Facing { camera: Camera, room: (DVec2, DVec2) },
+}
+
+impl Form {
+    /// A short name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Form::AsGiven => "as given",
+            Form::Cut => "cut",
+            Form::Around(_) => "landmarks' surroundings",
+            Form::Facing { .. } => "as the camera sees it",
+        }
+    }
+}
+
+/// `chart` repaired and made a disk as `form` says, seams kept off
+/// `landmarks` and off the `unseamable` edges (polygon diagonals); seams,
+/// landmarks and edges as welded ids. When the repair splits the chart
+/// into pieces, the one holding the landmarks (or the largest) is solved;
+/// the others are handed back in [`Solvable::rest`], with what a
+/// separating form split off.
 ///
 /// # Errors
-/// A double-sided face, landmarks on several pieces, bad given seams, or a
-/// chart still not a disk.
+/// A double-sided face, landmarks on several pieces, bad given seams, a
+/// form that leaves the chart no disk, or one that finds no part holding
+/// every landmark.
 pub fn make_solvable(
     chart: &Chart,
+    form: &Form,
     spec: &SeamSpec,
     landmarks: &[u32],
     unseamable: &[[u32; 2]],
-    budget: Option<Budget>,
     rules: &SeamRules,
 ) -> Result<Solvable, SolvableError> {
     let (single, duplicates) = without_duplicates(chart)?;
     let repaired = split_wedges(&single.mesh, &|_| false);
     let whole = single.opened(&repaired);
-    let (mut main, mut rest) = main_piece(&whole, landmarks, &repaired.repairs)?;
+    let (mut main, mut pieces, mut rest) = main_piece(&whole, landmarks);
     let mut separation = Vec::new();
-    // Only a chart that must be cut open can be too large for its targets:
-    // a disk lies flat at any scale.
-    let topology = Topology::build(&main.mesh);
-    let must_open = topology.as_ref().map_or(true, |t| super::nearly_closed(&main.mesh, t));
-    let scale_weighed = must_open && budget.is_some() && matches!(spec, SeamSpec::Auto);
-    if let (SeamSpec::Auto, Some(budget), true) = (spec, budget, must_open) {
-        let local_landmarks: Vec<u32> = landmarks.iter().filter_map(|w| main.local_of(*w)).collect();
-        let local_barred = local_pairs(&main, unseamable);
-        if let Some(split) = separate(&main, &local_landmarks, budget, &local_barred) {
-            separation = split
-                .edges
-                .iter()
-                .map(|e| e.map(|v| main.welded_ids[v as usize]))
-                .collect();
-            main = split.main;
-            rest.extend(split.rest);
+    let local_landmarks = |c: &Chart| -> Vec<u32> { landmarks.iter().filter_map(|w| c.local_of(*w)).collect() };
+    let split = match form {
+        Form::AsGiven | Form::Cut => None,
+        Form::Around(budget) => {
+            let barred = local_pairs(&main, unseamable);
+            let split = separate(&main, &local_landmarks(&main), *budget, &barred);
+            Some(split.ok_or(SolvableError::NoPart { form: form.name() })?)
         }
+        Form::Facing { camera, room } => {
+            let barred = local_pairs(&main, unseamable);
+            let region = super::facing::facing_region(&main.mesh, camera, &local_landmarks(&main), *room, &barred)
+                .ok_or(SolvableError::NoPart { form: form.name() })?;
+            Some(
+                super::separate::split_off(&main, &region, &local_landmarks(&main))
+                    .ok_or(SolvableError::NoPart { form: form.name() })?,
+            )
+        }
+    };
+    if let Some(split) = split {
+        separation = split
+            .edges
+            .iter()
+            .map(|e| e.map(|v| main.welded_ids[v as usize]))
+            .collect();
+        main = split.main;
+        pieces.extend(split.others);
+        rest.extend(split.rest);
     }
     let local = |w: &u32| main.local_of(*w);
     let landmark_ids: Vec<u32> = landmarks.iter().filter_map(local).collect();
@@ -122,36 +161,41 @@ pub fn make_solvable(
         ),
     };
     let (repairs, duplicates) = (repaired.repairs, duplicates);
-    // A disk with boundary enough, its seams left to us, is solvable as it
-    // is (what `open` would find, without building its topology again).
-    let (opened, topology) = match topology {
-        Ok(t) if matches!(spec, SeamSpec::Auto) && !must_open && !rules.spread_disks => (None, Some(t)),
-        _ => (super::open(&main.mesh, &spec, &landmark_ids, &barred, rules)?, None),
+    let topology = Topology::build(&main.mesh);
+    let cut = match (form, &spec, &topology) {
+        (Form::AsGiven, SeamSpec::Auto, Err(e)) => return Err(SolvableError::NotADisk(e.clone())),
+        // As given, or split apart around the landmarks: a disk is solved as
+        // it is; what is not a disk yet (a handle inside the part) is cut.
+        (Form::AsGiven | Form::Around(_) | Form::Facing { .. }, SeamSpec::Auto, Ok(_)) => None,
+        (Form::Cut, SeamSpec::Auto, _) => {
+            let spread = SeamRules {
+                spread_disks: true,
+                ..*rules
+            };
+            super::open(&main.mesh, &spec, &landmark_ids, &barred, &spread)?
+        }
+        _ => super::open(&main.mesh, &spec, &landmark_ids, &barred, rules)?,
     };
-    match opened {
-        None => Ok(Solvable {
-            topology: topology.map_or_else(|| Topology::build(&main.mesh), Ok)?,
-            chart: main,
-            seam: None,
-            seam_copies: 0,
-            repairs,
-            duplicates,
-            rest,
-            separation,
-            scale_weighed,
-        }),
-        Some(opened) => Ok(Solvable {
-            chart: main.opened(&opened.wedges),
-            topology: opened.topology,
-            seam: Some(opened.seam),
-            seam_copies: opened.wedges.n_added(),
-            repairs,
-            duplicates,
-            rest,
-            separation,
-            scale_weighed,
-        }),
-    }
+    let (chart, topology, seam, seam_copies) = match cut {
+        None => (main, topology?, None, 0),
+        Some(opened) => (
+            main.opened(&opened.wedges),
+            opened.topology,
+            Some(opened.seam),
+            opened.wedges.n_added(),
+        ),
+    };
+    Ok(Solvable {
+        chart,
+        topology,
+        seam,
+        seam_copies,
+        repairs,
+        duplicates,
+        rest,
+        pieces,
+        separation,
+    })
 }
 
 /// Welded vertex pairs as `chart`'s local `(min, max)` pairs, sorted (pairs
@@ -166,15 +210,13 @@ fn local_pairs(chart: &Chart, pairs: &[[u32; 2]]) -> Vec<[u32; 2]> {
     out
 }
 
-/// The piece of `whole` that holds every landmark (welded ids), or the one
-/// with the most triangles, and the other pieces.
-///
-/// # Errors
-/// Landmarks on two pieces.
-fn main_piece(whole: &Chart, landmarks: &[u32], repairs: &Repairs) -> Result<(Chart, Vec<Chart>), SolvableError> {
+/// The piece of `whole` that holds most landmarks (welded ids; without
+/// any, the one with the most triangles), the other pieces holding
+/// landmarks, and the pieces without.
+fn main_piece(whole: &Chart, landmarks: &[u32]) -> (Chart, Vec<Chart>, Vec<Chart>) {
     let (n_pieces, piece_of) = triangle_components(&whole.mesh);
     if n_pieces == 1 {
-        return Ok((whole.clone(), Vec::new()));
+        return (whole.clone(), Vec::new(), Vec::new());
     }
     let mut piece_of_vertex = vec![u32::MAX; whole.mesh.n_vertices()];
     let mut size = vec![0usize; n_pieces];
@@ -182,55 +224,14 @@ fn main_piece(whole: &Chart, landmarks: &[u32], repairs: &Repairs) -> Result<(Ch
         size[piece_of[t] as usize] += 1;
         tri.iter().for_each(|&v| piece_of_vertex[v as usize] = piece_of[t]);
     }
-    let holding: Vec<(u32, u32)> = landmarks
-        .iter()
-        .filter_map(|&w| whole.local_of(w).map(|l| (w, piece_of_vertex[l as usize])))
-        .collect();
-    if let Some(&(b, _)) = holding.iter().find(|(_, p)| *p != holding[0].1) {
-        return Err(SolvableError::Pieces {
-            n_pieces,
-            where_: describe_repairs(repairs),
-            a: holding[0].0,
-            b,
-        });
+    let mut held = vec![0usize; n_pieces];
+    for l in landmarks.iter().filter_map(|&w| whole.local_of(w)) {
+        held[piece_of_vertex[l as usize] as usize] += 1;
     }
-    let main = holding.first().map_or_else(
-        || {
-            (0..n_pieces)
-                .max_by_key(|&p| (size[p], std::cmp::Reverse(p)))
-                .expect("pieces") as u32
-        },
-        |h| h.1,
-    );
-    let charts = (0..n_pieces as u32)
-        .map(|p| whole.piece(&piece_of.iter().map(|&q| q == p).collect::<Vec<bool>>()))
-        .collect::<Vec<Chart>>();
-    let mut rest = charts;
-    let main_chart = rest.remove(main as usize);
-    Ok((main_chart, rest))
-}
-
-/// The first repair of each kind, for a message.
-fn describe_repairs(r: &Repairs) -> String {
-    let mut parts = Vec::new();
-    if let Some((e, t)) = r.non_manifold_edges.first() {
-        parts.push(format!(
-            "non-manifold edge ({}, {}) of {} triangles {t:?}",
-            e[0],
-            e[1],
-            t.len()
-        ));
-    }
-    if let Some((e, t)) = r.inconsistent_edges.first() {
-        parts.push(format!(
-            "edge ({}, {}) whose triangles {} and {} are wound opposite ways",
-            e[0], e[1], t[0], t[1]
-        ));
-    }
-    if let Some(v) = r.pinches.first() {
-        parts.push(format!("pinched vertex {v}"));
-    }
-    parts.join("; ")
+    let main = (0..n_pieces)
+        .max_by_key(|&p| (held[p], size[p], std::cmp::Reverse(p)))
+        .expect("pieces");
+    super::sorted_pieces(whole, &piece_of, &held, main)
 }
 
 /// The chart without triangles that repeat an earlier one's vertices in

@@ -21,29 +21,29 @@ pub struct Budget {
     pub room: f64,
 }
 
-/// A chart this many times its room at its targets' scale is split.
-const TOO_LARGE: f64 = 1.5;
-
 /// The landmarks' chart is made to take about this share of the room.
 const SHARE: f64 = 0.55;
 
-/// The chart split in two: the landmarks' piece, the rest's pieces, and the
+/// The chart split apart: the landmarks' piece (the one holding most of
+/// them), the other pieces holding landmarks, the rest's pieces, and the
 /// cut's edges (chart-local pairs of `chart`, sorted).
 #[derive(Debug, Clone)]
 pub struct Separated {
     pub main: Chart,
+    pub others: Vec<Chart>,
     pub rest: Vec<Chart>,
     pub edges: Vec<[u32; 2]>,
 }
 
-/// `chart` split around `landmarks` (chart-local) when at `budget` it is
-/// too large for its room; `None` when it fits (or the cut would leave
-/// nothing apart). Edges in `unseamable` (sorted pairs) are never cut: the
+/// `chart` split around `landmarks` (chart-local) to the share of its room
+/// that `budget` leaves it; `None` when it is smaller than that already (or
+/// the cut would leave nothing apart). Edges in `unseamable` (sorted pairs) are never cut: the
 /// polygon across one stays whole.
 pub fn separate(chart: &Chart, landmarks: &[u32], budget: Budget, unseamable: &[[u32; 2]]) -> Option<Separated> {
     let mesh = &chart.mesh;
     let area = mesh.area();
-    if landmarks.is_empty() || budget.scale * budget.scale * area <= TOO_LARGE * budget.room {
+    let wanted = SHARE * budget.room / (budget.scale * budget.scale);
+    if landmarks.is_empty() || area.partial_cmp(&wanted) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let graph = EdgeGraph::new(mesh);
@@ -61,7 +61,6 @@ pub fn separate(chart: &Chart, landmarks: &[u32], budget: Budget, unseamable: &[
             .total_cmp(&far(&mesh.triangles[b]))
             .then(a.cmp(&b))
     });
-    let wanted = SHARE * budget.room / (budget.scale * budget.scale);
     // At least far enough that the landmarks' balls join into one piece.
     let joined = joining_radius(&graph, &length, &paths, landmarks.len());
     let (mut kept, mut inside) = (0.0, vec![false; mesh.n_triangles()]);
@@ -74,6 +73,16 @@ pub fn separate(chart: &Chart, landmarks: &[u32], budget: Budget, unseamable: &[
     }
     fill_in(&graph, &mut inside);
     keep_polygons_whole(&graph, unseamable, &mut inside);
+    split_off(chart, &inside, landmarks)
+}
+
+/// `chart` split along the border of the triangles `inside` marks: the
+/// piece holding most `landmarks` (chart-local), the other pieces inside
+/// holding landmarks, the rest, and the cut's edges. `None` when nothing is
+/// split off or a landmark is left outside.
+pub fn split_off(chart: &Chart, inside: &[bool], landmarks: &[u32]) -> Option<Separated> {
+    let mesh = &chart.mesh;
+    let graph = EdgeGraph::new(mesh);
     let edges: Vec<[u32; 2]> = (0..graph.edges.len())
         .filter(|&e| {
             let [t0, t1] = graph.faces[e];
@@ -87,24 +96,29 @@ pub fn separate(chart: &Chart, landmarks: &[u32], budget: Budget, unseamable: &[
     let wedges = split_wedges(mesh, &|e| edges.binary_search(&e).is_ok());
     let opened = chart.opened(&wedges);
     let (n_pieces, piece_of) = triangle_components(&opened.mesh);
-    let landmark_piece = opened
-        .mesh
-        .triangles
-        .iter()
-        .position(|t| t.iter().any(|v| landmarks.contains(v)))
-        .map(|t| piece_of[t])?;
-    let pieces: Vec<Chart> = (0..n_pieces as u32)
-        .map(|p| opened.piece(&piece_of.iter().map(|&q| q == p).collect::<Vec<bool>>()))
-        .collect();
-    let mut rest = pieces;
-    let main = rest.remove(landmark_piece as usize);
-    if landmarks
-        .iter()
-        .any(|&l| main.local_of(chart.welded_ids[l as usize]).is_none())
-    {
+    let mut held = vec![0usize; n_pieces];
+    for (t, tri) in opened.mesh.triangles.iter().enumerate().filter(|(t, _)| inside[*t]) {
+        if tri.iter().any(|&v| landmarks.contains(&wedges.origin[v as usize])) {
+            held[piece_of[t] as usize] += 1;
+        }
+    }
+    let main_piece = (0..n_pieces)
+        .filter(|&p| held[p] > 0)
+        .max_by_key(|&p| (held[p], std::cmp::Reverse(p)))?;
+    let (main, others, rest) = super::sorted_pieces(&opened, &piece_of, &held, main_piece);
+    let pieces_with = |l: u32| {
+        let w = chart.welded_ids[l as usize];
+        std::iter::once(&main).chain(&others).any(|c| c.local_of(w).is_some())
+    };
+    if !landmarks.iter().all(|&l| pieces_with(l)) {
         return None;
     }
-    Some(Separated { main, rest, edges })
+    Some(Separated {
+        main,
+        others,
+        rest,
+        edges,
+    })
 }
 
 /// How far from the landmarks their geodesic balls must reach to join into

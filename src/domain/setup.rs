@@ -36,6 +36,9 @@ pub fn decide(
     pick: &crate::chart::Pick,
 ) -> Result<Domain, Error> {
     let (choice, given) = source.boundary();
+    // The solve's own choice stands where the file makes none.
+    let choice = choice.or(pick.boundary.filter(|_| given.is_none()));
+    let facing = matches!(pick.form, Some(crate::cut::prepare::Form::Facing { .. }));
     let uvs = welded_uvs(asset, welded);
     let island: Option<Vec<DVec2>> = chart
         .welded_ids
@@ -61,14 +64,22 @@ pub fn decide(
     };
     let (region, source_kind) = match (choice, given) {
         (Some(BoundaryChoice::Square), _) => return Ok(on_square()?),
-        (_, Some(region)) => (region, RegionSource::Given),
-        (Some(BoundaryChoice::Free), None) => (leave_room(constraints, rest_share), RegionSource::Texture),
+        (_, Some(region)) => (leave_room(region, constraints, rest_share), RegionSource::Given),
+        // A chart as the camera sees it keeps the place the targets give it.
+        (_, None) if facing => (Region::TEXTURE, RegionSource::Texture),
+        (Some(BoundaryChoice::Free), None) => (
+            leave_room(Region::TEXTURE, constraints, rest_share),
+            RegionSource::Texture,
+        ),
         (None, None) => match &island {
             Some(layout) if !cut => (island_region(layout, constraints), RegionSource::Island),
             // A chart cut open has no shape a square would suit, and one
             // that shares the texture with charts laid out beside it
             // cannot fill it: free in the texture.
-            _ if cut || rest_share > 0.0 => (leave_room(constraints, rest_share), RegionSource::Texture),
+            _ if cut || rest_share > 0.0 => (
+                leave_room(Region::TEXTURE, constraints, rest_share),
+                RegionSource::Texture,
+            ),
             _ => return Ok(on_square()?),
         },
     };
@@ -100,20 +111,23 @@ pub fn decide(
     })))
 }
 
-/// The texture less a strip along one side for the charts packed beside
-/// this one, as wide as their share of the surface (at most half), on the
-/// side the targets leave most room on; the whole texture without them.
-fn leave_room(constraints: &[ResolvedConstraint], share: f64) -> Region {
+/// `whole` (the texture, or the given region) less a strip along one side
+/// for the charts packed beside this one, as wide as their share of the
+/// surface (at most half), on the side the targets leave most room on;
+/// all of it without them.
+fn leave_room(whole: Region, constraints: &[ResolvedConstraint], share: f64) -> Region {
     if share <= 0.0 {
-        return Region::TEXTURE;
+        return whole;
     }
+    let size = whole.max - whole.min;
     let margin = 0.02;
     let (lo, hi) = constraints
         .iter()
         .fold((DVec2::splat(1.0), DVec2::splat(0.0)), |(lo, hi), c| {
-            (lo.min(c.target_uv), hi.max(c.target_uv))
+            let t = (c.target_uv - whole.min) / size;
+            (lo.min(t), hi.max(t))
         });
-    // Room past the targets on each side: left, top, right, bottom.
+    // Room past the targets on each side: left, top, right, bottom (shares of `whole`).
     let gaps = [lo.x, lo.y, 1.0 - hi.x, 1.0 - hi.y].map(|g| (g - margin).max(0.0));
     let (side, gap) = gaps
         .iter()
@@ -123,14 +137,14 @@ fn leave_room(constraints: &[ResolvedConstraint], share: f64) -> Region {
         .expect("four sides");
     let width = share.clamp(0.05, 0.5).min(gap);
     if width < 0.03 {
-        return Region::TEXTURE;
+        return whole;
     }
-    let mut r = Region::TEXTURE;
+    let mut r = whole;
     match side {
-        0 => r.min.x = width,
-        1 => r.min.y = width,
-        2 => r.max.x = 1.0 - width,
-        _ => r.max.y = 1.0 - width,
+        0 => r.min.x += width * size.x,
+        1 => r.min.y += width * size.y,
+        2 => r.max.x -= width * size.x,
+        _ => r.max.y -= width * size.y,
     }
     r
 }

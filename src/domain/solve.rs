@@ -172,9 +172,15 @@ fn open_free(
         chart: chart.id,
         region: setup.region,
     };
-    let chosen = match &setup.given {
-        // A given start needs no Newton system (a large chart's may never).
-        Some(_) => super::start::given_start(&room, filled, problem).ok_or_else(no_room)?,
+    // A given start needs no Newton system (a large chart's may never); one
+    // that does not fit (other islands where it lies) falls back to the
+    // chart's own start.
+    let given = setup
+        .given
+        .as_ref()
+        .and_then(|_| super::start::given_start(&room, filled, problem));
+    let chosen = match given {
+        Some(start) => start,
         None => {
             let system = newton_system(chart)?;
             let rest = crate::complete::energy::rest_shapes(

@@ -35,6 +35,9 @@ pub enum StartKind {
     Square,
     /// A coarse level of the chart solved and prolonged (a large chart).
     Coarse,
+    /// The view of a camera fitted to the targets: the part of the surface
+    /// it sees facing it, as it sees it ([`crate::cut::facing`]).
+    Projection,
 }
 
 /// The start of a free chart's solve.
@@ -157,6 +160,97 @@ fn through_targets(
         kind: StartKind::Through,
         shrink: 1.0,
     })
+}
+
+/// The filled chart as `camera` sees it: its real vertices projected, each
+/// hole's virtual vertex where its fan keeps every triangle positive (the
+/// loop's mean, its area centroid, or a point between the mean and a loop
+/// vertex); `None` when a hole has no such point or a triangle folds.
+pub fn projection_start(camera: &crate::cut::facing::Camera, filled: &FilledChart) -> Option<Vec<DVec2>> {
+    let n = filled.n_real_vertices;
+    let mut layout = crate::cut::facing::projection(camera, &filled.mesh.positions[..n]);
+    untangle(&mut layout, &filled.mesh.triangles[..filled.n_real_triangles]);
+    layout.resize(filled.mesh.n_vertices(), DVec2::ZERO);
+    let fans = &filled.mesh.triangles[filled.n_real_triangles..];
+    for (k, hole) in filled.holes.iter().enumerate() {
+        let centre = (n + k) as u32;
+        let points: Vec<DVec2> = hole.iter().map(|&v| layout[v as usize]).collect();
+        let mean = points.iter().sum::<DVec2>() / points.len().max(1) as f64;
+        let centroid = polygon_centroid(&points).unwrap_or(mean);
+        let between = points
+            .iter()
+            .step_by((points.len() / 16).max(1))
+            .flat_map(|&p| [0.25, 0.5, 0.75].map(|t| mean + (p - mean) * t));
+        let fan: Vec<&[u32; 3]> = fans.iter().filter(|t| t.contains(&centre)).collect();
+        let positive = |at: DVec2, layout: &[DVec2]| {
+            fan.iter().all(|t| {
+                let [a, b, c] = t.map(|v| if v == centre { at } else { layout[v as usize] });
+                guard::orientation(a, b, c) > 0.0
+            })
+        };
+        let at = [mean, centroid]
+            .into_iter()
+            .chain(between)
+            .find(|&p| positive(p, &layout))?;
+        layout[centre as usize] = at;
+    }
+    guard::all_positive(&layout, &filled.mesh.triangles).then_some(layout)
+}
+
+/// Rounds of [`untangle`] at most.
+const UNTANGLE_ROUNDS: usize = 64;
+
+/// Moves the corners of every triangle of `layout` that is not positive
+/// (a sliver of the mesh seen edge-on, flat or just turned over) to the
+/// mean of their neighbours, round by round, until none is left or the
+/// rounds run out: the few vertices of a projection that slivers flatten.
+fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]]) {
+    let bad = |layout: &[DVec2]| -> Vec<u32> {
+        let mut out: Vec<u32> = triangles
+            .iter()
+            .filter(|t| guard::orientation(layout[t[0] as usize], layout[t[1] as usize], layout[t[2] as usize]) <= 0.0)
+            .flatten()
+            .copied()
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    };
+    let mut vertices = bad(layout);
+    if vertices.is_empty() {
+        return;
+    }
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); layout.len()];
+    for t in triangles {
+        for k in 0..3 {
+            neighbours[t[k] as usize].push(t[(k + 1) % 3]);
+            neighbours[t[k] as usize].push(t[(k + 2) % 3]);
+        }
+    }
+    for _ in 0..UNTANGLE_ROUNDS {
+        for &v in &vertices {
+            let around = &neighbours[v as usize];
+            if !around.is_empty() {
+                layout[v as usize] = around.iter().map(|&w| layout[w as usize]).sum::<DVec2>() / around.len() as f64;
+            }
+        }
+        vertices = bad(layout);
+        if vertices.is_empty() {
+            return;
+        }
+    }
+}
+
+/// The area centroid of a simple polygon (`None` for no area).
+fn polygon_centroid(points: &[DVec2]) -> Option<DVec2> {
+    let (mut area, mut c) = (0.0, DVec2::ZERO);
+    for (i, &p) in points.iter().enumerate() {
+        let q = points[(i + 1) % points.len()];
+        let cross = p.perp_dot(q);
+        area += cross;
+        c += (p + q) * cross;
+    }
+    (area.abs() > 0.0).then(|| c / (3.0 * area))
 }
 
 /// The chart's own UVs, each hole's virtual vertex at the mean of its loop.

@@ -232,6 +232,7 @@ pub fn build(s: &SolveSummary) -> Report {
         free: free_report(s),
         coarse_level: coarse_level(s),
         seam: seam_of(p),
+        plan: None,
         rest: None,
         charts: Vec::new(),
         warnings: warnings(s),

@@ -78,6 +78,7 @@ fn free_line(s: &SolveSummary) -> Option<String> {
         crate::domain::start::StartKind::Conformal => "least-squares conformal",
         crate::domain::start::StartKind::StepOne => "step 1 (the conformal layout folded)",
         crate::domain::start::StartKind::Coarse => "a coarse level of the chart, solved and prolonged",
+        crate::domain::start::StartKind::Projection => "the view of a camera fitted to the targets",
         crate::domain::start::StartKind::Square => match s.solver.record().free_fell_short {
             Some(r) if r.is_finite() => &*format!(
                 "the chart's solve on the square, mapped onto the region (the free path from its own start ended \

@@ -255,6 +255,99 @@ pub enum CoarseLevel {
     Missed(String),
 }
 
+/// What the planner tried for a chart ([`crate::plan`]), and which it kept.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct PlanReport {
+    /// Every candidate tried, in order.
+    pub tried: Vec<TrialReport>,
+    /// The one kept (an index into `tried`).
+    pub chosen: Option<usize>,
+    /// Why it was kept.
+    pub why: String,
+}
+
+/// A tried candidate and what it gave.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrialReport {
+    /// How it is named: its form, boundary and start.
+    pub candidate: String,
+    /// What it gave.
+    #[serde(flatten)]
+    pub outcome: TrialOutcome,
+    /// Milliseconds it took.
+    pub ms: f64,
+}
+
+/// What a tried candidate gave.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "outcome")]
+pub enum TrialOutcome {
+    /// It could not be made or started: why.
+    Dropped {
+        /// Why.
+        why: String,
+    },
+    /// Solved at a level of `vertices` vertices.
+    Solved {
+        /// Every landmark on its target.
+        reached: bool,
+        /// The largest distance of a landmark from its target.
+        residual: f64,
+        /// Sander stretch at that level.
+        stretch: Stretch,
+        /// The same chart's own free layout, where it was measured.
+        own: Option<Stretch>,
+        /// Vertices of the level solved.
+        vertices: usize,
+    },
+}
+
+impl PlanReport {
+    /// The explain's lines: each candidate and what it gave, then the one kept.
+    pub fn lines(&self) -> Vec<String> {
+        let mut lines: Vec<String> = self
+            .tried
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let what = match &t.outcome {
+                    TrialOutcome::Dropped { why } => format!("not solved: {why}"),
+                    TrialOutcome::Solved {
+                        reached,
+                        residual,
+                        stretch,
+                        own,
+                        vertices,
+                    } => format!(
+                        "{} on {vertices} vertices, stretch L2 {:.3}{}",
+                        if *reached {
+                            "reached".to_string()
+                        } else {
+                            format!("{residual:.1e} short")
+                        },
+                        stretch.l2,
+                        own.map_or(String::new(), |o| format!(
+                            " ({:.2}× its own {:.3})",
+                            stretch.l2 / o.l2,
+                            o.l2
+                        )),
+                    ),
+                };
+                format!("candidate {}, {}: {what}; {:.1} ms", i + 1, t.candidate, t.ms)
+            })
+            .collect();
+        if let Some(i) = self.chosen {
+            lines.push(format!(
+                "kept candidate {} ({}): {}",
+                i + 1,
+                self.tried[i].candidate,
+                self.why
+            ));
+        }
+        lines
+    }
+}
+
 /// The full report of one solve.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
@@ -329,6 +422,9 @@ pub struct Report {
     /// Where the chart was cut open to a disk (`None`: it was one).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seam: Option<SeamReport>,
+    /// The candidates tried for the chart, and which was kept.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plan: Option<PlanReport>,
     /// The other charts given UVs beside the solved one (`None`: none needed them).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rest: Option<RestReport>,

@@ -294,21 +294,34 @@ impl ChartSolver {
     /// As [`ChartSolver::new`].
     pub fn from_coarse_level(start: SolverInputs) -> Result<Result<Self, multilevel::Missed>, Error> {
         let t0 = Instant::now();
+        match multilevel::coarse_start(&start) {
+            Ok((layout, stats)) => Self::from_prolonged(start, layout, stats, t0),
+            Err(missed) => Ok(Err(missed)),
+        }
+    }
+
+    /// The solve of `start.prepared` from `layout`, its coarse level's
+    /// solve prolonged (`stats` what that took, since `t0`): on the square
+    /// a step-1 layout (its outer loop on the square's sides, every triangle
+    /// positive); free, the start of the free domain as it is. Why not,
+    /// when its room does not admit it.
+    ///
+    /// # Errors
+    /// As [`ChartSolver::new`].
+    pub fn from_prolonged(
+        start: SolverInputs,
+        layout: Vec<DVec2>,
+        stats: multilevel::MultilevelStats,
+        t0: Instant,
+    ) -> Result<Result<Self, multilevel::Missed>, Error> {
         if start.prepared.domain.free().is_none() {
-            // On the square the prolonged layout is a step-1 layout: its
-            // outer loop on the square's sides, every triangle positive.
-            return Ok(match multilevel::coarse_start(&start) {
-                Ok((layout, stats)) => {
-                    let mut solver = ChartSolver::new(SolverInputs {
-                        step1: &layout,
-                        ..start
-                    })?;
-                    solver.record.multilevel = Some(stats);
-                    solver.times.stepping_ms = ms(t0);
-                    Ok(solver)
-                }
-                Err(missed) => Err(missed),
-            });
+            let mut solver = ChartSolver::new(SolverInputs {
+                step1: &layout,
+                ..start
+            })?;
+            solver.record.multilevel = Some(stats);
+            solver.times.stepping_ms = ms(t0);
+            return Ok(Ok(solver));
         }
         let (problem, policy, pattern) = Self::problem_of(&start)?;
         let chart = ChartParts {
@@ -318,10 +331,8 @@ impl ChartSolver {
             step1: &[],
             pattern: &pattern,
         };
-        let started = multilevel::coarse_start(&start)
-            .and_then(|(layout, stats)| Ok((multilevel::start_in(&start, &chart, &problem, layout)?, stats)));
-        match started {
-            Ok(((layout, domain), stats)) => {
+        match multilevel::start_in(&start, &chart, &problem, layout) {
+            Ok((layout, domain)) => {
                 let started = Started {
                     layout,
                     domain,

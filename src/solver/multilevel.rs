@@ -98,56 +98,118 @@ pub fn applies(inputs: &SolverInputs) -> bool {
         && (p.domain.free().is_some() || !p.constraint_vertices.iter().any(on_loop))
 }
 
+/// A chart's coarse level, made and not yet solved: the coarse chart, and
+/// how to undo the collapses that made it.
+#[derive(Debug, Clone)]
+pub struct Level {
+    hierarchy: Hierarchy,
+    roles: Vec<Role>,
+    outer: u32,
+    /// The coarse level as a chart of its own.
+    pub coarse: PreparedChart,
+    /// Each of its filled vertices' fine id.
+    pub fine_of: Vec<u32>,
+    /// Milliseconds the coarsening took.
+    pub coarsen_ms: f64,
+}
+
+impl Level {
+    /// `inputs`' chart coarsened to about `target` vertices, its landmarks
+    /// (and on the square the corners its boundary map placed) kept.
+    ///
+    /// # Errors
+    /// The coarse level is not a disk with the chart's holes.
+    pub fn make(inputs: &SolverInputs, target: usize) -> Result<Level, Missed> {
+        let t0 = Instant::now();
+        let prepared = inputs.prepared;
+        let corners = prepared
+            .domain
+            .free()
+            .is_none()
+            .then(|| inputs.boundary.corner_vertices());
+        let (hierarchy, roles, outer) = level(prepared, corners, target);
+        let (coarse, fine_of) = coarse_chart(prepared, &hierarchy, corners).ok_or(Missed::NotADisk)?;
+        Ok(Level {
+            hierarchy,
+            roles,
+            outer,
+            coarse,
+            fine_of,
+            coarsen_ms: ms(t0),
+        })
+    }
+
+    /// The fine chart's layout from the coarse level's `coarse_layout`
+    /// (meeting the targets): the collapses undone stage by stage, each
+    /// settled by local sweeps, every triangle kept positive.
+    ///
+    /// # Errors
+    /// A stage that could not be put back.
+    pub fn prolong(
+        mut self,
+        inputs: &SolverInputs,
+        coarse_layout: &[DVec2],
+    ) -> Result<(Vec<DVec2>, MultilevelStats), Missed> {
+        let t0 = Instant::now();
+        let prepared = inputs.prepared;
+        let filled = &prepared.filled;
+        let n = filled.mesh.n_vertices();
+        let mut stats = MultilevelStats {
+            coarse_vertices: self.hierarchy.n_coarse(),
+            coarsen_ms: self.coarsen_ms,
+            ..MultilevelStats::default()
+        };
+        let mut layout = vec![DVec2::splat(f64::NAN); n];
+        for (k, &v) in self.fine_of.iter().enumerate() {
+            layout[v as usize] = coarse_layout[k];
+        }
+        // A free outer loop moves in the sweeps unless other islands are near:
+        // then it stays where the prolongation put it; on the square it stays.
+        let free = prepared.domain.free();
+        let square = free.is_none();
+        let loop_moves = free.is_some_and(|f| f.obstacles.is_empty());
+        let held: Vec<bool> = self
+            .roles
+            .iter()
+            .map(|&r| r == Role::Kept || (!loop_moves && r == Role::Loop(self.outer)))
+            .collect();
+        let region = free.map_or((DVec2::ZERO, DVec2::ONE), |f| f.region.layout_box());
+        let deadline = inputs
+            .options
+            .time_budget_ms
+            .map(|budget| t0 + std::time::Duration::from_secs_f64((budget - inputs.elapsed_ms).max(0.0) * 1e-3));
+        settle_stages(
+            &mut self.hierarchy,
+            filled,
+            (&held, loop_moves, square),
+            (region, deadline),
+            &mut layout,
+            &mut stats,
+        )?;
+        stats.prolong_ms = ms(t0);
+        Ok((layout, stats))
+    }
+}
+
+/// The coarse level's size for a chart of `n` filled vertices: a
+/// sixteenth of it, within 500 and `multilevel_coarse`.
+pub fn coarse_size(n: usize, options: &super::SolverOptions) -> usize {
+    (n / COARSENING).clamp(options.multilevel_coarse.min(500), options.multilevel_coarse)
+}
+
 /// The start of `inputs`' chart from its coarse level (see the module
 /// docs); it must [`apply`](applies).
 ///
 /// # Errors
 /// Why a level could not be made, solved or prolonged.
 pub fn coarse_start(inputs: &SolverInputs) -> Result<(Vec<DVec2>, MultilevelStats), Missed> {
-    let prepared = inputs.prepared;
-    let filled = &prepared.filled;
-    let options = inputs.options;
-    let n = filled.mesh.n_vertices();
-    let t0 = Instant::now();
-    let square = prepared.domain.free().is_none();
-    let corners = square.then(|| inputs.boundary.corner_vertices());
-    let target = (n / COARSENING).clamp(options.multilevel_coarse.min(500), options.multilevel_coarse);
-    let (mut hierarchy, roles, outer) = level(prepared, corners, target);
-    let mut stats = MultilevelStats {
-        coarse_vertices: hierarchy.n_coarse(),
-        coarsen_ms: ms(t0),
-        ..MultilevelStats::default()
-    };
+    let n = inputs.prepared.filled.mesh.n_vertices();
+    let level = Level::make(inputs, coarse_size(n, inputs.options))?;
     let t1 = Instant::now();
-    let (coarse, fine_of) = coarse_chart(prepared, &hierarchy, corners).ok_or(Missed::NotADisk)?;
-    let coarse_layout = solve_coarse(inputs, &coarse)?;
-    stats.coarse_solve_ms = ms(t1);
-    let t2 = Instant::now();
-    let mut layout = vec![DVec2::splat(f64::NAN); n];
-    for (k, &v) in fine_of.iter().enumerate() {
-        layout[v as usize] = coarse_layout[k];
-    }
-    // A free outer loop moves in the sweeps unless other islands are near:
-    // then it stays where the prolongation put it; on the square it stays.
-    let free = prepared.domain.free();
-    let loop_moves = free.is_some_and(|f| f.obstacles.is_empty());
-    let held: Vec<bool> = roles
-        .iter()
-        .map(|&r| r == Role::Kept || (!loop_moves && r == Role::Loop(outer)))
-        .collect();
-    let region = free.map_or((DVec2::ZERO, DVec2::ONE), |f| f.region.layout_box());
-    let deadline = options
-        .time_budget_ms
-        .map(|budget| t0 + std::time::Duration::from_secs_f64((budget - inputs.elapsed_ms).max(0.0) * 1e-3));
-    settle_stages(
-        &mut hierarchy,
-        filled,
-        (&held, loop_moves, square),
-        (region, deadline),
-        &mut layout,
-        &mut stats,
-    )?;
-    stats.prolong_ms = ms(t2);
+    let coarse_layout = solve_coarse(inputs, &level.coarse)?;
+    let solve_ms = ms(t1);
+    let (layout, mut stats) = level.prolong(inputs, &coarse_layout)?;
+    stats.coarse_solve_ms = solve_ms;
     Ok((layout, stats))
 }
 
@@ -267,7 +329,9 @@ fn coarse_chart(
         .map(|&v| coarse_of_fine(v))
         .collect::<Option<Vec<u32>>>()?;
     let chart = prepared.chart.subset(&fine_of[..n_real_coarse], real.triangles.clone());
+    let domain = coarse_domain(prepared, &fine_ids, &coarse_filled);
     let coarse = PreparedChart {
+        domain,
         chart: Arc::new(chart),
         traps: Arc::new(TrapCandidates::find(&real, &topology)),
         topology: Arc::new(topology),
@@ -279,6 +343,40 @@ fn coarse_chart(
         ..prepared.clone()
     };
     Some((coarse, fine_ids))
+}
+
+/// A free coarse level keeps this share of its region's size clear of its
+/// border (less where a target is nearer): the fine loop, put back between
+/// coarse loop vertices pressed against the border, stays inside it.
+const INSET: f64 = 0.002;
+
+/// The fine chart's domain for its coarse level: free, its region inset
+/// by [`INSET`], a given start taken at the coarse vertices (`fine_ids`)
+/// and left out where it folds there.
+fn coarse_domain(prepared: &PreparedChart, fine_ids: &[u32], coarse: &FilledChart) -> Domain {
+    let Domain::Free(setup) = &prepared.domain else {
+        return Domain::Square;
+    };
+    let mut setup = (**setup).clone();
+    let r = setup.region;
+    let room = prepared
+        .constraints
+        .iter()
+        .map(|c| (c.target_uv - r.min).min(r.max - c.target_uv).min_element())
+        .fold(f64::INFINITY, f64::min);
+    let inset = (INSET * (r.max - r.min).min_element()).min(0.5 * room);
+    if inset > 0.0 {
+        setup.region.min += DVec2::splat(inset);
+        setup.region.max -= DVec2::splat(inset);
+    }
+    if let Some(given) = &setup.given {
+        let layout: Vec<DVec2> = fine_ids.iter().map(|&f| given.layout[f as usize]).collect();
+        setup.given = crate::guard::all_positive(&layout, &coarse.mesh.triangles).then(|| crate::free::GivenStart {
+            layout: Arc::new(layout),
+            kind: given.kind,
+        });
+    }
+    Domain::Free(Arc::new(setup))
 }
 
 /// The fine virtual vertex of each of the coarse level's holes: the fine

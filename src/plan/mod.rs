@@ -1,0 +1,619 @@
+//! The planner: how a landmarked chart is laid out is measured, not guessed.
+//! Its candidates ([`candidates`]) — the chart as given on the square or
+//! free, from its own start or its square solve, cut open, as a camera
+//! fitted to the targets sees it, the landmarks' surroundings — are tried
+//! simplest first, each on its coarse level when the chart is large
+//! ([`attempt`]), and judged by what they give: reached or how short,
+//! and the stretch against the chart's own free layout ([`own`]). The
+//! first that reaches within [`own::ACCEPT`] of it ends the search; else
+//! the best one tried is kept (a simpler one unless a later one is
+//! measurably better). The winner's coarse layout is prolonged and
+//! finished on the chart itself; a chart left short keeps a usable
+//! layout ([`settle`]). The report's explain lists what was tried, what
+//! each gave, and why the winner won.
+//!
+//! [`ChartPlan`] runs tick by tick, as the chart solver does: the ECS
+//! systems tick its running solver and call [`ChartPlan::advance`] between.
+
+pub mod attempt;
+pub mod candidates;
+pub mod own;
+pub mod settle;
+
+use crate::cut::prepare::Form;
+use crate::domain::Domain;
+use crate::error::Error;
+use crate::options::SolverOptions;
+use crate::param::uv_to_xy;
+use crate::report::{self, PlanReport, Report, TrialOutcome, TrialReport};
+use crate::session::{ChartSession, StartFrom};
+use crate::solver::multilevel::{Level, coarse_size};
+use crate::solver::{ChartSolver, Progress, SolverInputs, Stage};
+use attempt::{Attempt, LevelChart};
+use candidates::{Candidate, Ended};
+use glam::DVec2;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// A later candidate replaces a simpler one that reached only when its
+/// stretch is below this share of it: measurably better.
+const BETTER: f64 = 0.9;
+
+/// A tried candidate: what it gave, and while it may be chosen, its
+/// chart and solve.
+#[derive(Debug, Clone)]
+struct Trial {
+    report: TrialReport,
+    key: Candidate,
+    tried: Option<Tried>,
+}
+
+/// A tried candidate's chart and solve.
+#[derive(Debug, Clone)]
+struct Tried {
+    session: ChartSession,
+    chart: LevelChart,
+    solver: ChartSolver,
+}
+
+impl Trial {
+    fn ended(&self) -> Ended {
+        match &self.report.outcome {
+            TrialOutcome::Solved { reached: true, .. } => Ended::Reached,
+            TrialOutcome::Solved { .. } => Ended::Short,
+            TrialOutcome::Dropped { .. } => Ended::Dropped,
+        }
+    }
+
+    /// Whether its completion proved the targets unreachable by the
+    /// landmarks alone (a triangle of landmarks sent to its mirror image):
+    /// no other candidate can reach them either.
+    fn proven_by_landmarks(&self) -> bool {
+        let Some(tried) = &self.tried else {
+            return false;
+        };
+        let landmarks = &tried.chart.prepared.constraint_vertices;
+        let record = tried.solver.record();
+        record
+            .soft
+            .as_ref()
+            .and_then(|s| s.obstruction.as_ref())
+            .is_some_and(|o| o.vertices().iter().all(|v| landmarks.contains(v)))
+    }
+
+    /// Reached within [`own::ACCEPT`] of its chart's own stretch.
+    fn good_enough(&self) -> bool {
+        match &self.report.outcome {
+            TrialOutcome::Solved {
+                reached: true,
+                stretch,
+                own,
+                ..
+            } => own.is_none_or(|o| stretch.l2 <= own::ACCEPT * o.l2),
+            _ => false,
+        }
+    }
+}
+
+/// A finished solve: the chart as chosen (its session), the solver with
+/// its final layout, and the report, not yet written.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    pub session: ChartSession,
+    pub solver: ChartSolver,
+    pub report: Report,
+}
+
+/// Where a plan stands.
+#[derive(Debug, Clone)]
+enum State {
+    /// The next candidate is to be opened.
+    Next,
+    /// A candidate being solved at its trial level.
+    Trying {
+        key: Candidate,
+        session: ChartSession,
+        attempt: Box<Attempt>,
+        t0: Instant,
+    },
+    /// The chosen candidate's solve on the chart itself.
+    Finishing {
+        session: ChartSession,
+        attempt: Box<Attempt>,
+    },
+    Done(Box<Solution>),
+}
+
+/// The solve of one landmarked chart, candidate by candidate (see the
+/// module docs).
+#[derive(Debug, Clone)]
+pub struct ChartPlan {
+    base: ChartSession,
+    options: SolverOptions,
+    from: StartFrom,
+    chart: candidates::Chart,
+    trials: Vec<Trial>,
+    chosen: Option<(usize, &'static str)>,
+    first_error: Option<Arc<Error>>,
+    state: State,
+    started: Instant,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+impl ChartPlan {
+    /// The plan of `base`'s chart (as the file and the default rule make
+    /// it), with `options`; a chart on the square as given starts `from`
+    /// where asked.
+    pub fn new(base: ChartSession, options: SolverOptions, from: StartFrom) -> ChartPlan {
+        let chart = describe(&base);
+        ChartPlan {
+            base,
+            options,
+            from,
+            chart,
+            trials: Vec::new(),
+            chosen: None,
+            first_error: None,
+            state: State::Next,
+            started: Instant::now(),
+        }
+    }
+
+    /// Whether the plan is over.
+    pub fn is_done(&self) -> bool {
+        matches!(self.state, State::Done(_))
+    }
+
+    /// The solver running now, to tick (none between candidates).
+    pub fn solver_mut(&mut self) -> Option<&mut ChartSolver> {
+        match &mut self.state {
+            State::Trying { attempt, .. } | State::Finishing { attempt, .. } => Some(attempt.solver_mut()),
+            State::Next | State::Done(_) => None,
+        }
+    }
+
+    /// The solver running now.
+    pub fn solver(&self) -> Option<&ChartSolver> {
+        match &self.state {
+            State::Trying { attempt, .. } | State::Finishing { attempt, .. } => Some(attempt.solver()),
+            State::Next | State::Done(_) => None,
+        }
+    }
+
+    /// Where the solve stands.
+    pub fn progress(&self) -> Progress {
+        match &self.state {
+            State::Next => Progress::at(Stage::StepOne),
+            State::Done(_) => Progress::at(Stage::Finishing),
+            _ => self
+                .solver()
+                .map_or(Progress::at(Stage::StepOne), ChartSolver::progress),
+        }
+    }
+
+    /// One tick: the running solver's, or the plan's own step between
+    /// solves ([`Self::advance`]).
+    ///
+    /// # Errors
+    /// As [`Self::advance`] and [`ChartSolver::tick`].
+    pub fn tick(&mut self) -> Result<(), Error> {
+        match self.solver_mut() {
+            Some(solver) if !solver.is_done() => solver.tick(),
+            _ => self.advance(),
+        }
+    }
+
+    /// Runs the plan to its end.
+    ///
+    /// # Errors
+    /// As [`Self::tick`].
+    pub fn run(&mut self) -> Result<(), Error> {
+        while !self.is_done() {
+            self.tick()?;
+        }
+        Ok(())
+    }
+
+    /// The finished solve.
+    ///
+    /// # Errors
+    /// The plan is not done (a bug of the caller).
+    pub fn into_solution(self) -> Result<Solution, Error> {
+        match self.state {
+            State::Done(solution) => Ok(*solution),
+            _ => Err(Error::Internal(
+                "a plan asked for its solution before it was done".into(),
+            )),
+        }
+    }
+
+    /// The plan's own step while no solver is running: the next candidate
+    /// opened, a finished trial judged, the winner prolonged, or the end.
+    ///
+    /// # Errors
+    /// Every candidate failed to open (the first one's error), or a solver
+    /// of the chosen chart could not be built.
+    pub fn advance(&mut self) -> Result<(), Error> {
+        match std::mem::replace(&mut self.state, State::Next) {
+            State::Next => self.open_next(),
+            State::Trying {
+                key,
+                session,
+                mut attempt,
+                t0,
+            } => {
+                let source = session.source().clone();
+                if !attempt.advance(&source, &self.options)? {
+                    self.state = State::Trying {
+                        key,
+                        session,
+                        attempt,
+                        t0,
+                    };
+                    return Ok(());
+                }
+                self.judge(key, session, *attempt, t0);
+                Ok(())
+            }
+            State::Finishing { session, mut attempt } => {
+                let source = session.source().clone();
+                if attempt.advance(&source, &self.options)? {
+                    self.finish(session, attempt.into_parts().1)?;
+                } else {
+                    self.state = State::Finishing { session, attempt };
+                }
+                Ok(())
+            }
+            done @ State::Done(_) => {
+                self.state = done;
+                Ok(())
+            }
+        }
+    }
+
+    /// Opens the next candidate and starts its attempt, or, with none left
+    /// (or one good enough), finishes the best.
+    fn open_next(&mut self) -> Result<(), Error> {
+        if self.trials.last().is_some_and(Trial::good_enough) {
+            return self.choose(
+                self.trials.len() - 1,
+                "it reached its targets within 1.5× its own stretch",
+            );
+        }
+        if self.trials.last().is_some_and(Trial::proven_by_landmarks) {
+            return self.choose(
+                self.trials.len() - 1,
+                "the landmarks alone prove the targets unreachable (no form of the chart can change that)",
+            );
+        }
+        // The paper's guard is for comparison with the paper's method: the
+        // chart as given, nothing else.
+        if self.options.guard == crate::options::Guard::Paper && !self.trials.is_empty() {
+            return self.choose_best();
+        }
+        let tried: Vec<(Candidate, Ended)> = self.trials.iter().map(|t| (t.key.clone(), t.ended())).collect();
+        let Some(key) = candidates::next(&self.chart, &tried) else {
+            return self.choose_best();
+        };
+        let t0 = Instant::now();
+        match self.start(&key) {
+            Ok((session, attempt)) => {
+                self.state = State::Trying {
+                    key,
+                    session,
+                    attempt: Box::new(attempt),
+                    t0,
+                };
+            }
+            Err(e) => {
+                let candidate = format!("{}, {}", key.form.name(), boundary_word(key.boundary));
+                self.trials.push(Trial {
+                    report: TrialReport {
+                        candidate,
+                        outcome: TrialOutcome::Dropped { why: e.to_string() },
+                        ms: ms(t0),
+                    },
+                    key,
+                    tried: None,
+                });
+                self.first_error.get_or_insert(Arc::new(e));
+            }
+        }
+        Ok(())
+    }
+
+    /// The session of `key`'s chart and its attempt at the trial level.
+    fn start(&self, key: &Candidate) -> Result<(ChartSession, Attempt), Error> {
+        let mut session = if key.form == Form::AsGiven && key.boundary.is_none() {
+            self.base.clone()
+        } else {
+            self.base.reshaped(&key.form, key.boundary)?
+        };
+        let elapsed = self.elapsed_ms();
+        let chart = self.trial_level(&mut session, elapsed)?;
+        let attempt = Attempt::new(chart, key.start, session.source(), &self.options, elapsed)?;
+        Ok((session, attempt))
+    }
+
+    /// The chart a candidate is tried on: its coarse level when it is
+    /// large, else itself (step 1 run, warm on the square where asked).
+    fn trial_level(&self, session: &mut ChartSession, elapsed: f64) -> Result<LevelChart, Error> {
+        session.map_boundary()?;
+        let n = session.prepared().filled.mesh.n_vertices();
+        if n > self.options.multilevel_above {
+            let boundary = session.boundary().expect("mapped");
+            let inputs = SolverInputs {
+                prepared: session.prepared(),
+                source: session.source(),
+                options: &self.options,
+                boundary,
+                step1: &[],
+                bar_net: None,
+                pattern: None,
+                elapsed_ms: elapsed,
+            };
+            if let Ok(level) = Level::make(&inputs, coarse_size(n, &self.options)) {
+                return LevelChart::coarse(level, session.source());
+            }
+        }
+        let warm = match self.from {
+            StartFrom::LastLayout => session.last_layout(),
+            StartFrom::StepOne => None,
+        };
+        fine_level(session, warm)
+    }
+
+    /// Records a finished attempt and what it gave.
+    fn judge(&mut self, key: Candidate, session: ChartSession, attempt: Attempt, t0: Instant) {
+        let (chart, solver) = attempt.into_parts();
+        let tolerance = self.options.tolerance;
+        let residual = solver.max_residual();
+        let reached = residual <= tolerance;
+        let stretch = own::stretch(&chart.prepared, solver.layout());
+        let own = reached
+            .then(|| own::own_stretch(&chart.prepared, &self.options))
+            .flatten();
+        self.trials.push(Trial {
+            report: TrialReport {
+                candidate: key.describe(&chart.prepared.domain),
+                outcome: TrialOutcome::Solved {
+                    reached,
+                    residual,
+                    stretch,
+                    own,
+                    vertices: chart.prepared.filled.n_real_vertices,
+                },
+                ms: ms(t0),
+            },
+            key,
+            tried: Some(Tried { session, chart, solver }),
+        });
+    }
+
+    /// Keeps the best candidate tried: the simplest that reached unless a
+    /// later one is measurably less stretched; with none reached, the
+    /// closest to the targets.
+    fn choose_best(&mut self) -> Result<(), Error> {
+        let solved: Vec<(usize, bool, f64, f64)> = self
+            .trials
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| match &t.report.outcome {
+                TrialOutcome::Solved {
+                    reached,
+                    residual,
+                    stretch,
+                    ..
+                } => Some((i, *reached, *residual, stretch.l2)),
+                TrialOutcome::Dropped { .. } => None,
+            })
+            .collect();
+        let mut best: Option<(usize, f64)> = None;
+        for &(i, reached, _, l2) in &solved {
+            if reached && best.is_none_or(|(_, b)| l2 < BETTER * b) {
+                best = Some((i, l2));
+            }
+        }
+        if let Some((i, _)) = best {
+            return self.choose(i, "it reached its targets with the least stretch");
+        }
+        // None reached: the simplest, unless a later one is measurably closer.
+        let mut closest: Option<(usize, f64)> = None;
+        for &(i, _, residual, _) in &solved {
+            if closest.is_none_or(|(_, r)| residual < BETTER * r) {
+                closest = Some((i, residual));
+            }
+        }
+        let closest = closest.map(|c| c.0);
+        match closest {
+            Some(i) => self.choose(i, "none reached its targets; it came closest"),
+            None => Err(match self.first_error.take().map(Arc::try_unwrap) {
+                Some(Ok(e)) => e,
+                Some(Err(shared)) => Error::Internal(shared.to_string()),
+                None => Error::Internal("no candidate to lay the chart out".into()),
+            }),
+        }
+    }
+
+    /// Finishes trial `i` on the chart itself: its layout as it is when it
+    /// was solved there, else its coarse layout prolonged (or, when that
+    /// cannot be put back, the candidate solved on the chart itself).
+    fn choose(&mut self, i: usize, why: &'static str) -> Result<(), Error> {
+        self.chosen = Some((i, why));
+        let Some(Tried {
+            mut session,
+            chart,
+            solver,
+        }) = self.trials[i].tried.take()
+        else {
+            return Err(Error::Internal("the chosen candidate was not solved".into()));
+        };
+        self.trials.iter_mut().for_each(|t| t.tried = None);
+        let Some(level) = chart.level else {
+            return self.finish(session, solver);
+        };
+        let elapsed = self.elapsed_ms();
+        // A candidate short of its targets on its level is put back as it
+        // is: no search on the chart itself, whose cost the level spares.
+        let options = if self.trials[i].ended() == Ended::Reached {
+            self.options
+        } else {
+            SolverOptions {
+                completion: crate::options::Completion::Never,
+                ..self.options
+            }
+        };
+        let attempt = match prolonged(&mut session, level, &solver, &options, elapsed)? {
+            Some(attempt) => attempt,
+            None => {
+                let chart = fine_level(&mut session, None)?;
+                let start = self.trials[i].key.start;
+                Attempt::new(chart, start, session.source(), &options, elapsed)?
+            }
+        };
+        self.state = State::Finishing {
+            session,
+            attempt: Box::new(attempt),
+        };
+        Ok(())
+    }
+
+    /// The end: a short layout settled, the report built with what was tried.
+    fn finish(&mut self, mut session: ChartSession, mut solver: ChartSolver) -> Result<(), Error> {
+        session.map_boundary()?;
+        settle::settle(session.prepared(), session.step_one_layout(), &mut solver);
+        session.keep_layout(&solver);
+        let mut times = session.times().with_solver(solver.times());
+        times.detour_ms = (times.load_ms + times.topology_ms + self.elapsed_ms() - times.total_ms()).max(0.0);
+        let step1 = session.step_one_layout().unwrap_or(solver.start_layout()).to_vec();
+        let plan = self.report();
+        let mut report = report::build(&report::SolveSummary {
+            constraint_file: session.source().name(),
+            asset: session.asset(),
+            prepared: session.prepared(),
+            boundary: session.boundary().expect("mapped"),
+            step1: &step1,
+            solver: &solver,
+            times,
+        });
+        report.explain.splice(0..0, plan.lines());
+        report.plan = Some(plan);
+        self.state = State::Done(Box::new(Solution {
+            session,
+            solver,
+            report,
+        }));
+        Ok(())
+    }
+
+    /// What was tried and kept, for the report.
+    pub fn report(&self) -> PlanReport {
+        PlanReport {
+            tried: self.trials.iter().map(|t| t.report.clone()).collect(),
+            chosen: self.chosen.map(|c| c.0),
+            why: self.chosen.map_or(String::new(), |c| c.1.to_string()),
+        }
+    }
+
+    fn elapsed_ms(&self) -> f64 {
+        self.base.times().load_ms + self.base.times().topology_ms + ms(self.started)
+    }
+}
+
+/// The chart of `session` itself as a level, its step 1 run (`warm` in
+/// its place where given).
+fn fine_level(session: &mut ChartSession, warm: Option<Arc<Vec<DVec2>>>) -> Result<LevelChart, Error> {
+    session.run_step_one()?;
+    let step1 = warm.or_else(|| session.step_one_layout().map(|l| Arc::new(l.to_vec())));
+    Ok(LevelChart {
+        prepared: session.prepared().clone(),
+        boundary: Arc::new(session.boundary().expect("mapped").clone()),
+        bar_net: session.bar_net().cloned(),
+        step1: step1.ok_or_else(|| Error::Internal("step 1 was not solved".into()))?,
+        pattern: session.pattern().cloned(),
+        level: None,
+    })
+}
+
+/// The fine solve of `session`'s chart from `solver`'s coarse layout on
+/// `level`, prolonged; `None` when it cannot be put back.
+fn prolonged(
+    session: &mut ChartSession,
+    level: Level,
+    solver: &ChartSolver,
+    options: &SolverOptions,
+    elapsed: f64,
+) -> Result<Option<Attempt>, Error> {
+    let t0 = Instant::now();
+    let boundary = Arc::new(session.boundary().expect("mapped").clone());
+    let prepared = session.prepared().clone();
+    let inputs = SolverInputs {
+        prepared: &prepared,
+        source: session.source(),
+        options,
+        boundary: &boundary,
+        step1: &[],
+        bar_net: None,
+        pattern: session.pattern(),
+        elapsed_ms: elapsed,
+    };
+    let Ok((layout, mut stats)) = level.prolong(&inputs, solver.layout()) else {
+        return Ok(None);
+    };
+    stats.coarse_solve_ms = solver.times().total_ms();
+    let Ok(fine) = ChartSolver::from_prolonged(inputs, layout, stats, t0)? else {
+        return Ok(None);
+    };
+    let chart = LevelChart {
+        prepared,
+        boundary,
+        bar_net: None,
+        step1: Arc::new(Vec::new()),
+        pattern: None,
+        level: None,
+    };
+    Ok(Some(Attempt::solving(chart, fine)))
+}
+
+fn boundary_word(b: Option<crate::pins::BoundaryChoice>) -> &'static str {
+    match b {
+        Some(crate::pins::BoundaryChoice::Square) => "on the square",
+        Some(crate::pins::BoundaryChoice::Free) => "free",
+        None => "as the file or the default says",
+    }
+}
+
+/// What the planner knows of `base`'s chart before trying anything.
+fn describe(base: &ChartSession) -> candidates::Chart {
+    let p = base.prepared();
+    let (boundary, region) = base.source().boundary();
+    let law = candidates::Law::of(p, boundary, region);
+    let landmarks = p
+        .constraints
+        .iter()
+        .zip(&p.constraint_vertices)
+        .map(|(c, &v)| (p.filled.mesh.positions[v as usize], uv_to_xy(c.target_uv)))
+        .collect();
+    let room = region.unwrap_or(crate::param::region::Region::TEXTURE).layout_box();
+    candidates::Chart {
+        law,
+        disk: p.opening.seam.is_none() && p.opening.separation.is_empty(),
+        square_by_default: matches!(p.domain, Domain::Square) && boundary.is_none(),
+        landmarks,
+        room,
+        budget: crate::chart::separation_budget(base.source(), base.asset(), &p.welded, p.chart.id, &p.constraints),
+    }
+}
+
+/// Solves `session`'s chart from start to end ([`ChartPlan`]).
+///
+/// # Errors
+/// As [`ChartPlan::advance`].
+pub fn solve(session: ChartSession, options: &SolverOptions) -> Result<Solution, Error> {
+    let mut plan = ChartPlan::new(session, *options, StartFrom::StepOne);
+    plan.run()?;
+    plan.into_solution()
+}
