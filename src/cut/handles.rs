@@ -45,9 +45,14 @@ fn capped(mesh: &TriMesh, graph: &EdgeGraph, cost: &[f64]) -> Capped {
         let centre = closed.positions.len() as u32;
         closed.positions.push(mesh.positions[start]);
         let mut v = start as u32;
-        while !seen[v as usize] {
+        // A boundary that does not close (a vertex where the surface is
+        // pinched) ends its fan where it stops.
+        while v != NONE && !seen[v as usize] {
             seen[v as usize] = true;
             let w = next[v as usize];
+            if w == NONE {
+                break;
+            }
             // The cap lies on the other side of the boundary edge v → w.
             closed.triangles.push([w, v, centre]);
             v = w;

@@ -85,6 +85,71 @@ fn sorted_half_edges(mesh: &TriMesh) -> Vec<HalfEdge> {
 /// edge that is manifold and consistently wound and for which `is_seam`
 /// says no. Triangles must name three distinct vertices in range.
 pub fn split_wedges(mesh: &TriMesh, is_seam: &dyn Fn([u32; 2]) -> bool) -> Wedges {
+    let first = split_once(mesh, is_seam);
+    // Corners joined around a vertex through other edges can still bring
+    // three triangles (or two wound alike) onto one edge: those beyond a
+    // consistently wound pair are set apart whole, and what that pinches is
+    // split again.
+    let Some(detached) = detach_extra(&first.mesh) else {
+        return first;
+    };
+    let second = split_once(&detached.mesh, &|_| false);
+    let origin: Vec<u32> = second
+        .origin
+        .iter()
+        .map(|&v| first.origin[detached.origin[v as usize] as usize])
+        .collect();
+    let mut repairs = first.repairs;
+    repairs.pinches.extend(second.repairs.pinches.iter().map(|&v| origin[v as usize]));
+    repairs.pinches.sort_unstable();
+    repairs.pinches.dedup();
+    Wedges {
+        mesh: second.mesh,
+        origin,
+        repairs,
+    }
+}
+
+/// `mesh` with every triangle beyond a consistently wound pair on one of
+/// its edges given vertices of its own (each vertex's origin alongside);
+/// `None` when every edge is manifold and consistently wound.
+fn detach_extra(mesh: &TriMesh) -> Option<Wedges> {
+    let half = sorted_half_edges(mesh);
+    let mut detach = vec![false; mesh.triangles.len()];
+    for group in half.chunk_by(|a, b| a.edge == b.edge) {
+        let forward = |h: &HalfEdge| mesh.triangles[h.triangle as usize][h.k as usize] == h.edge[0];
+        let live: Vec<&HalfEdge> = group.iter().filter(|h| !detach[h.triangle as usize]).collect();
+        // Kept: one a → b and one b → a half-edge, else only the first.
+        let kept = match (live.iter().position(|h| forward(h)), live.iter().position(|h| !forward(h))) {
+            (Some(a), Some(b)) => [a, b],
+            _ => [0, 0],
+        };
+        for (_, h) in live.iter().enumerate().filter(|(k, _)| !kept.contains(k)) {
+            detach[h.triangle as usize] = true;
+        }
+    }
+    if !detach.contains(&true) {
+        return None;
+    }
+    let mut positions = mesh.positions.clone();
+    let mut origin: Vec<u32> = (0..mesh.n_vertices() as u32).collect();
+    let mut triangles = mesh.triangles.clone();
+    for (_, tri) in triangles.iter_mut().enumerate().filter(|(t, _)| detach[*t]) {
+        for v in tri.iter_mut() {
+            origin.push(*v);
+            positions.push(mesh.positions[*v as usize]);
+            *v = (origin.len() - 1) as u32;
+        }
+    }
+    Some(Wedges {
+        mesh: TriMesh { positions, triangles },
+        origin,
+        repairs: Repairs::default(),
+    })
+}
+
+/// One pass of [`split_wedges`].
+fn split_once(mesh: &TriMesh, is_seam: &dyn Fn([u32; 2]) -> bool) -> Wedges {
     let half = sorted_half_edges(mesh);
     let mut corners = UnionFind::new(mesh.triangles.len() * 3);
     let mut repairs = Repairs::default();
@@ -183,7 +248,7 @@ fn number_wedges(mesh: &TriMesh, corners: &mut UnionFind) -> (Vec<[u32; 3]>, Vec
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::topology::{Topology, triangle_components};
+    use crate::mesh::topology::{Topology, TopologyError, triangle_components};
     use crate::testing::grid_mesh;
     use glam::DVec3;
 
@@ -260,6 +325,46 @@ mod tests {
         assert_eq!(w.mesh.triangles[0][..2], [0, 1]);
         assert_eq!(w.mesh.triangles[1][..2], [1, 0]);
         assert!(w.mesh.triangles[2][0] >= 5 && w.mesh.triangles[2][1] >= 5);
+    }
+
+    #[test]
+    fn any_soup_comes_out_a_manifold_consistently_wound_surface() {
+        // Random triangles over few vertices: fins, fans glued around
+        // non-manifold edges, windings that disagree.
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = |n: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % u64::from(n)) as u32
+        };
+        for _ in 0..400 {
+            let n = 4 + next(6);
+            let positions = (0..n).map(|v| DVec3::new(f64::from(v), f64::from(v * v % 7), 0.0)).collect();
+            let triangles = (0..2 + next(14))
+                .map(|_| {
+                    let a = next(n);
+                    let b = (a + 1 + next(n - 1)) % n;
+                    let c = (0..n).find(|&c| c != a && c != b && next(3) == 0).unwrap_or((a.max(b) + 1) % n);
+                    [a, b, if c == a || c == b { (a.max(b) + 2) % n } else { c }]
+                })
+                .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+                .collect();
+            let mesh = TriMesh { positions, triangles };
+            let w = split_wedges(&mesh, &no_seam);
+            assert_eq!(w.mesh.triangles.len(), mesh.triangles.len());
+            for (t, tri) in w.mesh.triangles.iter().enumerate() {
+                assert_eq!(tri.map(|v| w.origin[v as usize]), mesh.triangles[t]);
+            }
+            match Topology::build(&w.mesh) {
+                Err(
+                    e @ (TopologyError::NonManifoldEdge { .. }
+                    | TopologyError::InconsistentOrientation { .. }
+                    | TopologyError::NonManifoldVertex { .. }),
+                ) => panic!("{e} in {:?} from {:?}", w.mesh.triangles, mesh.triangles),
+                _ => {}
+            }
+        }
     }
 
     #[test]
