@@ -177,7 +177,7 @@ impl Room {
     /// aside): with positive triangles, whether it is one-to-one at all.
     pub fn embeds(&self, layout: &[DVec2]) -> bool {
         let points: Vec<DVec2> = self.vertices.iter().map(|&v| layout[v as usize]).collect();
-        meeting_pairs(&points, &self.edges, Contact::Any, 1, |_, _| false).is_empty()
+        meeting_pairs(&points, &self.edges, Contact::Any, 1, self.edges.len()).is_empty()
             && self.check_loops(&points, &self.edges, Encoding::Obj).is_ok()
     }
 
@@ -198,7 +198,7 @@ impl Room {
         let n_chart = self.edges.len();
         let mut edges = self.edges.clone();
         edges.extend(obstacles.edges.iter().map(|e| [e[0] + n, e[1] + n]));
-        let pairs = meeting_pairs(&points, &edges, Contact::Any, 1, |i, j| i >= n_chart && j >= n_chart);
+        let pairs = meeting_pairs(&points, &edges, Contact::Any, 1, n_chart);
         if let Some(&(i, j)) = pairs.first() {
             let named = |e: Edge| [self.vertices[e[0] as usize], self.vertices[e[1] as usize]];
             return Err(if j < n_chart {
@@ -271,7 +271,7 @@ impl Room {
             .iter()
             .map(|&v| Encoding::Gltf.store(layout[v as usize]))
             .collect();
-        meeting_pairs(&points, &self.edges, Contact::Proper, limit, |_, _| false).len()
+        meeting_pairs(&points, &self.edges, Contact::Proper, limit, self.edges.len()).len()
     }
 }
 
