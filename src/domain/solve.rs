@@ -8,9 +8,9 @@ use super::start::{ChosenStart, Fit, StartKind, choose_start};
 use crate::complete::context::{FreeDomain, NewtonContext};
 use crate::complete::pattern::PendingNewtonPattern;
 use crate::error::Error;
-use crate::free::FreeSetup;
 use crate::free::room::Room;
 use crate::free::scaffold::Scaffold;
+use crate::free::{FreeSetup, Obstacles};
 use crate::mesh::topology::Topology;
 use crate::param::bar_net::FilledChart;
 use crate::rbf::stepping::StepProblem;
@@ -199,7 +199,12 @@ fn open_free(
         shrink,
     } = chosen;
     let (lo, hi) = setup.region.layout_box();
-    let scaffold = Arc::new(Scaffold::new(lo, hi, &setup.obstacles, room.boundary_vertices().len()));
+    let scaffold = Arc::new(Scaffold::new(
+        lo,
+        hi,
+        &nearby(&setup.obstacles, &layout),
+        room.boundary_vertices().len(),
+    ));
     let offset = layout.len() as u32;
     layout.extend_from_slice(scaffold.fixed_points());
     let domain = FreeDomain::new(room, scaffold, offset);
@@ -222,6 +227,20 @@ fn open_free(
         start_ms: ms(t0),
     };
     Ok((layout, solve))
+}
+
+/// The islands within the chart's start box widened by its size on every
+/// side: the scaffold keeps the chart's steps off them; farther ones are
+/// kept off by the room's check alone (a scaffold over every island of a
+/// large atlas would be rebuilt at every Newton step).
+fn nearby(obstacles: &Arc<Obstacles>, layout: &[DVec2]) -> Obstacles {
+    let (lo, hi) = layout
+        .iter()
+        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let reach = (hi - lo).max_element();
+    obstacles.near_layout(lo - reach, hi + reach)
 }
 
 /// The Newton system over the chart's vertices (its pattern built now if

@@ -90,6 +90,33 @@ impl Obstacles {
     pub fn is_empty(&self) -> bool {
         self.triangles.is_empty()
     }
+
+    /// The triangles among these whose layout box meets `lo..hi` (layout
+    /// coordinates), as obstacles of their own: a chart's scaffold needs
+    /// only the islands near it (the room's check sees them all).
+    pub fn near_layout(&self, lo: DVec2, hi: DVec2) -> Obstacles {
+        let mut compact = vec![u32::MAX; self.layout.len()];
+        let mut out = Obstacles::default();
+        for t in &self.triangles {
+            let p = t.map(|v| self.layout[v as usize]);
+            let (a, b) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+            if !(a.cmple(hi).all() && b.cmpge(lo).all()) {
+                continue;
+            }
+            out.triangles.push(t.map(|v| {
+                if compact[v as usize] == u32::MAX {
+                    compact[v as usize] = out.layout.len() as u32;
+                    out.gltf.push(self.gltf[v as usize]);
+                    out.obj.push(self.obj[v as usize]);
+                    out.layout.push(self.layout[v as usize]);
+                }
+                compact[v as usize]
+            }));
+        }
+        out.edges = crate::injective::boundary_edges(&out.triangles);
+        out.probes = island_probes(&out.triangles, out.gltf.len());
+        out
+    }
 }
 
 /// The first triangle of each connected set of triangles (sharing vertices).

@@ -10,7 +10,7 @@
 //! island. (The checks also take hole loops, for layouts without fans.)
 
 use super::{FreeSetup, Region};
-use crate::injective::{Contact, Edge, meeting_pairs, strictly_inside, winding_number};
+use crate::injective::{Contact, Edge, meeting_pairs, winding_number};
 use crate::mesh::topology::Topology;
 use glam::DVec2;
 use std::ops::Range;
@@ -197,7 +197,17 @@ impl Room {
         });
         let n_chart = self.edges.len();
         let mut edges = self.edges.clone();
-        edges.extend(obstacles.edges.iter().map(|e| [e[0] + n, e[1] + n]));
+        // Only islands' edges that reach the chart's box can meet it.
+        let (lo, hi) = points[..n as usize]
+            .iter()
+            .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
+        let reaches = |e: &&[u32; 2]| {
+            let (a, b) = (points[(e[0] + n) as usize], points[(e[1] + n) as usize]);
+            a.min(b).cmple(hi).all() && a.max(b).cmpge(lo).all()
+        };
+        edges.extend(obstacles.edges.iter().filter(reaches).map(|e| [e[0] + n, e[1] + n]));
         let pairs = meeting_pairs(&points, &edges, Contact::Any, 1, n_chart);
         if let Some(&(i, j)) = pairs.first() {
             let named = |e: Edge| [self.vertices[e[0] as usize], self.vertices[e[1] as usize]];
@@ -250,14 +260,24 @@ impl Room {
     ) -> Result<(), Violation> {
         let obstacles = &self.setup.obstacles;
         let corner = |t: [u32; 3]| t.map(|v| points[(v + offset) as usize]);
+        let chart = &points[..offset as usize];
+        let (lo, hi) = chart
+            .iter()
+            .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
         for (island, &t) in obstacles.probes.iter().enumerate() {
             let c = corner(obstacles.triangles[t as usize]).iter().sum::<DVec2>() / 3.0;
-            if winding_number(c, points, edges) != 0 {
+            // Outside the chart's box the winding number is 0.
+            let in_box = c.cmpge(lo).all() && c.cmple(hi).all();
+            if in_box && winding_number(c, points, edges) != 0 {
                 return Err(Violation::CoversIsland { island });
             }
         }
+        // The chart's probe inside an island: inside its outline (islands do
+        // not overlap, so a winding number other than 0 is inside one).
         let c = self.probe.map(|v| enc.store(layout[v as usize])).iter().sum::<DVec2>() / 3.0;
-        if obstacles.triangles.iter().any(|&t| strictly_inside(c, corner(t))) {
+        if winding_number(c, &points[offset as usize..], &obstacles.edges) != 0 {
             return Err(Violation::InsideIsland);
         }
         Ok(())
