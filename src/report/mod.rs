@@ -52,6 +52,9 @@ pub struct ConstraintReport {
     pub primitive: usize,
     /// The vertex (glTF index in `primitive`).
     pub vertex: u32,
+    /// Its welded vertex (internal): every copy of it is checked as written.
+    #[serde(skip)]
+    pub welded: u32,
     /// Target, glTF texture coordinates.
     pub target: DVec2,
     /// Where the vertex ended, glTF texture coordinates.
@@ -546,20 +549,33 @@ impl Report {
 
     /// A short human summary (a few lines).
     pub fn summary(&self) -> String {
-        let mut s = format!(
-            "{}: {} — {} of {} constraints reached (max residual {:.3e}), {} flipped / {} zero-area triangles\n",
-            match self.status {
-                Status::Reached => "reached",
-                Status::Partial => "partial",
-                Status::Error => "error",
-            },
-            self.output.as_deref().unwrap_or(&self.asset),
-            self.constraints.iter().filter(|c| c.reached).count(),
-            self.constraints.len(),
+        // Every chart's constraints count, the first's and the others'.
+        let all = || {
+            self.constraints
+                .iter()
+                .chain(self.charts.iter().flat_map(|c| &c.constraints))
+        };
+        let counts = format!(
+            "{} of {} constraints reached (max residual {:.3e}), {} flipped / {} zero-area triangles",
+            all().filter(|c| c.reached).count(),
+            all().count(),
             self.max_residual,
             self.orientation.flipped,
             self.orientation.zero_area,
         );
+        let target = self.output.as_deref().unwrap_or(&self.asset);
+        // An error's first line says why; the counts follow.
+        let mut s = match (self.status, &self.message) {
+            (Status::Error, Some(m)) => format!("error: {target} — {m}\n  {counts}\n"),
+            (status, _) => format!(
+                "{}: {target} — {counts}\n",
+                match status {
+                    Status::Reached => "reached",
+                    Status::Partial => "partial",
+                    Status::Error => "error",
+                }
+            ),
+        };
         s += &format!(
             "  chart {} of {}: {} vertices, {} triangles, {} holes; stretch L2 {:.4} → {:.4}, L∞ {:.4} → {:.4}\n",
             self.counts.chart,
@@ -600,7 +616,7 @@ impl Report {
             self.iterations, self.halvings, self.total_ms
         );
         // The first line already says a reached result is on target.
-        if let Some(m) = self.message.as_ref().filter(|_| self.status != Status::Reached) {
+        if let Some(m) = self.message.as_ref().filter(|_| self.status == Status::Partial) {
             s += &format!("  {m}\n");
         }
         if let Some(h) = &self.hint {
