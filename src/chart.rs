@@ -329,7 +329,14 @@ fn rest_share(asset: &SourceAsset, welded: &WeldedMesh, chart: &Chart, opening: 
         })
         .map(|t| crate::mesh::triangle_area_3d(&welded.mesh, *t))
         .sum();
-    let rest = others + opening.rest.iter().map(|c| c.mesh.area()).sum::<f64>();
+    // Pieces holding landmarks need room beside it too.
+    let rest = others
+        + opening
+            .rest
+            .iter()
+            .chain(&opening.pieces)
+            .map(|c| c.mesh.area())
+            .sum::<f64>();
     let total = rest + chart.mesh.area();
     if total > 0.0 { rest / total } else { 0.0 }
 }

@@ -137,6 +137,7 @@ pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Pat
         obj_vt: (asset.format == crate::io::AssetFormat::Obj)
             .then(|| chart::assemble_obj_corners(asset, &prepared.welded, &parts)),
     };
+    every_copy_on_target(asset, &prepared.welded, &uvs.gltf, report);
     match crate::io::gltf_file::stage_asset(asset, &uvs, out) {
         Ok(staged) => {
             report.output = Some(out.display().to_string());
@@ -156,11 +157,67 @@ pub fn final_uvs(finished: &Finished, report: &mut Report) -> Option<Vec<crate::
     let placed = checked(finished, report)?;
     let mut parts = placed.parts(finished.prepared, finished.layout);
     parts.extend(finished.secondary.iter().map(|s| s.prepared.part(&s.layout)));
-    Some(chart::assemble_corner_uvs(
-        finished.asset,
-        &finished.prepared.welded,
-        &parts,
-    ))
+    let uvs = chart::assemble_corner_uvs(finished.asset, &finished.prepared.welded, &parts);
+    every_copy_on_target(finished.asset, &finished.prepared.welded, &uvs, report);
+    Some(uvs)
+}
+
+/// How far (texture units) a stored copy of a reached landmark may lie
+/// from its target: f32 storage, never a seam's other side.
+const COPY_TOLERANCE: f64 = 1e-5;
+
+/// Checks every face corner that names a constrained vertex (every copy
+/// of it, on every side of a seam and in every chart) as written: a
+/// constraint counts as reached only if all of them are on its target.
+/// One that is not is marked unreached, with the farthest copy, and a
+/// reached report becomes partial.
+fn every_copy_on_target(
+    asset: &SourceAsset,
+    welded: &crate::mesh::weld::WeldedMesh,
+    uvs: &[crate::io::corners::CornerUvs],
+    report: &mut Report,
+) {
+    let mut farthest: std::collections::HashMap<u32, (f64, DVec2)> = report
+        .constraints
+        .iter()
+        .chain(report.charts.iter().flat_map(|r| &r.constraints))
+        .filter(|c| c.reached)
+        .map(|c| (c.welded, (0.0, c.target)))
+        .collect();
+    for (p, (prim, corners)) in asset.primitives.iter().zip(uvs).enumerate() {
+        for (&v, uv) in prim.indices.iter().zip(&corners.corners) {
+            if let Some((far, target)) = farthest.get_mut(&welded.vertex_of[p][v as usize]) {
+                let at = DVec2::new(f64::from(uv[0]), f64::from(uv[1]));
+                let d = if at.is_finite() {
+                    at.distance(*target)
+                } else {
+                    f64::INFINITY
+                };
+                *far = far.max(d);
+            }
+        }
+    }
+    let mut missed = Vec::new();
+    let lists = std::iter::once(&mut report.constraints).chain(report.charts.iter_mut().map(|r| &mut r.constraints));
+    for list in lists {
+        for c in list.iter_mut().filter(|c| c.reached) {
+            let (far, _) = farthest[&c.welded];
+            if far > COPY_TOLERANCE {
+                (c.reached, c.residual) = (false, far);
+                missed.push((c.index, far));
+            }
+        }
+    }
+    if let Some(&(index, far)) = missed.first() {
+        report.max_residual = report.max_residual.max(far);
+        if report.status == Status::Reached {
+            report.status = Status::Partial;
+            report.message = Some(format!(
+                "{} constraint(s) have a copy off their target as written (constraints[{index}]: {far:.3e} away): a seam or a separation runs through the vertex",
+                missed.len()
+            ));
+        }
+    }
 }
 
 /// The layout checked as stored, and the other charts packed around it;

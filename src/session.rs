@@ -42,6 +42,16 @@ use std::time::Instant;
 mod coarse;
 pub use coarse::{CoarseMesh, CoarseSolution, CoarseView};
 
+/// What [`ChartSession::solve_secondary`] gives: the other charts and
+/// pieces solved with their reports, why other charts could not be, and
+/// the pieces that could not be (with why), to be laid out with the rest.
+struct Secondaries {
+    solved: Vec<export::Secondary>,
+    reports: Vec<Report>,
+    failures: Vec<String>,
+    unsolved: Vec<(Arc<crate::mesh::weld::Chart>, String)>,
+}
+
 /// A chart of an asset and what its solves share (see the module docs).
 #[derive(Debug, Clone)]
 pub struct ChartSession {
@@ -482,12 +492,66 @@ impl ChartSession {
         if self.on_square() {
             self.last_layout = Some(Arc::new(solver.layout().to_vec()));
         }
-        if !self.prepared.secondary.is_empty() {
-            let (secondary, reports, failures) = self.solve_secondary(solver);
-            report.add_charts(reports, failures);
-            self.secondary = Arc::new(secondary);
-        }
+        self.solve_others(solver, &mut report);
         report
+    }
+
+    /// The other charts and pieces holding landmarks solved after this
+    /// chart ([`Self::solve_secondary`]), their reports added to `report`.
+    fn solve_others(&mut self, solver: &ChartSolver, report: &mut Report) {
+        if self.prepared.secondary.is_empty() && self.prepared.opening.pieces.is_empty() {
+            return;
+        }
+        let Secondaries {
+            solved,
+            reports,
+            failures,
+            unsolved,
+        } = self.solve_secondary(solver);
+        report.add_charts(reports, failures);
+        self.secondary = Arc::new(solved);
+        self.set_aside(unsolved, report);
+    }
+
+    /// Pieces holding landmarks that could not be solved are laid out with
+    /// the rest, their constraints reported unreached: the result is
+    /// partial, never an error that writes nothing.
+    fn set_aside(&mut self, unsolved: Vec<(Arc<crate::mesh::weld::Chart>, String)>, report: &mut Report) {
+        let Some((_, why)) = unsolved.first() else {
+            return;
+        };
+        let message = format!(
+            "{} piece(s) holding landmarks laid out without them: {why}",
+            unsolved.len()
+        );
+        let resolved = self.source.resolve(&self.asset.primitives, &self.prepared.welded);
+        for c in resolved.iter().flat_map(|(all, _)| all) {
+            if unsolved.iter().any(|(piece, _)| piece.local_of(c.welded).is_some()) {
+                report.constraints.push(report::ConstraintReport {
+                    index: c.index,
+                    label: c.label.clone(),
+                    primitive: c.primitive,
+                    vertex: c.vertex,
+                    welded: c.welded,
+                    target: c.target_uv,
+                    result: DVec2::NAN,
+                    step1: DVec2::NAN,
+                    residual: f64::INFINITY,
+                    reached: false,
+                    on_boundary: false,
+                    snapped_distance: c.snapped_distance,
+                });
+            }
+        }
+        report.max_residual = f64::INFINITY;
+        if report.status == report::Status::Reached {
+            report.status = report::Status::Partial;
+            report.message = Some(message);
+        }
+        let mut opening = (*self.prepared.opening).clone();
+        opening.rest.extend(unsolved.into_iter().map(|(piece, _)| piece));
+        self.prepared.opening = Arc::new(opening);
+        self.rest = Arc::default();
     }
 
     /// A finished free solve short of its targets: the same chart solved on
@@ -651,7 +715,7 @@ impl ChartSession {
     /// The other charts holding constraints, each solved free with its own
     /// constraints, clear of this chart's layout in `solver` and of those
     /// solved before it; their reports, and why any could not be solved.
-    fn solve_secondary(&self, solver: &ChartSolver) -> (Vec<export::Secondary>, Vec<Report>, Vec<String>) {
+    fn solve_secondary(&self, solver: &ChartSolver) -> Secondaries {
         let triangles_of = |p: &PreparedChart, layout: &[DVec2]| -> Vec<[DVec2; 3]> {
             let f = &p.filled;
             f.mesh.triangles[..f.n_real_triangles]
@@ -662,7 +726,7 @@ impl ChartSession {
         let mut placed = triangles_of(&self.prepared, solver.layout());
         let mut replaced = vec![self.prepared.chart.id];
         replaced.extend(&self.prepared.secondary);
-        let (mut solved, mut reports, mut failures) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut solved, mut reports, mut failures, mut unsolved) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let charts = self.prepared.secondary.iter().map(|&id| (id, None));
         let pieces = self.prepared.opening.pieces.iter().map(|p| (p.id, Some(p.clone())));
         for (id, piece) in pieces.chain(charts) {
@@ -690,10 +754,18 @@ impl ChartSession {
                         prepared,
                     });
                 }
-                Err(e) => failures.push(format!("chart {id}: {e}")),
+                Err(e) => match pick.piece {
+                    Some(piece) => unsolved.push((piece, e.to_string())),
+                    None => failures.push(format!("chart {id}: {e}")),
+                },
             }
         }
-        (solved, reports, failures)
+        Secondaries {
+            solved,
+            reports,
+            failures,
+            unsolved,
+        }
     }
 
     /// Solves the current constraints from start to end.
@@ -753,11 +825,7 @@ impl ChartSession {
         *self = solved.session;
         let mut report = solved.report;
         let solver = solved.solver;
-        if !self.prepared.secondary.is_empty() || !self.prepared.opening.pieces.is_empty() {
-            let (secondary, reports, failures) = self.solve_secondary(&solver);
-            report.add_charts(reports, failures);
-            self.secondary = Arc::new(secondary);
-        }
+        self.solve_others(&solver, &mut report);
         Ok(Some(Solution { solver, report }))
     }
 

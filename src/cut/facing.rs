@@ -71,7 +71,8 @@ impl Camera {
         let inv = m.inverse();
         let rows = [inv * r[0], inv * r[1]];
         let view = rows[0].cross(rows[1]);
-        if view.length().partial_cmp(&(1e-9 * rows[0].length() * rows[1].length())) != Some(std::cmp::Ordering::Greater) {
+        if view.length().partial_cmp(&(1e-9 * rows[0].length() * rows[1].length())) != Some(std::cmp::Ordering::Greater)
+        {
             return None;
         }
         let offset = tc - DVec2::new(rows[0].dot(pc), rows[1].dot(pc));

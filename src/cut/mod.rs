@@ -340,7 +340,11 @@ pub(crate) fn sorted_pieces(
     piece_of: &[u32],
     held: &[usize],
     main: usize,
-) -> (crate::mesh::weld::Chart, Vec<crate::mesh::weld::Chart>, Vec<crate::mesh::weld::Chart>) {
+) -> (
+    crate::mesh::weld::Chart,
+    Vec<crate::mesh::weld::Chart>,
+    Vec<crate::mesh::weld::Chart>,
+) {
     let (mut first, mut pieces, mut rest) = (None, Vec::new(), Vec::new());
     for (p, &h) in held.iter().enumerate() {
         let piece = chart.piece(&piece_of.iter().map(|&q| q as usize == p).collect::<Vec<bool>>());

@@ -224,9 +224,12 @@ fn main_piece(whole: &Chart, landmarks: &[u32]) -> (Chart, Vec<Chart>, Vec<Chart
         size[piece_of[t] as usize] += 1;
         tri.iter().for_each(|&v| piece_of_vertex[v as usize] = piece_of[t]);
     }
+    // Every copy of a landmark counts: a piece with one holds it too.
     let mut held = vec![0usize; n_pieces];
-    for l in landmarks.iter().filter_map(|&w| whole.local_of(w)) {
-        held[piece_of_vertex[l as usize] as usize] += 1;
+    for (v, w) in whole.welded_ids.iter().enumerate() {
+        if landmarks.contains(w) && piece_of_vertex[v] != u32::MAX {
+            held[piece_of_vertex[v] as usize] += 1;
+        }
     }
     let main = (0..n_pieces)
         .max_by_key(|&p| (held[p], size[p], std::cmp::Reverse(p)))

@@ -100,7 +100,9 @@ pub fn split_wedges(mesh: &TriMesh, is_seam: &dyn Fn([u32; 2]) -> bool) -> Wedge
         .map(|&v| first.origin[detached.origin[v as usize] as usize])
         .collect();
     let mut repairs = first.repairs;
-    repairs.pinches.extend(second.repairs.pinches.iter().map(|&v| origin[v as usize]));
+    repairs
+        .pinches
+        .extend(second.repairs.pinches.iter().map(|&v| origin[v as usize]));
     repairs.pinches.sort_unstable();
     repairs.pinches.dedup();
     Wedges {
@@ -120,7 +122,10 @@ fn detach_extra(mesh: &TriMesh) -> Option<Wedges> {
         let forward = |h: &HalfEdge| mesh.triangles[h.triangle as usize][h.k as usize] == h.edge[0];
         let live: Vec<&HalfEdge> = group.iter().filter(|h| !detach[h.triangle as usize]).collect();
         // Kept: one a → b and one b → a half-edge, else only the first.
-        let kept = match (live.iter().position(|h| forward(h)), live.iter().position(|h| !forward(h))) {
+        let kept = match (
+            live.iter().position(|h| forward(h)),
+            live.iter().position(|h| !forward(h)),
+        ) {
             (Some(a), Some(b)) => [a, b],
             _ => [0, 0],
         };
@@ -340,12 +345,16 @@ mod tests {
         };
         for _ in 0..400 {
             let n = 4 + next(6);
-            let positions = (0..n).map(|v| DVec3::new(f64::from(v), f64::from(v * v % 7), 0.0)).collect();
+            let positions = (0..n)
+                .map(|v| DVec3::new(f64::from(v), f64::from(v * v % 7), 0.0))
+                .collect();
             let triangles = (0..2 + next(14))
                 .map(|_| {
                     let a = next(n);
                     let b = (a + 1 + next(n - 1)) % n;
-                    let c = (0..n).find(|&c| c != a && c != b && next(3) == 0).unwrap_or((a.max(b) + 1) % n);
+                    let c = (0..n)
+                        .find(|&c| c != a && c != b && next(3) == 0)
+                        .unwrap_or((a.max(b) + 1) % n);
                     [a, b, if c == a || c == b { (a.max(b) + 2) % n } else { c }]
                 })
                 .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
@@ -356,13 +365,13 @@ mod tests {
             for (t, tri) in w.mesh.triangles.iter().enumerate() {
                 assert_eq!(tri.map(|v| w.origin[v as usize]), mesh.triangles[t]);
             }
-            match Topology::build(&w.mesh) {
-                Err(
-                    e @ (TopologyError::NonManifoldEdge { .. }
-                    | TopologyError::InconsistentOrientation { .. }
-                    | TopologyError::NonManifoldVertex { .. }),
-                ) => panic!("{e} in {:?} from {:?}", w.mesh.triangles, mesh.triangles),
-                _ => {}
+            if let Err(
+                e @ (TopologyError::NonManifoldEdge { .. }
+                | TopologyError::InconsistentOrientation { .. }
+                | TopologyError::NonManifoldVertex { .. }),
+            ) = Topology::build(&w.mesh)
+            {
+                panic!("{e} in {:?} from {:?}", w.mesh.triangles, mesh.triangles);
             }
         }
     }

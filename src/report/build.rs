@@ -57,6 +57,7 @@ fn constraint_reports(s: &SolveSummary, on_outer: &[bool]) -> Vec<ConstraintRepo
                 label: c.label.clone(),
                 primitive: c.primitive,
                 vertex: c.vertex,
+                welded: c.welded,
                 target: c.target_uv,
                 result,
                 step1: xy_to_uv(s.step1[v as usize]),
