@@ -10,6 +10,7 @@ pub mod gltf_split;
 pub mod obj;
 pub mod paths;
 pub mod read;
+pub mod scan;
 pub mod validate;
 
 pub use read::{InputLimits, ReadError, ReadScope};
@@ -33,8 +34,10 @@ pub enum AssetError {
     Read { path: PathBuf, source: ReadError },
     #[error("{path}: more than the input limits allow: {message}")]
     TooLarge { path: PathBuf, message: String },
-    #[error("{path}: unsupported file type (use .glb, .gltf or .obj)")]
+    #[error("{path}: unsupported file type (use .glb, .gltf, .obj, .ply, .stl or .off)")]
     UnknownFormat { path: PathBuf },
+    #[error("{path}: {source}")]
+    Scan { path: PathBuf, source: scan::ScanError },
     #[error("{path}: corrupt GLB: {source}")]
     Glb { path: PathBuf, source: glb::GlbError },
     #[error("{path}: invalid glTF: {message}")]
@@ -171,14 +174,26 @@ pub fn load_asset(
     uv_set: u32,
     rules: &InputRules,
 ) -> Result<SourceAsset, AssetError> {
-    let format = AssetFormat::of(path).ok_or_else(|| AssetError::UnknownFormat {
-        path: path.to_path_buf(),
-    })?;
-    let bytes =
+    let scanned = scan::ScanFormat::of(path);
+    let format = match scanned {
+        Some(_) => AssetFormat::Obj,
+        None => AssetFormat::of(path).ok_or_else(|| AssetError::UnknownFormat {
+            path: path.to_path_buf(),
+        })?,
+    };
+    let mut bytes =
         read::read_regular(path, rules.limits.max_file_bytes, &rules.scope).map_err(|source| AssetError::Read {
             path: path.to_path_buf(),
             source,
         })?;
+    // A scanner format is read as the OBJ it amounts to (no UVs).
+    if let Some(scan_format) = scanned {
+        let mesh = scan::read(scan_format, &bytes).map_err(|source| AssetError::Scan {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        bytes = mesh.to_obj().into_bytes();
+    }
     match format {
         AssetFormat::Obj => {
             if let Some(MeshSelector::Index(i)) = mesh
