@@ -8,6 +8,16 @@
 use crate::guard::orientation;
 use glam::DVec2;
 
+/// The bounding box `(lo, hi)` of `points` (inverted, ∞ to −∞, when
+/// there are none).
+pub fn bounds(points: impl IntoIterator<Item = impl std::borrow::Borrow<DVec2>>) -> (DVec2, DVec2) {
+    points
+        .into_iter()
+        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p.borrow()), hi.max(*p.borrow()))
+        })
+}
+
 /// What counts as two edges meeting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Contact {

@@ -6,6 +6,7 @@
 //! disjoint cells cannot overlap, whatever the rounding to f32. The scale is
 //! the largest that fits all (bisection).
 
+use crate::injective::bounds;
 use glam::DVec2;
 use thiserror::Error;
 
@@ -135,13 +136,6 @@ fn turned(shape: &Shape) -> (DVec2, DVec2, DVec2) {
         .min_by(|a, b| (a.2.x * a.2.y).total_cmp(&(b.2.x * b.2.y)))
         .expect("turns");
     (best.0, best.1, best.2)
-}
-
-fn bounds(points: impl Iterator<Item = DVec2>) -> (DVec2, DVec2) {
-    points.fold(
-        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(p), hi.max(p)),
-    )
 }
 
 /// Packs `shapes` into the box `lo..hi` (layout coordinates) around the

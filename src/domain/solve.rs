@@ -234,11 +234,7 @@ fn open_free(
 /// kept off by the room's check alone (a scaffold over every island of a
 /// large atlas would be rebuilt at every Newton step).
 fn nearby(obstacles: &Arc<Obstacles>, layout: &[DVec2]) -> Obstacles {
-    let (lo, hi) = layout
-        .iter()
-        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
+    let (lo, hi) = crate::injective::bounds(layout);
     let reach = (hi - lo).max_element();
     obstacles.near_layout(lo - reach, hi + reach)
 }

@@ -13,6 +13,7 @@ use crate::complete::energy::RestTriangle;
 use crate::complete::newton::NewtonSystem;
 use crate::free::room::Room;
 use crate::guard;
+use crate::injective::bounds;
 use crate::param::bar_net::FilledChart;
 use crate::rbf::stepping::StepProblem;
 use glam::{DVec2, DVec3};
@@ -519,14 +520,6 @@ fn least_move_inside((lo, hi): (DVec2, DVec2), centre: DVec2, shrink: f64, regio
     d
 }
 
-fn bounds(points: &[DVec2]) -> (DVec2, DVec2) {
-    points
-        .iter()
-        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| {
-            (lo.min(p), hi.max(p))
-        })
-}
-
 /// Total signed area of the triangles in `layout`.
 pub fn layout_area(layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
     triangles
@@ -606,7 +599,7 @@ impl Similarity {
 /// up to [`FINAL_FILL`] of the region: the largest island that fits.
 pub fn fill_region(room: &Room, layout: &mut [DVec2], triangles: &[[u32; 3]], pivot: Option<DVec2>) {
     let (lo, hi) = room.setup().region.layout_box();
-    let (blo, bhi) = bounds(layout);
+    let (blo, bhi) = bounds(&*layout);
     let size = (bhi - blo).max(DVec2::splat(1e-300));
     let most = FINAL_FILL * ((hi - lo) / size).min_element();
     if most.is_nan() || most <= 1.0 {

@@ -10,7 +10,7 @@
 //! island. (The checks also take hole loops, for layouts without fans.)
 
 use super::{FreeSetup, Region};
-use crate::injective::{Contact, Edge, meeting_pairs, winding_number};
+use crate::injective::{Contact, Edge, bounds, meeting_pairs, winding_number};
 use crate::mesh::topology::Topology;
 use glam::DVec2;
 use std::ops::Range;
@@ -198,11 +198,7 @@ impl Room {
         let n_chart = self.edges.len();
         let mut edges = self.edges.clone();
         // Only islands' edges that reach the chart's box can meet it.
-        let (lo, hi) = points[..n as usize]
-            .iter()
-            .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(*p), hi.max(*p))
-            });
+        let (lo, hi) = bounds(&points[..n as usize]);
         let reaches = |e: &&[u32; 2]| {
             let (a, b) = (points[(e[0] + n) as usize], points[(e[1] + n) as usize]);
             a.min(b).cmple(hi).all() && a.max(b).cmpge(lo).all()
@@ -222,7 +218,14 @@ impl Room {
         }
         let chart_edges = &edges[..n_chart];
         self.check_loops(&points, chart_edges, enc)?;
-        self.check_islands(layout, &points, chart_edges, n, enc)
+        let stored = AsStored {
+            points: &points,
+            chart_edges,
+            offset: n,
+            lo,
+            hi,
+        };
+        self.check_islands(layout, &stored, enc)
     }
 
     /// Loop orientations, and every hole inside the outer loop and outside the others.
@@ -250,22 +253,16 @@ impl Room {
     }
 
     /// No island inside the chart, the chart not inside an island.
-    fn check_islands(
-        &self,
-        layout: &[DVec2],
-        points: &[DVec2],
-        edges: &[Edge],
-        offset: u32,
-        enc: Encoding,
-    ) -> Result<(), Violation> {
+    fn check_islands(&self, layout: &[DVec2], stored: &AsStored, enc: Encoding) -> Result<(), Violation> {
+        let AsStored {
+            points,
+            chart_edges: edges,
+            offset,
+            lo,
+            hi,
+        } = *stored;
         let obstacles = &self.setup.obstacles;
         let corner = |t: [u32; 3]| t.map(|v| points[(v + offset) as usize]);
-        let chart = &points[..offset as usize];
-        let (lo, hi) = chart
-            .iter()
-            .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(*p), hi.max(*p))
-            });
         for (island, &t) in obstacles.probes.iter().enumerate() {
             let c = corner(obstacles.triangles[t as usize]).iter().sum::<DVec2>() / 3.0;
             // Outside the chart's box the winding number is 0.
@@ -293,6 +290,21 @@ impl Room {
             .collect();
         meeting_pairs(&points, &self.edges, Contact::Proper, limit, self.edges.len()).len()
     }
+}
+
+/// A chart's boundary as stored with the islands' points after it, for
+/// [`Room::check`]'s island tests.
+#[derive(Clone, Copy)]
+struct AsStored<'a> {
+    /// The chart's boundary points, then the islands'.
+    points: &'a [DVec2],
+    /// The chart's boundary edges.
+    chart_edges: &'a [Edge],
+    /// Where the islands' points begin.
+    offset: u32,
+    /// The chart's box.
+    lo: DVec2,
+    hi: DVec2,
 }
 
 /// The orientation of a simple closed loop: the sign of the turn at its

@@ -306,11 +306,7 @@ fn keeps_positive(p: DVec2, ring: &[u32], closed: bool, layout: &[DVec2]) -> boo
 /// `region`) left of every ring edge. `None` when empty.
 fn kernel_centre(ring: &[u32], closed: bool, layout: &[DVec2], region: (DVec2, DVec2)) -> Option<DVec2> {
     let points: Vec<DVec2> = ring.iter().map(|&b| layout[b as usize]).collect();
-    let (lo, hi) = points
-        .iter()
-        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| {
-            (lo.min(p), hi.max(p))
-        });
+    let (lo, hi) = crate::injective::bounds(&points);
     let (lo, hi) = (lo.max(region.0), hi.min(region.1));
     let mut polygon = vec![lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
     let n_edges = if closed { points.len() } else { points.len() - 1 };

@@ -65,9 +65,7 @@ fn own_shape(
         crate::guard::all_positive_as_stored(layout, &f.mesh.triangles) && room.admits(layout).is_ok()
     };
     let (lo, hi) = room.setup().region.layout_box();
-    let (blo, bhi) = base.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(a, b), &p| {
-        (a.min(p), b.max(p))
-    });
+    let (blo, bhi) = crate::injective::bounds(&base);
     let k = 0.9 * ((hi - lo) / (bhi - blo).max(DVec2::splat(1e-300))).min_element();
     let centred: Vec<DVec2> = base
         .iter()
