@@ -10,7 +10,7 @@ use crate::chart::{Opening, PreparedChart};
 use crate::cut::prepare::make_solvable;
 use crate::cut::{SeamRules, SeamSpec};
 use crate::domain::Domain;
-use crate::free::{FreeSetup, Obstacles, RegionSource};
+use crate::free::FreeSetup;
 use crate::io::SourceAsset;
 use crate::mesh::weld::Chart;
 use crate::options::SolverOptions;
@@ -150,13 +150,7 @@ fn free_layout(
     let traps = crate::param::boundary::TrapCandidates::find(&chart.mesh, &topology);
     let filled = crate::param::bar_net::fill_holes(&chart.mesh, &topology);
     let duplicates = opening.duplicates.clone();
-    let setup = FreeSetup {
-        region: Region::TEXTURE,
-        source: RegionSource::Texture,
-        obstacles: Arc::new(Obstacles::default()),
-        island: None,
-        given: None,
-    };
+    let setup = FreeSetup::open_texture();
     let chart = Arc::new(chart);
     let piece = PreparedChart {
         welded: prepared.welded.clone(),

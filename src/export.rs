@@ -130,8 +130,7 @@ pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Pat
         return Staged::new();
     };
     let (asset, prepared) = (finished.asset, finished.prepared);
-    let mut parts = placed.parts(prepared, finished.layout);
-    parts.extend(finished.secondary.iter().map(|s| s.prepared.part(&s.layout)));
+    let parts = every_part(finished, &placed);
     let uvs = StoredUvs {
         gltf: chart::assemble_corner_uvs(asset, &prepared.welded, &parts),
         obj_vt: (asset.format == crate::io::AssetFormat::Obj)
@@ -155,11 +154,18 @@ pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Pat
 /// makes; `None` (and `report` an error) when they refuse the layout.
 pub fn final_uvs(finished: &Finished, report: &mut Report) -> Option<Vec<crate::io::corners::CornerUvs>> {
     let placed = checked(finished, report)?;
-    let mut parts = placed.parts(finished.prepared, finished.layout);
-    parts.extend(finished.secondary.iter().map(|s| s.prepared.part(&s.layout)));
+    let parts = every_part(finished, &placed);
     let uvs = chart::assemble_corner_uvs(finished.asset, &finished.prepared.welded, &parts);
     every_copy_on_target(finished.asset, &finished.prepared.welded, &uvs, report);
     Some(uvs)
+}
+
+/// Every laid-out part: the solved chart, the rest placed around it, and
+/// the other charts and pieces holding landmarks.
+fn every_part<'a>(finished: &Finished<'a>, placed: &'a crate::atlas::PlacedRest) -> Vec<chart::Part<'a>> {
+    let mut parts = placed.parts(finished.prepared, finished.layout);
+    parts.extend(finished.secondary.iter().map(|s| s.prepared.part(&s.layout)));
+    parts
 }
 
 /// How far (texture units) a stored copy of a reached landmark may lie

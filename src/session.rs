@@ -475,7 +475,7 @@ impl ChartSession {
     pub fn report(&mut self, solver: &mut ChartSolver) -> Report {
         self.detour_uncut(solver);
         self.timed_detour_via_square(solver);
-        self.settle(solver);
+        crate::plan::settle::settle(&self.prepared, self.step_one.as_deref().map(Vec::as_slice), solver);
         let boundary = self.boundary.as_deref().expect("a started solver mapped the boundary");
         // A chart started from its coarse level has no step 1 of its own:
         // its start stands in for it.
@@ -489,9 +489,7 @@ impl ChartSession {
             solver,
             times: self.times.with_solver(solver.times()),
         });
-        if self.on_square() {
-            self.last_layout = Some(Arc::new(solver.layout().to_vec()));
-        }
+        self.keep_layout(solver);
         self.solve_others(solver, &mut report);
         report
     }
@@ -527,20 +525,8 @@ impl ChartSession {
         let resolved = self.source.resolve(&self.asset.primitives, &self.prepared.welded);
         for c in resolved.iter().flat_map(|(all, _)| all) {
             if unsolved.iter().any(|(piece, _)| piece.local_of(c.welded).is_some()) {
-                report.constraints.push(report::ConstraintReport {
-                    index: c.index,
-                    label: c.label.clone(),
-                    primitive: c.primitive,
-                    vertex: c.vertex,
-                    welded: c.welded,
-                    target: c.target_uv,
-                    result: DVec2::NAN,
-                    step1: DVec2::NAN,
-                    residual: f64::INFINITY,
-                    reached: false,
-                    on_boundary: false,
-                    snapped_distance: c.snapped_distance,
-                });
+                let unreached = report::ConstraintReport::of(c, DVec2::NAN, DVec2::NAN, f64::INFINITY, false);
+                report.constraints.push(unreached);
             }
         }
         report.max_residual = f64::INFINITY;
@@ -633,83 +619,6 @@ impl ChartSession {
         uncut.times.detour_ms = self.times.with_solver(solver.times()).total_ms() - self.times.load_ms;
         let alt = finished(uncut.new_solver(options, StartFrom::StepOne).ok()?)?;
         Some((uncut, alt))
-    }
-
-    /// A finished solve that is short of its targets keeps a usable layout:
-    /// when its stretch is more than [`crate::solver::SETTLE_FACTOR`] times
-    /// the yardstick (the chart's own free layout without landmarks, or step
-    /// 1's on the square), that shape is placed for the targets (fitted to
-    /// them, or failing that centred in the region) and written instead.
-    fn settle(&mut self, solver: &mut ChartSolver) {
-        let problem = solver.problem();
-        let tolerance = solver.options().tolerance;
-        let layout = solver.layout();
-        let short = problem
-            .constraint_vertices
-            .iter()
-            .zip(&problem.targets)
-            .any(|(&v, &t)| layout[v as usize].distance(t) > tolerance);
-        if !short {
-            return;
-        }
-        let f = &self.prepared.filled;
-        let real = &f.mesh.triangles[..f.n_real_triangles];
-        let stretch = |l: &[DVec2]| crate::metrics::sander_stretch(&f.mesh.positions, l, real);
-        let now = stretch(layout);
-        let Some((yardstick, candidates)) = self.own_shape(solver) else {
-            return;
-        };
-        let own = stretch(&yardstick);
-        solver.note_own_stretch(own);
-        let bound = crate::solver::SETTLE_FACTOR * own.l2;
-        if now.l2 <= bound {
-            return;
-        }
-        let best = candidates
-            .into_iter()
-            .map(|c| (stretch(&c).l2, c))
-            .filter(|(l2, _)| l2.is_finite())
-            .find(|(l2, _)| *l2 <= bound)
-            .or_else(|| Some((stretch(&yardstick).l2, yardstick)).filter(|(l2, _)| l2.is_finite()));
-        if let Some((_, layout)) = best {
-            solver.settle_for(layout, now);
-        }
-    }
-
-    /// The chart's own shape: the yardstick layout (its free layout without
-    /// landmarks, centred in its region, or step 1's square) and the
-    /// placements to try first (that shape fitted to the targets), each
-    /// fold-free as stored and admitted by its room; `None` when there is
-    /// none.
-    fn own_shape(&self, solver: &ChartSolver) -> Option<(Vec<DVec2>, Vec<Vec<DVec2>>)> {
-        let f = &self.prepared.filled;
-        let Some(free) = solver.free() else {
-            return Some((self.step_one.as_deref().cloned()?, Vec::new()));
-        };
-        let unwrapped = crate::atlas::unconstrained(&self.prepared, solver.options())?;
-        let base: Vec<DVec2> = unwrapped.filled.get(..f.mesh.n_vertices())?.to_vec();
-        let room = &free.domain.room;
-        let fits = |layout: &[DVec2]| {
-            crate::guard::all_positive_as_stored(layout, &f.mesh.triangles) && room.admits(layout).is_ok()
-        };
-        let (lo, hi) = room.setup().region.layout_box();
-        let (blo, bhi) = base.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(a, b), &p| {
-            (a.min(p), b.max(p))
-        });
-        let k = 0.9 * ((hi - lo) / (bhi - blo).max(DVec2::splat(1e-300))).min_element();
-        let centred: Vec<DVec2> = base
-            .iter()
-            .map(|&p| 0.5 * (lo + hi) + (p - 0.5 * (blo + bhi)) * k)
-            .collect();
-        if !fits(&centred) {
-            return None;
-        }
-        let shape = crate::domain::start::Shape::of(f);
-        let (kind, fit) = (StartKind::Conformal, crate::domain::start::Fit::ToTargetsAsShaped);
-        let fitted = crate::domain::start::fit_into_room(room, &shape, &base, solver.problem(), kind, fit)
-            .map(|c| c.layout)
-            .filter(|l| fits(l));
-        Some((centred, fitted.into_iter().collect()))
     }
 
     /// The other charts holding constraints, each solved free with its own

@@ -156,6 +156,18 @@ pub struct FreeSetup {
 }
 
 impl FreeSetup {
+    /// The whole texture with nothing else in it: the room of a chart laid
+    /// out on its own.
+    pub fn open_texture() -> FreeSetup {
+        FreeSetup {
+            region: Region::TEXTURE,
+            source: RegionSource::Texture,
+            obstacles: Arc::new(Obstacles::default()),
+            island: None,
+            given: None,
+        }
+    }
+
     /// This room with a start made outside the free solve: `layout`, made
     /// `kind`'s way.
     pub fn starting_from(&self, layout: Vec<DVec2>, kind: crate::domain::start::StartKind) -> FreeSetup {

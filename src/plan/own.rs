@@ -7,10 +7,9 @@
 use crate::chart::PreparedChart;
 use crate::constraints::ConstraintSource;
 use crate::domain::Domain;
-use crate::free::{FreeSetup, Obstacles, RegionSource};
+use crate::free::FreeSetup;
 use crate::metrics::{Stretch, sander_stretch};
 use crate::options::SolverOptions;
-use crate::param::region::Region;
 use crate::pins::{BoundaryChoice, Pins};
 use crate::solver::{ChartSolver, SolverInputs, step_one};
 use glam::DVec2;
@@ -24,13 +23,7 @@ pub const ACCEPT: f64 = 1.5;
 /// `prepared`'s chart as a free chart without landmarks, inside the whole
 /// texture with nothing around it.
 pub fn unconstrained(prepared: &PreparedChart) -> PreparedChart {
-    let setup = FreeSetup {
-        region: Region::TEXTURE,
-        source: RegionSource::Texture,
-        obstacles: Arc::new(Obstacles::default()),
-        island: None,
-        given: None,
-    };
+    let setup = FreeSetup::open_texture();
     PreparedChart {
         constraints: Vec::new(),
         constraint_vertices: Vec::new(),

@@ -53,18 +53,14 @@ fn constraint_reports(s: &SolveSummary, on_outer: &[bool]) -> Vec<ConstraintRepo
             let result = xy_to_uv(layout[v as usize]);
             let residual = result.distance(c.target_uv);
             ConstraintReport {
-                index: c.index,
-                label: c.label.clone(),
-                primitive: c.primitive,
-                vertex: c.vertex,
-                welded: c.welded,
-                target: c.target_uv,
-                result,
-                step1: xy_to_uv(s.step1[v as usize]),
-                residual,
-                reached: residual <= tolerance,
                 on_boundary: on_outer[v as usize],
-                snapped_distance: c.snapped_distance,
+                ..ConstraintReport::of(
+                    c,
+                    result,
+                    xy_to_uv(s.step1[v as usize]),
+                    residual,
+                    residual <= tolerance,
+                )
             }
         })
         .collect()

@@ -72,6 +72,27 @@ pub struct ConstraintReport {
     pub snapped_distance: Option<f64>,
 }
 
+impl ConstraintReport {
+    /// `c`'s outcome: it ended at `result` (glTF texture coordinates),
+    /// `residual` from its target; step 1 put it at `step1`.
+    pub fn of(c: &crate::pins::ResolvedConstraint, result: DVec2, step1: DVec2, residual: f64, reached: bool) -> Self {
+        ConstraintReport {
+            index: c.index,
+            label: c.label.clone(),
+            primitive: c.primitive,
+            vertex: c.vertex,
+            welded: c.welded,
+            target: c.target_uv,
+            result,
+            step1,
+            residual,
+            reached,
+            on_boundary: false,
+            snapped_distance: c.snapped_distance,
+        }
+    }
+}
+
 /// Wall-clock milliseconds per stage.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct StageTimes {
