@@ -173,7 +173,7 @@ mod off {
 }
 
 mod stl {
-    use super::{Polygons, ScanError, bounded};
+    use super::{Polygons, ScanError};
     use std::collections::HashMap;
 
     /// Binary STL when its size matches its triangle count, else ASCII.
@@ -190,7 +190,7 @@ mod stl {
                     .into(),
             ));
         }
-        ascii(&String::from_utf8_lossy(bytes), bytes.len())
+        ascii(&String::from_utf8_lossy(bytes))
     }
 
     /// Corners at the same position (bit for bit) are one vertex.
@@ -230,7 +230,7 @@ mod stl {
         corners.mesh
     }
 
-    fn ascii(text: &str, size: usize) -> Result<Polygons, ScanError> {
+    fn ascii(text: &str) -> Result<Polygons, ScanError> {
         let mut corners = Corners::default();
         let mut face = Vec::with_capacity(3);
         for (k, line) in text.lines().enumerate() {
@@ -248,7 +248,6 @@ mod stl {
                                 message: "a vertex needs three finite coordinates".into(),
                             })?;
                     }
-                    bounded(corners.mesh.positions.len(), 1, size, "vertices")?;
                     face.push(corners.vertex(p));
                 }
                 Some("endloop") => {
