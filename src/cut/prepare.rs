@@ -58,6 +58,8 @@ pub enum SolvableError {
     NotADisk(TopologyError),
     #[error("no part {form} holds every landmark")]
     NoPart { form: &'static str },
+    #[error("{form} leaves the landmarks on {parts} parts apart")]
+    Scattered { form: &'static str, parts: usize },
 }
 
 /// How a landmarked chart is made a disk: the candidates a solve weighs
@@ -133,6 +135,14 @@ pub fn make_solvable(
         }
     };
     if let Some(split) = split {
+        // A form judged on its main piece alone must hold every landmark
+        // of the chart it splits: the parts apart would go unjudged.
+        if !split.others.is_empty() {
+            return Err(SolvableError::Scattered {
+                form: form.name(),
+                parts: split.others.len() + 1,
+            });
+        }
         separation = split
             .edges
             .iter()
