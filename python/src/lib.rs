@@ -15,6 +15,8 @@ use uvpin::options::SolverOptions;
 use uvpin::param::region::Region;
 use uvpin::pins::{BoundaryChoice, Pins};
 
+mod render;
+
 create_exception!(
     _native,
     InputError,
@@ -348,6 +350,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(check_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(inspect, m)?)?;
     m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render_view, m)?)?;
     m.add_class::<sweep::Sweep>()?;
     Ok(())
 }

@@ -134,6 +134,7 @@ pub fn render_chart(
             marks: &marks,
             lines: &[],
             view: None,
+            up: None,
         };
         let image = render::render_captioned(&scene, size, &caption);
         let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
@@ -191,6 +192,7 @@ pub fn draw_seams(prepared: &crate::chart::PreparedChart, title: &str, size: u32
             marks: &marks,
             lines: &lines,
             view: Some(forward),
+            up: None,
         };
         let panel = render::render_captioned(&scene, size, &caption);
         image::imageops::overlay(&mut out, &panel, i64::from(k as u32 * size), 0);

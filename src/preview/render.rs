@@ -37,6 +37,9 @@ pub struct RenderScene<'a> {
     /// The direction the view looks along (default: against the mesh's
     /// mean normal).
     pub view: Option<DVec3>,
+    /// The direction shown up (default: the world's +Y, or +Z when
+    /// looking nearly along Y).
+    pub up: Option<DVec3>,
 }
 
 /// Renders `triangles` of `positions` with texture coordinates `uvs` (glTF,
@@ -56,8 +59,32 @@ pub fn render_mesh(
         marks: &[],
         lines: &[],
         view: None,
+        up: None,
     };
-    rasterise(&scene, size, (0.0, 0.0)).0
+    rasterise(&scene, size, (0.0, 0.0)).image
+}
+
+/// A render to find things on: the picture, which triangle each pixel
+/// shows (row by row, `None` where none), and where each vertex lands
+/// (pixel coordinates, x right, y down; pixel `(i, j)` spans
+/// `i..i + 1`, `j..j + 1`).
+#[derive(Debug, Clone)]
+pub struct ViewRender {
+    pub image: RgbaImage,
+    pub triangle: Vec<Option<u32>>,
+    pub screen: Vec<DVec2>,
+}
+
+/// `scene` rendered `size` × `size` pixels over white, with which triangle
+/// each pixel shows: the photo workflow finds a face on the render and
+/// carries each point back to the surface through it.
+pub fn render_view(scene: &RenderScene, size: u32) -> ViewRender {
+    let drawn = rasterise(scene, size, (0.0, 0.0));
+    ViewRender {
+        image: drawn.image,
+        triangle: drawn.triangle,
+        screen: drawn.screen,
+    }
 }
 
 /// The render with its words (on pictures of at least
@@ -67,11 +94,11 @@ pub fn render_mesh(
 pub fn render_captioned(scene: &RenderScene, size: u32, caption: &super::caption::Caption) -> RgbaImage {
     use super::text;
     if size < super::layout::CAPTIONED_FROM {
-        return rasterise(scene, size, (0.0, 0.0)).0;
+        return rasterise(scene, size, (0.0, 0.0)).image;
     }
     let scale = text::scale_for(size);
     let line = f64::from(text::line_height(scale));
-    let (mut image, marks) = rasterise(scene, size, (line * caption.lines.len() as f64, line));
+    let Drawn { mut image, marks, .. } = rasterise(scene, size, (line * caption.lines.len() as f64, line));
     let radius = (f64::from(size) / 110.0).max(3.0);
     for m in &marks {
         let colour = if m.reached {
@@ -117,16 +144,31 @@ struct PlacedMark {
     reached: bool,
 }
 
+/// A z-buffered render: the picture, where each landmark landed, which
+/// triangle each pixel shows and where each vertex landed.
+struct Drawn {
+    image: RgbaImage,
+    marks: Vec<PlacedMark>,
+    triangle: Vec<Option<u32>>,
+    screen: Vec<DVec2>,
+}
+
 /// The z-buffered render, leaving `bands` (top, bottom) pixels free for
-/// words, and where each landmark landed.
-fn rasterise(scene: &RenderScene, size: u32, bands: (f64, f64)) -> (RgbaImage, Vec<PlacedMark>) {
+/// words.
+fn rasterise(scene: &RenderScene, size: u32, bands: (f64, f64)) -> Drawn {
     let (positions, triangles) = (scene.positions, scene.triangles);
-    let mut image = RgbaImage::from_pixel(size, size, Rgba([255, 255, 255, 255]));
+    let image = RgbaImage::from_pixel(size, size, Rgba([255, 255, 255, 255]));
+    let mut drawn = Drawn {
+        image,
+        marks: Vec::new(),
+        triangle: vec![None; (size as usize) * (size as usize)],
+        screen: Vec::new(),
+    };
     if triangles.is_empty() || size == 0 {
-        return (image, Vec::new());
+        return drawn;
     }
     let (right, up, forward) = match scene.view {
-        Some(v) => basis_along(v),
+        Some(v) => basis_along(v, scene.up),
         None => view_basis(positions, triangles),
     };
     let project = |p: DVec3| DVec3::new(p.dot(right), p.dot(up), p.dot(forward));
@@ -154,16 +196,22 @@ fn rasterise(scene: &RenderScene, size: u32, bands: (f64, f64)) -> (RgbaImage, V
         )
     };
     let mut depth = vec![f64::INFINITY; (size * size) as usize];
-    for t in triangles {
+    for (k, t) in triangles.iter().enumerate() {
         let corners = t.map(|v| screen(projected[v as usize]));
-        fill_triangle(&mut image, &mut depth, scene, *t, corners, forward);
+        let mut target = Target {
+            image: &mut drawn.image,
+            depth: &mut depth,
+            triangle: &mut drawn.triangle,
+        };
+        fill_triangle(&mut target, scene, (k as u32, *t), corners, forward);
     }
     let tolerance = 1e-3 * (hi - lo).length().max(1e-12) + 2.0 / scale;
     for line in scene.lines {
         let [a, b] = line.map(|v| screen(projected[v as usize]));
-        draw_line(&mut image, &depth, a, b, tolerance);
+        draw_line(&mut drawn.image, &depth, a, b, tolerance);
     }
-    let marks = scene
+    drawn.screen = projected.iter().map(|&p| screen(p).truncate()).collect();
+    drawn.marks = scene
         .marks
         .iter()
         .filter_map(|m| {
@@ -180,19 +228,25 @@ fn rasterise(scene: &RenderScene, size: u32, bands: (f64, f64)) -> (RgbaImage, V
             })
         })
         .collect();
-    (image, marks)
+    drawn
 }
 
-/// Draws one triangle, lit by its normal against the view, z-buffered.
+/// Where a triangle is drawn: the picture, its depth and triangle buffers.
+struct Target<'a> {
+    image: &'a mut RgbaImage,
+    depth: &'a mut [f64],
+    triangle: &'a mut [Option<u32>],
+}
+
+/// Draws triangle `k` (`t`), lit by its normal against the view, z-buffered.
 fn fill_triangle(
-    image: &mut RgbaImage,
-    depth: &mut [f64],
+    target: &mut Target,
     scene: &RenderScene,
-    t: [u32; 3],
+    (k, t): (u32, [u32; 3]),
     [a, b, c]: [DVec3; 3],
     forward: DVec3,
 ) {
-    let size = image.width();
+    let size = target.image.width();
     let [pa, pb, pc] = t.map(|v| scene.positions[v as usize]);
     let normal = (pb - pa).cross(pc - pa);
     if normal.length_squared() == 0.0 {
@@ -218,18 +272,21 @@ fn fill_triangle(
                 continue;
             }
             let z = w0 * a.z + w1 * b.z + w2 * c.z;
-            let k = (y * size + x) as usize;
-            if z >= depth[k] {
+            let at = (y * size + x) as usize;
+            if z >= target.depth[at] {
                 continue;
             }
-            depth[k] = z;
+            target.depth[at] = z;
+            target.triangle[at] = Some(k);
             let uv = ua * w0 + ub * w1 + uc * w2;
             let base = match scene.texture {
                 Some(tex) => sample(tex, uv),
                 None => checker(uv),
             };
             let shaded = base.map(|ch| (ch as f64 * light).round().clamp(0.0, 255.0) as u8);
-            image.put_pixel(x, y, Rgba([shaded[0], shaded[1], shaded[2], 255]));
+            target
+                .image
+                .put_pixel(x, y, Rgba([shaded[0], shaded[1], shaded[2], 255]));
         }
     }
 }
@@ -257,10 +314,15 @@ fn draw_line(image: &mut RgbaImage, depth: &[f64], a: DVec3, b: DVec3, tolerance
 }
 
 /// The view looking along `forward`: right, up and forward unit vectors,
-/// up from the world's +Y (or +Z when looking nearly along Y).
-fn basis_along(forward: DVec3) -> (DVec3, DVec3, DVec3) {
+/// up from `up` where given and not along the view, else the world's +Y
+/// (or +Z when looking nearly along Y).
+fn basis_along(forward: DVec3, up: Option<DVec3>) -> (DVec3, DVec3, DVec3) {
     let forward = forward.normalize_or(DVec3::NEG_Z);
-    let world_up = if forward.y.abs() > 0.9 { DVec3::Z } else { DVec3::Y };
+    let world_up = match up.map(|u| u.normalize_or_zero()) {
+        Some(u) if u.cross(forward).length() > 0.1 => u,
+        _ if forward.y.abs() > 0.9 => DVec3::Z,
+        _ => DVec3::Y,
+    };
     let right = forward.cross(world_up).normalize();
     (right, right.cross(forward).normalize(), forward)
 }
@@ -347,5 +409,44 @@ mod tests {
             colours.contains(&[235, 235, 235, 255]) && colours.contains(&[70, 110, 190, 255]),
             "{colours:?}"
         );
+    }
+
+    #[test]
+    fn a_view_render_says_which_triangle_each_pixel_shows_and_keeps_up_on_top() {
+        let m = grid_mesh(4, 8);
+        let uvs = vec![DVec2::ZERO; m.positions.len()];
+        let scene = RenderScene {
+            positions: &m.positions,
+            triangles: &m.triangles,
+            uvs: &uvs,
+            texture: None,
+            marks: &[],
+            lines: &[],
+            view: Some(DVec3::NEG_Z),
+            up: Some(DVec3::X),
+        };
+        let r = render_view(&scene, 64);
+        // +X shown up: vertices with larger x are higher on screen (smaller y).
+        let (lo, hi) = (
+            m.positions.iter().position(|p| p.x == 0.0).unwrap(),
+            m.positions.iter().position(|p| p.x == 1.0).unwrap(),
+        );
+        assert!(r.screen[hi].y < r.screen[lo].y, "{:?} {:?}", r.screen[hi], r.screen[lo]);
+        // Every covered pixel's centre lies in the triangle it names.
+        let mut covered = 0;
+        for (at, t) in r.triangle.iter().enumerate() {
+            let Some(t) = t else { continue };
+            covered += 1;
+            let p = DVec2::new((at % 64) as f64 + 0.5, (at / 64) as f64 + 0.5);
+            let [a, b, c] = m.triangles[*t as usize].map(|v| r.screen[v as usize]);
+            let side = |u: DVec2, v: DVec2| (v - u).perp_dot(p - u);
+            let s = [side(a, b), side(b, c), side(c, a)];
+            assert!(
+                s.iter().all(|&x| x >= -1e-9) || s.iter().all(|&x| x <= 1e-9),
+                "pixel {at} not in {t}"
+            );
+        }
+        assert!(covered > 64 * 64 / 2, "{covered}");
+        assert_eq!(r.triangle[0], None);
     }
 }
