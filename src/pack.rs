@@ -153,8 +153,24 @@ pub fn pack(
     if shapes.is_empty() {
         return Ok(Vec::new());
     }
+    // A full texture leaves room in slivers a coarse raster cannot see:
+    // finer rasters with the least padding before giving up.
     let n = rules.cells.max(8) as usize;
-    let pad = rules.padding_cells.max(1) as usize;
+    let finer = [(n, rules.padding_cells.max(1) as usize), (2 * n, 1), (4 * n, 1)];
+    finer
+        .into_iter()
+        .find_map(|(n, pad)| pack_on(occupied, (lo, hi), shapes, n, pad))
+        .ok_or(PackError::NoRoom { n_charts: shapes.len() })
+}
+
+/// [`pack`] on an `n × n` raster with `pad` cells around every chart.
+fn pack_on(
+    occupied: &[[DVec2; 3]],
+    (lo, hi): (DVec2, DVec2),
+    shapes: &[Shape],
+    n: usize,
+    pad: usize,
+) -> Option<Vec<Placement>> {
     let mut base = Grid::new(lo, hi, n);
     for t in occupied {
         base.mark(*t, pad);
@@ -183,7 +199,7 @@ pub fn pack(
             break;
         }
     }
-    best.ok_or(PackError::NoRoom { n_charts: shapes.len() })
+    best
 }
 
 /// The cells a shape covers once placed with its box's corner at the
