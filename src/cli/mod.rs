@@ -3,6 +3,7 @@
 mod check;
 mod edit;
 mod inspect;
+mod photo;
 mod progress;
 
 use crate::report::Status;
@@ -112,6 +113,13 @@ pub enum Command {
     /// page's address is printed on standard error. Runs until SIGINT or
     /// SIGTERM (exit 0).
     Edit(edit::EditArgs),
+    /// Lay a face photo onto a head mesh: landmarks found on the photo and
+    /// on a render of the head, paired, solved exactly and fold-free; the
+    /// photo becomes the model's base-colour texture. Runs the Python
+    /// package's photo step (`pip install 'uvpin[photo]'`; `UVPIN_PYTHON`
+    /// names the interpreter). Exit code 0: reached; 2: partial; 1: error
+    /// (nothing written).
+    Photo(photo::PhotoArgs),
     /// What a constraint file needs to know about an asset: its meshes,
     /// primitives and charts, bounding box and up axis, each chart's outer
     /// loop (for `corners`), and the vertices nearest a point (for `near:`).
@@ -253,6 +261,7 @@ pub fn main() -> ExitCode {
         } => run_sweep(&sweep, shard, force, jobs, quiet),
         Command::Watch(args) => watch(args),
         Command::Edit(args) => edit::run(args),
+        Command::Photo(args) => photo::run(&args),
         Command::Inspect {
             seams: Some(constraints),
             preview,
@@ -463,6 +472,12 @@ fn solve(
         Ok(report) => {
             if !print.quiet {
                 eprint!("{}", report.summary());
+            } else if report.status == Status::Error {
+                // Quiet keeps errors: exit 1 always says why.
+                eprintln!(
+                    "error: {}",
+                    report.message.as_deref().unwrap_or("nothing could be laid out")
+                );
             }
             if print.explain {
                 for line in &report.explain {
