@@ -229,6 +229,15 @@ fn solve_file(py: Python<'_>, path: PathBuf, output: Option<PathBuf>, report: Op
     serde_json::to_string(&report).map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
+/// Reads a constraint file as the solver does (errors with line:column) and
+/// returns its fields as JSON; relative `asset` and `image` paths stay as
+/// written (relative to the file).
+#[pyfunction]
+fn read_constraints(path: PathBuf) -> PyResult<String> {
+    let loaded = uvpin::constraints::LoadedConstraints::load(&path).map_err(|e| input_error(e.to_string()))?;
+    serde_json::to_string(&loaded.file).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+}
+
 fn selector(mesh: Option<&str>) -> Option<uvpin::io::MeshSelector> {
     mesh.map(|m| {
         m.parse::<usize>()
@@ -351,6 +360,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(inspect, m)?)?;
     m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_view, m)?)?;
+    m.add_function(wrap_pyfunction!(read_constraints, m)?)?;
     m.add_class::<sweep::Sweep>()?;
     Ok(())
 }

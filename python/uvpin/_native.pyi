@@ -39,6 +39,17 @@ def read_mesh(
     path: str | PathLike[str], mesh: str | None = None, uv_set: int = 0
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.float64] | None]: ...
 
+def read_constraints(path: str | PathLike[str]) -> str: ...
+def render_view(
+    vertices: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.int64],
+    view: Sequence[float],
+    up: Sequence[float],
+    size: int = 512,
+    uvs: npt.NDArray[np.float64] | None = None,
+    texture: npt.NDArray[np.uint8] | None = None,
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+
 class Sweep:
     """A sweep file's grid; its inputs load once per process, on first use."""
 
