@@ -425,6 +425,29 @@ fn a_drag_is_previewed_on_the_coarse_level_in_chromium() {
     browser_script("coarse.mjs", &["--coarse-above", "0"], &[vertices.to_string()]);
 }
 
+/// A constraint file whose image lives in another folder (as `uvpin photo`
+/// writes one: the photo where it was, the file beside the output): the
+/// editor serves the image it names, labels and all.
+fn the_image_a_file_names_elsewhere_is_served() {
+    let dir = TempDir::new("editor-image-elsewhere");
+    let ron = sample(&dir.0);
+    std::fs::create_dir_all(dir.path("photos")).unwrap();
+    std::fs::rename(dir.path("assets/face-guide.png"), dir.path("photos/face.png")).unwrap();
+    std::fs::create_dir_all(dir.path("work")).unwrap();
+    let text = std::fs::read_to_string(&ron)
+        .unwrap()
+        .replace("\"face.glb\"", "\"../assets/face.glb\"")
+        .replace("\"face-guide.png\"", "\"../photos/face.png\"");
+    assert!(text.contains("../photos/face.png"), "the sample names its image: {text}");
+    std::fs::write(dir.path("work/face.uvpin.ron"), text).unwrap();
+    let d = Daemon::edit(&dir.0, &["work/face.uvpin.ron", "--out", "out"]);
+    let addr = address(&d);
+    let state = wait_state(&addr, &d, |s| s["state"] == "reached");
+    assert!(state["texture"].as_str().is_some_and(|k| k.contains("photos/face.png")), "{state}");
+    let (status, png) = http(&addr, "GET", "/api/file/0/texture", &[], "");
+    assert_eq!((status, &png[1..4]), (200, &b"PNG"[..]));
+}
+
 fn main() -> std::process::ExitCode {
     run_cases(&[
         (
@@ -446,6 +469,11 @@ fn main() -> std::process::ExitCode {
             "oversized_requests_are_refused_and_the_editor_stays_small",
             &[],
             oversized_requests_are_refused_and_the_editor_stays_small,
+        ),
+        (
+            "the_image_a_file_names_elsewhere_is_served",
+            &[],
+            the_image_a_file_names_elsewhere_is_served,
         ),
         ("in_chromium", &[Needs::Browser], in_chromium),
         (

@@ -62,8 +62,9 @@ fn relative_to(target: &Path, base: &Path) -> PathBuf {
 }
 
 /// Creates the constraint file for `asset` if it does not exist; the
-/// folder of the asset it names (read by the daemon besides its own).
-fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Result<Option<PathBuf>, String> {
+/// folders of the asset and the image it names (read by the daemon besides
+/// its own: the file names them).
+fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Result<Vec<PathBuf>, String> {
     let name = constraints
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -84,10 +85,11 @@ fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Resul
                 constraints.display()
             );
         }
-        let asset = crate::constraints::LoadedConstraints::load(&file)
-            .ok()
-            .map(|l| l.asset_path());
-        return Ok(asset.and_then(|a| a.parent().map(Path::to_path_buf)));
+        let named = crate::constraints::LoadedConstraints::load(&file)
+            .map(|l| [Some(l.asset_path()), l.image_path()])
+            .unwrap_or_default();
+        let folders = named.into_iter().flatten().filter_map(|p| p.parent().map(Path::to_path_buf));
+        return Ok(folders.collect());
     }
     let Some(asset) = asset else {
         return Err(format!(
@@ -105,7 +107,7 @@ fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Resul
     let text = crate::edit::text::new_file(&named.to_string_lossy());
     crate::io::atomic::write_atomically(&file, text.as_bytes()).map_err(|e| e.message)?;
     eprintln!("created {} for {}", constraints.display(), named.display());
-    Ok(asset.parent().map(Path::to_path_buf))
+    Ok(asset.parent().map(Path::to_path_buf).into_iter().collect())
 }
 
 pub fn run(args: EditArgs) -> ExitCode {
@@ -114,12 +116,12 @@ pub fn run(args: EditArgs) -> ExitCode {
         Err(e) => return fail(&e),
     };
     let mut watch = config.watch;
-    let asset_folder = match prepare_file(&args.constraints, args.asset.as_deref(), &watch.constraint_suffix) {
+    let named_folders = match prepare_file(&args.constraints, args.asset.as_deref(), &watch.constraint_suffix) {
         Ok(f) => f,
         Err(e) => return fail(&e),
     };
     watch.paths = vec![args.constraints];
-    watch.allow_paths.extend(asset_folder);
+    watch.allow_paths.extend(named_folders);
     watch.allow_paths.extend(args.allow);
     if let Some(out) = args.out {
         watch.output = OutputMode::Folder(out);
