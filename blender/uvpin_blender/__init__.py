@@ -1,4 +1,5 @@
-"""uvpin for Blender: "uvpin: Solve pinned (fold-free)" in the UV editor.
+"""uvpin for Blender: "uvpin: Solve pinned (fold-free)" in the UV editor,
+and "uvpin: Photo onto head" in the 3D view's Object menu.
 
 The active mesh's pinned UVs are the landmarks, at their current positions.
 uvpin lays out the UV island holding them again so that every pin lands
@@ -156,6 +157,106 @@ class UVPIN_OT_solve_pinned(bpy.types.Operator):
         return {"FINISHED"}
 
 
+PHOTO_INSTALL = (
+    "uvpin: the photo step needs MediaPipe 0.10.21 in Blender's Python: "
+    "{python} -m pip install mediapipe==0.10.21"
+)
+
+
+def triangles_of(mesh: bpy.types.Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions (n, 3), Blender's own triangulation (m, 3) and the loop of
+    each triangle corner (m, 3)."""
+    co = np.empty(len(mesh.vertices) * 3)
+    mesh.vertices.foreach_get("co", co)
+    mesh.calc_loop_triangles()
+    m = len(mesh.loop_triangles)
+    tris = np.empty(m * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    loops = np.empty(m * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    return co.reshape(-1, 3), tris.reshape(-1, 3), loops.reshape(-1, 3)
+
+
+def photo_material(name: str, image: bpy.types.Image, uv_map: str) -> bpy.types.Material:
+    """A material showing `image` through the UV map `uv_map`."""
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    bsdf = next(n for n in nodes if n.type == "BSDF_PRINCIPLED")
+    texture = nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    uv = nodes.new("ShaderNodeUVMap")
+    uv.uv_map = uv_map
+    links.new(uv.outputs["UV"], texture.inputs["Vector"])
+    links.new(texture.outputs["Color"], bsdf.inputs["Base Color"])
+    return material
+
+
+class UVPIN_OT_photo(bpy.types.Operator):
+    """Lay a face photo onto the active head mesh: its landmarks found on the photo and on the mesh, exact and fold-free"""
+
+    bl_idname = "object.uvpin_photo"
+    bl_label = "uvpin: Photo onto head"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: bpy.props.StringProperty(name="Photo", subtype="FILE_PATH")
+    filter_image: bpy.props.BoolProperty(default=True, options={"HIDDEN"})
+    uv_map: bpy.props.StringProperty(name="UV map", default="uvpin photo")
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return obj is not None and obj.type == "MESH"
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        import sys
+
+        try:
+            from uvpin import photo
+            import uvpin
+
+            photo._mediapipe()
+        except ImportError as e:
+            self.report({"ERROR"}, f"{PHOTO_INSTALL.format(python=sys.executable)} ({e})")
+            return {"CANCELLED"}
+        obj = context.active_object
+        if obj.mode != "OBJECT":
+            bpy.ops.object.mode_set(mode="OBJECT")
+        mesh = obj.data
+        vertices, faces, loops = triangles_of(mesh)
+        try:
+            pins = photo.photo_pins(vertices, faces, bpy.path.abspath(self.filepath))
+            result = uvpin.solve(vertices, faces, (pins.ids, pins.uv))
+        except uvpin.InputError as e:
+            self.report({"ERROR"}, f"uvpin: {e}")
+            return {"CANCELLED"}
+        if result.uv is None:
+            self.report({"ERROR"}, f"uvpin: nothing laid out: {result.report.get('message')}")
+            return {"CANCELLED"}
+        corner = result.corner_uv if result.corner_uv is not None else result.uv[faces]
+        layer = mesh.uv_layers.get(self.uv_map) or mesh.uv_layers.new(name=self.uv_map)
+        loop_uv = np.zeros((len(mesh.loops), 2), dtype=np.float32)
+        # glTF's v runs down the image, Blender's up.
+        loop_uv[loops.ravel()] = np.c_[corner[..., 0].ravel(), 1.0 - corner[..., 1].ravel()]
+        layer.uv.foreach_set("vector", loop_uv.ravel())
+        mesh.uv_layers.active = layer
+        image = bpy.data.images.load(bpy.path.abspath(self.filepath), check_existing=True)
+        obj.data.materials.clear()
+        obj.data.materials.append(photo_material("uvpin photo", image, layer.name))
+        mesh.update()
+        words = f"uvpin: {result.status}, {len(pins.ids)} landmarks from the photo, {len(pins.dropped)} dropped"
+        self.report({"INFO"} if result.status == "reached" else {"WARNING"}, words)
+        return {"FINISHED"}
+
+
+def object_menu_entry(self, context):
+    self.layout.operator(UVPIN_OT_photo.bl_idname)
+
+
 class UVPIN_PT_panel(bpy.types.Panel):
     bl_label = "uvpin"
     bl_space_type = "IMAGE_EDITOR"
@@ -177,7 +278,7 @@ def menu_entry(self, context):
     self.layout.operator(UVPIN_OT_solve_pinned.bl_idname)
 
 
-CLASSES = (UVPIN_OT_solve_pinned, UVPIN_PT_panel)
+CLASSES = (UVPIN_OT_solve_pinned, UVPIN_OT_photo, UVPIN_PT_panel)
 
 
 def register():
@@ -188,9 +289,11 @@ def register():
         name="Region", size=4, default=(0.0, 0.0, 1.0, 1.0), min=0.0, max=1.0
     )
     bpy.types.IMAGE_MT_uvs.append(menu_entry)
+    bpy.types.VIEW3D_MT_object.append(object_menu_entry)
 
 
 def unregister():
+    bpy.types.VIEW3D_MT_object.remove(object_menu_entry)
     bpy.types.IMAGE_MT_uvs.remove(menu_entry)
     del bpy.types.Scene.uvpin_region
     del bpy.types.Scene.uvpin_boundary

@@ -180,3 +180,66 @@ def test_the_cli_runs_the_python_step_or_says_how_to_install_it(photo_python, pi
                              capture_output=True, text=True, timeout=60, env=env)
     assert missing.returncode == 1 and "pip install 'uvpin[photo]'" in missing.stderr
     assert not (tmp_path / "x.glb").exists()
+
+
+def test_a_watch_runs_again_when_the_photo_changes(photo_python, pictures, tmp_path):
+    """`--watch`: the step runs again once the photo is replaced; each run
+    is awaited by its summary line, the change by the new targets."""
+    import queue
+    import threading
+
+    from PIL import Image
+
+    photo = tmp_path / "face.png"
+    image = np.asarray(Image.open(pictures["astronaut"]))
+    Image.fromarray(image).save(photo)
+    out, report = tmp_path / "face.glb", tmp_path / "face.json"
+    argv = [str(photo_python), "-m", "uvpin.photo", str(shared_mesh("face.glb")), str(photo), "-o", str(out),
+            "--report", str(report), "--view=0,0,-1", "--up", "0,1,0", "--watch"]
+    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONNOUSERSITE="1"))
+    lines: queue.Queue[str] = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(line) for line in proc.stderr], daemon=True).start()
+
+    def next_summary() -> str:
+        while True:
+            line = lines.get(timeout=300)
+            if line.startswith((f"{out}: ", "error: ")):
+                return line
+
+    try:
+        assert next_summary().startswith(f"{out}: reached")
+        first = {p["label"]: p["px"] for p in json.loads(report.read_text())["photo"]["kept"]}
+        shifted = tmp_path / "shifted.png"
+        Image.fromarray(np.roll(image, 24, axis=1)).save(shifted)
+        os.replace(shifted, photo)
+        assert next_summary().startswith(f"{out}: reached")
+        second = {p["label"]: p["px"] for p in json.loads(report.read_text())["photo"]["kept"]}
+        moved = [second[k][0] - first[k][0] for k in first.keys() & second.keys()]
+        assert len(moved) >= 30 and abs(np.median(moved) - 24) < 1.5, moved
+    finally:
+        proc.terminate()
+        assert proc.wait(timeout=60) == 0
+
+
+def test_the_blender_operator_lays_the_photo_on_the_active_mesh(pictures, tmp_path):
+    """"uvpin: Photo onto head" in headless Blender (its Python holds
+    MediaPipe): a new UV map with every landmark's loops exactly on the
+    photo's point, no triangle folded, and a material showing the photo."""
+    python = needed("UVPIN_BLENDER_PYTHON", REPO / ".tools" / "blender" / "bin" / "python",
+                    "a Python with the bpy wheel")
+    extension = needed("UVPIN_BLENDER_ZIP", REPO / "target" / "uvpin-blender.zip",
+                       "the extension, built by blender/build.py")
+    ran = subprocess.run(
+        [str(python), str(Path(__file__).with_name("blender_photo.py")), str(extension),
+         str(shared_mesh("face.glb")), str(pictures["astronaut"])],
+        env=dict(os.environ, HOME=str(tmp_path), PYTHONNOUSERSITE="1"),
+        capture_output=True, text=True, timeout=900,
+    )
+    lines = [line for line in ran.stdout.splitlines() if line.startswith("UVPIN-RESULT ")]
+    assert ran.returncode == 0 and lines, ran.stdout[-3000:] + ran.stderr[-3000:]
+    got = json.loads(lines[-1].removeprefix("UVPIN-RESULT "))
+    assert got["result"] == ["FINISHED"] and got["pins"] >= 30, got
+    assert got["worst_pin_error"] <= 1e-6, got
+    # One orientation throughout (Blender's v up mirrors glTF's v down).
+    assert got["zero"] == 0 and min(got["negative"], got["positive"]) == 0, got
+    assert got["images"] == ["astronaut.png"] and got["active_uv"] == "uvpin photo"

@@ -31,7 +31,7 @@ import numpy as np
 
 from . import InputError, _native, read_mesh, solve_file
 
-__all__ = ["LANDMARKS", "Face", "PhotoError", "Detector", "Facing", "photo", "main"]
+__all__ = ["LANDMARKS", "Detector", "Face", "Facing", "PhotoError", "PhotoPins", "main", "photo", "photo_pins"]
 
 #: Semantic landmarks and their index in MediaPipe's 468-point face mesh
 #: ("left" and "right" as the person sees them). Ordered by priority: when
@@ -738,28 +738,92 @@ def photo(
         raise PhotoError("no photo given (and the template names no image)")
     image = os.fspath(image)
     picture_rgb = load_image(image)
+    given = None if view is None and up is None else _given_facing(view, up)
     with Detector() as detector:
         photo_face = detector.find(picture_rgb) if template is not None else face_on_photo(detector, picture_rgb, image)
-        if view is not None or up is not None:
-            facing = Facing(_unit(view if view is not None else (0, 0, -1), "--view"), _unit(up if up is not None else (0, 1, 0), "--up"))
-        else:
-            facing = find_facing(detector, mesh.vertices, mesh.faces)
-            if photo_face is not None:
-                front = _look(detector, mesh.vertices, mesh.faces, facing, 320)
-                if front is not None:
-                    facing = turn_to(detector, mesh.vertices, mesh.faces, (facing, front), photo_face.yaw)
-        seen = _render_face(detector, mesh.vertices, mesh.faces, facing)
-        if template is not None:
-            size = spec["image_size"]
-            if tuple(size) != (picture_rgb.shape[1], picture_rgb.shape[0]):
-                raise PhotoError(f"the template's image_size {tuple(size)} is not the photo's {picture_rgb.shape[1::-1]}")
-            targets = by_name
-        else:
-            targets = photo_targets(seen[0], photo_face)
-        pairs = pair_landmarks(mesh.vertices, mesh.faces, facing, seen, targets)
+        if template is not None and tuple(spec["image_size"]) != (picture_rgb.shape[1], picture_rgb.shape[0]):
+            raise PhotoError(
+                f"the template's image_size {tuple(spec['image_size'])} is not the photo's {picture_rgb.shape[1::-1]}"
+            )
+        facing, pairs, size = landmark_pairs(
+            detector, (mesh.vertices, mesh.faces), photo_face, given, by_name if template is not None else None
+        )
         if uv_set is None:
             uv_set = 1 if mesh.uvs is not None and not os.fspath(head).lower().endswith(".obj") else 0
-        return _solve_and_write(detector, os.fspath(head), image, picture_rgb, photo_face, facing, pairs, uv_set, out, seen[1].shape[0])
+        return _solve_and_write(detector, os.fspath(head), image, picture_rgb, photo_face, facing, pairs, uv_set, out, size)
+
+
+def _given_facing(view: Sequence[float] | None, up: Sequence[float] | None) -> Facing:
+    return Facing(
+        _unit(view if view is not None else (0, 0, -1), "--view"), _unit(up if up is not None else (0, 1, 0), "--up")
+    )
+
+
+def landmark_pairs(
+    detector: Detector,
+    mesh: tuple[np.ndarray, np.ndarray],
+    photo_face: Face | None,
+    given: Facing | None = None,
+    by_name: Targets | None = None,
+) -> tuple[Facing, Pairs, int]:
+    """The head's facing (`given`, or found and turned to the photo's
+    pose), the named landmarks paired to its vertices with their targets
+    (the photo's, or `by_name`'s), and the size of the render they were
+    found on."""
+    v, faces = mesh
+    facing = given
+    if facing is None:
+        facing = find_facing(detector, v, faces)
+        front = _look(detector, v, faces, facing, 320) if photo_face is not None else None
+        if photo_face is not None and front is not None:
+            facing = turn_to(detector, v, faces, (facing, front), photo_face.yaw)
+    seen = _render_face(detector, v, faces, facing)
+    if by_name is None:
+        if photo_face is None:
+            raise PhotoError("no face found on the photo")
+        by_name = photo_targets(seen[0], photo_face)
+    return facing, pair_landmarks(v, faces, facing, seen, by_name), seen[1].shape[0]
+
+
+@dataclass(frozen=True)
+class PhotoPins:
+    """Pins for :func:`uvpin.solve` from a photo: vertex ids (k,), targets
+    (k, 2, glTF texture coordinates), their names, and what was dropped."""
+
+    ids: np.ndarray
+    uv: np.ndarray
+    labels: list[str]
+    dropped: dict[str, str]
+    facing: Facing
+
+
+def photo_pins(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    image: str | os.PathLike[str],
+    *,
+    view: Sequence[float] | None = None,
+    up: Sequence[float] | None = None,
+) -> PhotoPins:
+    """The photo step on arrays (as Blender holds a mesh): the face's named
+    landmarks found on the photo and on the mesh, as pins whose targets are
+    the photo's texture coordinates. Solve them with
+    ``uvpin.solve(vertices, faces, (pins.ids, pins.uv))``."""
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    picture_rgb = load_image(image)
+    given = None if view is None and up is None else _given_facing(view, up)
+    with Detector() as detector:
+        photo_face = face_on_photo(detector, picture_rgb, os.fspath(image))
+        facing, pairs, _ = landmark_pairs(detector, (v, f), photo_face, given)
+    size = np.array([picture_rgb.shape[1], picture_rgb.shape[0]], dtype=np.float64)
+    return PhotoPins(
+        ids=np.array([p.vertex for p in pairs.kept], dtype=np.int64),
+        uv=np.array([p.target / size for p in pairs.kept]),
+        labels=[p.label for p in pairs.kept],
+        dropped=pairs.dropped,
+        facing=facing,
+    )
 
 
 def _solve_and_write(
@@ -849,26 +913,23 @@ def _summary(result: dict[str, Any], out: str) -> str:
     return "\n".join(lines)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m uvpin.photo HEAD PHOTO -o OUT.glb``: exit 0 reached, 2
-    partial (written, fold-free, some landmarks short), 1 error (nothing
-    written)."""
-    import argparse
+def _stamp(paths: Sequence[str]) -> tuple[tuple[int, int] | None, ...]:
+    """Each file's size and modification time (None when absent)."""
+    out = []
+    for p in paths:
+        try:
+            st = os.stat(p)
+            out.append((st.st_size, st.st_mtime_ns))
+        except OSError:
+            out.append(None)
+    return tuple(out)
+
+
+def _run_once(args: Any) -> int:
+    """One photo step as the command line asked; prints its summary or its
+    error; the exit code."""
     import sys
 
-    ap = argparse.ArgumentParser(prog="uvpin photo", description="Lay a face photo onto a head mesh.")
-    ap.add_argument("head", help="the head mesh (.glb, .gltf, .obj, .ply, .stl, .off)")
-    ap.add_argument("photo", nargs="?", help="the face photo (PNG or JPEG); optional with --template")
-    ap.add_argument("-o", "--output", required=True, help="the textured model to write (.glb)")
-    ap.add_argument("--constraints", help="the constraint file to write (default: OUTPUT's stem + .uvpin.ron)")
-    ap.add_argument("--picture", help="the before/after picture (default: OUTPUT's stem + .photo.png)")
-    ap.add_argument("--report", help="write the JSON report here")
-    ap.add_argument("--view", help="direction looked along into the face, e.g. 0,0,-1 (default: found)")
-    ap.add_argument("--up", help="the head's up, e.g. 0,1,0 (default: found)")
-    ap.add_argument("--template", help="a constraint file whose labelled targets are used by name")
-    ap.add_argument("--uv-set", type=int, help="the UV set written (default: 1 beside a glTF's atlas, else 0)")
-    ap.add_argument("-q", "--quiet", action="store_true", help="no summary (errors are still printed)")
-    args = ap.parse_args(argv)
     try:
         result = photo(
             args.head,
@@ -883,11 +944,68 @@ def main(argv: Sequence[str] | None = None) -> int:
             uv_set=args.uv_set,
         )
     except (InputError, OSError) as e:
-        print(f"error: {e}", file=sys.stderr)
+        print(f"error: {e}", file=sys.stderr, flush=True)
         return 1
     if not args.quiet:
-        print(_summary(result, args.output), file=sys.stderr)
+        print(_summary(result, args.output), file=sys.stderr, flush=True)
     return 0 if result["status"] == "reached" else 2
+
+
+def _watch(args: Any) -> int:
+    """Runs the step, then again whenever the head, the photo or the
+    template changes (a new size or time, the same on two looks in a row:
+    written whole), until interrupted."""
+    import sys
+    import time
+
+    inputs = [os.fspath(p) for p in (args.head, args.photo, args.template) if p is not None]
+    print(f"watching {', '.join(inputs)} (Ctrl-C to stop)", file=sys.stderr, flush=True)
+    done = _stamp(inputs)
+    _run_once(args)
+    seen = done
+    try:
+        while True:
+            time.sleep(0.25)
+            now = _stamp(inputs)
+            if now != done and now == seen and all(now):
+                done = now
+                print(f"changed: {', '.join(p for p, a, b in zip(inputs, now, seen) if a)}", file=sys.stderr, flush=True)
+                _run_once(args)
+            seen = now
+    except KeyboardInterrupt:
+        return 0
+
+
+def _interrupt(*_: Any) -> None:
+    """SIGTERM ends a watch as Ctrl-C does."""
+    raise KeyboardInterrupt
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m uvpin.photo HEAD PHOTO -o OUT.glb``: exit 0 reached, 2
+    partial (written, fold-free, some landmarks short), 1 error (nothing
+    written)."""
+    import argparse
+    import signal
+
+    ap = argparse.ArgumentParser(prog="uvpin photo", description="Lay a face photo onto a head mesh.")
+    ap.add_argument("head", help="the head mesh (.glb, .gltf, .obj, .ply, .stl, .off)")
+    ap.add_argument("photo", nargs="?", help="the face photo (PNG or JPEG); optional with --template")
+    ap.add_argument("-o", "--output", required=True, help="the textured model to write (.glb)")
+    ap.add_argument("--constraints", help="the constraint file to write (default: OUTPUT's stem + .uvpin.ron)")
+    ap.add_argument("--picture", help="the before/after picture (default: OUTPUT's stem + .photo.png)")
+    ap.add_argument("--report", help="write the JSON report here")
+    ap.add_argument("--view", help="direction looked along into the face, e.g. 0,0,-1 (default: found)")
+    ap.add_argument("--up", help="the head's up, e.g. 0,1,0 (default: found)")
+    ap.add_argument("--template", help="a constraint file whose labelled targets are used by name")
+    ap.add_argument("--uv-set", type=int, help="the UV set written (default: 1 beside a glTF's atlas, else 0)")
+    ap.add_argument("--watch", action="store_true", help="run again whenever the head or the photo changes")
+    ap.add_argument("-q", "--quiet", action="store_true", help="no summary (errors are still printed)")
+    args = ap.parse_args(argv)
+    if not args.watch:
+        return _run_once(args)
+    signal.signal(signal.SIGTERM, _interrupt)
+    return _watch(args)
 
 
 if __name__ == "__main__":

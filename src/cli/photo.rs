@@ -44,6 +44,10 @@ pub struct PhotoArgs {
     /// The UV set written (default: 1 beside a glTF's atlas, else 0).
     #[arg(long)]
     uv_set: Option<u32>,
+    /// Run again whenever the head, the photo or the template changes
+    /// (until Ctrl-C or SIGTERM).
+    #[arg(long)]
+    watch: bool,
     /// No summary on standard error.
     #[arg(short, long)]
     quiet: bool,
@@ -74,8 +78,10 @@ impl PhotoArgs {
         if let Some(k) = self.uv_set {
             argv.extend(["--uv-set".into(), k.to_string().into()]);
         }
-        if self.quiet {
-            argv.push("-q".into());
+        for (flag, on) in [("--watch", self.watch), ("-q", self.quiet)] {
+            if on {
+                argv.push(flag.into());
+            }
         }
         argv
     }
