@@ -438,12 +438,18 @@ fn the_image_a_file_names_elsewhere_is_served() {
         .unwrap()
         .replace("\"face.glb\"", "\"../assets/face.glb\"")
         .replace("\"face-guide.png\"", "\"../photos/face.png\"");
-    assert!(text.contains("../photos/face.png"), "the sample names its image: {text}");
+    assert!(
+        text.contains("../photos/face.png"),
+        "the sample names its image: {text}"
+    );
     std::fs::write(dir.path("work/face.uvpin.ron"), text).unwrap();
     let d = Daemon::edit(&dir.0, &["work/face.uvpin.ron", "--out", "out"]);
     let addr = address(&d);
     let state = wait_state(&addr, &d, |s| s["state"] == "reached");
-    assert!(state["texture"].as_str().is_some_and(|k| k.contains("photos/face.png")), "{state}");
+    assert!(
+        state["texture"].as_str().is_some_and(|k| k.contains("photos/face.png")),
+        "{state}"
+    );
     let (status, png) = http(&addr, "GET", "/api/file/0/texture", &[], "");
     assert_eq!((status, &png[1..4]), (200, &b"PNG"[..]));
 }

@@ -88,7 +88,10 @@ fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Resul
         let named = crate::constraints::LoadedConstraints::load(&file)
             .map(|l| [Some(l.asset_path()), l.image_path()])
             .unwrap_or_default();
-        let folders = named.into_iter().flatten().filter_map(|p| p.parent().map(Path::to_path_buf));
+        let folders = named
+            .into_iter()
+            .flatten()
+            .filter_map(|p| p.parent().map(Path::to_path_buf));
         return Ok(folders.collect());
     }
     let Some(asset) = asset else {
