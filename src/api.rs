@@ -179,6 +179,9 @@ pub fn solve_file(constraints_path: &Path, options: &Options) -> Result<Report, 
     }
     ProgressSink::tell(options.progress.as_ref(), Progress::at(Stage::Loading));
     let (loaded, asset) = load(constraints_path, &options.solver, &options.input)?;
+    if let Some(out) = &options.output {
+        io::gltf_file::check_output_kind(&asset, out)?;
+    }
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     solve_loaded_in(loaded, &Arc::new(asset), options, load_ms)
 }

@@ -246,6 +246,59 @@ fn an_obj_atlas_keeps_its_other_charts_bit_for_bit_and_its_polygons() {
     assert!(moved > 0 && kept > 0, "{moved} faces moved, {kept} kept");
 }
 
+/// A new UV set from an OBJ atlas: glTF out with the OBJ's `vt` as set 0
+/// (every vertex's position and `vt` as read) and the new set 1 beside it,
+/// fold-free; an OBJ out is refused (it holds one set) with nothing written.
+fn a_new_uv_set_beside_an_obj_atlas_is_written_as_gltf() {
+    let beast = shared_mesh("beast.obj");
+    let source = uvpin::io::load_asset(&beast, None, 0, &Default::default()).unwrap();
+    let tmp = TempDir::new("obj-set-1");
+    let ron = tmp.path("beast.uvpin.ron");
+    // Targets anywhere in the new set (its layout need not resemble the
+    // atlas's): reached or partial, never a fold.
+    let landmarks: Vec<(u32, f64, f64)> = shrunk_island_targets(&source, 0, 4)
+        .iter()
+        .enumerate()
+        .map(|(k, &(v, _, _))| (v, 0.3 + 0.1 * k as f64, 0.5 + 0.05 * k as f64))
+        .collect();
+    write_constraints(&ron, &beast, &landmarks, "    uv_set: 1,\n");
+    let refused = uvpin(&[
+        "solve",
+        ron.to_str().unwrap(),
+        "-o",
+        tmp.path("out.obj").to_str().unwrap(),
+    ]);
+    assert_eq!(refused.status.code(), Some(1));
+    assert!(stderr(&refused).contains("holds one UV set"), "{}", stderr(&refused));
+    assert!(!tmp.path("out.obj").exists());
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert!(matches!(o.status.code(), Some(0 | 2)), "{}", stderr(&o));
+    assert_eq!(report["orientation"]["flipped"], 0);
+    let written = uvpin::io::load_asset(&out, None, 0, &Default::default()).unwrap();
+    let (src, got) = (&source.primitives[0], &written.primitives[0]);
+    assert_eq!(got.indices.len(), src.indices.len(), "the same triangles");
+    let key = |p: [f32; 3], uv: [f32; 2]| (p.map(f32::to_bits), uv.map(f32::to_bits));
+    let read: std::collections::HashSet<_> = src
+        .positions
+        .iter()
+        .zip(src.uvs.as_ref().unwrap())
+        .map(|(&p, &uv)| key(p, uv))
+        .collect();
+    let set0 = got.uvs.as_ref().expect("set 0 kept");
+    for (v, (&p, &uv)) in got.positions.iter().zip(set0).enumerate() {
+        assert!(
+            read.contains(&key(p, uv)),
+            "vertex {v}: position and set 0 as the OBJ has them"
+        );
+    }
+    let (_, bad) = python_uvs(&out, 1);
+    assert_eq!(bad, 0, "set 1 fold-free as read back");
+    for r in khronos_validate(&[&out]) {
+        assert_eq!(r["errors"], 0, "{r}");
+    }
+}
+
 fn main() -> std::process::ExitCode {
     run_cases(&[
         (
@@ -262,6 +315,11 @@ fn main() -> std::process::ExitCode {
             "an_obj_atlas_keeps_its_other_charts_bit_for_bit_and_its_polygons",
             &[Needs::SharedMeshes],
             an_obj_atlas_keeps_its_other_charts_bit_for_bit_and_its_polygons,
+        ),
+        (
+            "a_new_uv_set_beside_an_obj_atlas_is_written_as_gltf",
+            &[Needs::SharedMeshes, Needs::Validator],
+            a_new_uv_set_beside_an_obj_atlas_is_written_as_gltf,
         ),
     ])
 }

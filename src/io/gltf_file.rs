@@ -720,16 +720,23 @@ pub fn new_document(positions: &[[f32; 3]], indices: &[u32], uvs: Option<&[[f32;
         ],
         "buffers": [{ "byteLength": 0 }]
     });
-    if let Some(uvs) = uvs {
-        pad4(&mut blob);
-        let offset = blob.len();
-        blob.extend_from_slice(&f32_bytes(uvs));
-        let acc = push_uv_accessor(&mut json, 0, offset, uvs);
-        json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(acc);
-    }
     pad4(&mut blob);
     json["buffers"][0]["byteLength"] = json!(blob.len());
+    if let Some(uvs) = uvs {
+        add_uv_set(&mut json, &mut blob, 0, uvs);
+    }
     (json, blob)
+}
+
+/// Adds TEXCOORD_`set` to the one primitive of a fresh document made by
+/// [`new_document`].
+pub fn add_uv_set(json: &mut Value, blob: &mut Vec<u8>, set: u32, uvs: &[[f32; 2]]) {
+    let offset = blob.len();
+    blob.extend_from_slice(&f32_bytes(uvs));
+    let acc = push_uv_accessor(json, 0, offset, uvs);
+    json["meshes"][0]["primitives"][0]["attributes"][format!("TEXCOORD_{set}")] = json!(acc);
+    pad4(blob);
+    json["buffers"][0]["byteLength"] = json!(blob.len());
 }
 
 /// A fresh document's bytes as .glb, or as .gltf with an embedded data URI.
@@ -778,12 +785,34 @@ pub struct StoredUvs {
     pub obj_vt: Option<CornerUvs>,
 }
 
+/// Whether `out` can hold the asset with the UV set it asks for: an OBJ
+/// holds one set, so a new set beside an OBJ's `vt` goes to glTF.
+///
+/// # Errors
+/// An OBJ output for UV set 1 and above.
+pub fn check_output_kind(asset: &SourceAsset, out: &Path) -> Result<(), AssetError> {
+    if matches!(asset.container, Container::Obj { .. })
+        && AssetFormat::of(out) == Some(AssetFormat::Obj)
+        && asset.uv_set > 0
+    {
+        return Err(AssetError::Write {
+            path: out.to_path_buf(),
+            message: format!(
+                "an OBJ file holds one UV set: write uv_set {} as .glb or .gltf (the `vt` stays set 0)",
+                asset.uv_set
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// The asset with new UVs in whatever form `out` asks for, staged: the same
 /// type as the input (everything else kept), or .glb/.gltf from an OBJ.
 ///
 /// # Errors
 /// An output type that cannot hold the input; as [`stage_with_uvs`].
 pub fn stage_asset(asset: &SourceAsset, uvs: &StoredUvs, out: &Path) -> Result<Staged, AssetError> {
+    check_output_kind(asset, out)?;
     let mut staged = Staged::new();
     match (&asset.container, AssetFormat::of(out), &uvs.obj_vt) {
         (Container::Obj { bytes, faces }, Some(AssetFormat::Obj), Some(vt)) => {
@@ -804,7 +833,25 @@ pub fn stage_asset(asset: &SourceAsset, uvs: &StoredUvs, out: &Path) -> Result<S
             let split = uvs.gltf[0].split(&prim.indices);
             let mut positions = prim.positions.clone();
             positions.extend(split.copies.iter().map(|&c| prim.positions[c as usize]));
-            let (json, blob) = new_document(&positions, &split.indices, Some(&split.uvs), &name);
+            let (mut json, mut blob) = if asset.uv_set == 0 {
+                new_document(&positions, &split.indices, Some(&split.uvs), &name)
+            } else {
+                // The OBJ's own `vt` stays set 0, per vertex (a copy has
+                // its source vertex's), in glTF's convention.
+                let Container::Obj { faces, .. } = &asset.container else {
+                    unreachable!("matched as OBJ")
+                };
+                let vt = faces.vt.as_deref().unwrap_or_default();
+                let gltf = |v: u32| vt.get(v as usize).map_or([0.0, 0.0], |t| [t[0], 1.0 - t[1]]);
+                let own: Vec<[f32; 2]> = (0..prim.positions.len() as u32)
+                    .chain(split.copies.iter().copied())
+                    .map(gltf)
+                    .collect();
+                new_document(&positions, &split.indices, Some(&own), &name)
+            };
+            if asset.uv_set > 0 {
+                add_uv_set(&mut json, &mut blob, asset.uv_set, &split.uvs);
+            }
             staged.add(out, encode_new_document(&json, &blob, out)?);
         }
         (Container::Gltf { .. }, _, _) => return stage_with_uvs(asset, &uvs.gltf, out),

@@ -204,15 +204,26 @@ pub fn load_asset(
                     message: format!("an OBJ file holds one mesh (0); mesh {i} was asked for"),
                 });
             }
-            if uv_set > 0 {
+            let mut read = obj::read_mesh(path, &String::from_utf8_lossy(&bytes), &rules.limits, true)?;
+            if uv_set > 1 || (uv_set == 1 && read.faces.vt.is_none()) {
+                let has = if read.faces.vt.is_some() {
+                    "its `vt`"
+                } else {
+                    "none: no face corner has a `vt`"
+                };
                 return Err(AssetError::MeshSelection {
                     path: path.to_path_buf(),
                     message: format!(
-                        "an OBJ file holds one UV set (its `vt`, uv_set 0); uv_set {uv_set} was asked for"
+                        "an OBJ file holds one UV set ({has}; uv_set 0, and uv_set 1 writes a new set \
+                         beside a `vt` as glTF); uv_set {uv_set} was asked for"
                     ),
                 });
             }
-            let read = obj::read_mesh(path, &String::from_utf8_lossy(&bytes), &rules.limits, true)?;
+            if uv_set == 1 {
+                // A new set beside the `vt` (which stays set 0 of a glTF
+                // output): it holds nothing yet.
+                read.primitive.uvs = None;
+            }
             Ok(SourceAsset {
                 path: path.to_path_buf(),
                 format,
