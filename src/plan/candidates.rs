@@ -110,13 +110,18 @@ pub struct Chart {
 pub enum Ended {
     Reached,
     Short,
+    /// Short, laid out free: its solve on the square, mapped onto its
+    /// region, may come closer (a square layout inside the region is a free
+    /// layout).
+    ShortFree,
     /// It could not be made or started.
     Dropped,
 }
 
 /// The candidates after `tried` (the candidates tried so far and how each
 /// ended), simplest first: the chart as given (on the square where the
-/// default puts it, then free, then free from its square solve), cut, as
+/// default puts it, then free, then free from its square solve), cut (then,
+/// short free, from its square solve), as
 /// the camera sees it, and the landmarks' surroundings; a disk is cut or
 /// split only when no way of taking it as given reached its targets.
 /// `None` when none is left.
@@ -152,11 +157,21 @@ pub fn next(chart: &Chart, tried: &[(Candidate, Ended)]) -> Option<Candidate> {
         return list.into_iter().find(|c| !tried.iter().any(|(t, _)| t == c));
     }
     if law.may_reshape() && (!chart.disk || law.boundary != Some(BoundaryChoice::Square)) {
-        list.push(Candidate {
+        let cut = Candidate {
             form: Form::Cut,
             boundary: None,
             start: Start::Own,
-        });
+        };
+        // Free never does worse than the square, cut or not.
+        if tried.iter().any(|(c, e)| *c == cut && *e == Ended::ShortFree) {
+            list.push(cut.clone());
+            list.push(Candidate {
+                start: Start::Square,
+                ..cut
+            });
+        } else {
+            list.push(cut);
+        }
     }
     if law.may_reshape() && law.boundary != Some(BoundaryChoice::Square) {
         let (points, targets): (Vec<_>, Vec<_>) = chart.landmarks.iter().copied().unzip();
@@ -275,5 +290,15 @@ mod tests {
         let list = all(&chart(false, FREE_LAW), Ended::Short);
         assert!(list.iter().all(|c| c.form != Form::AsGiven));
         assert_eq!(list[0].form, Form::Cut);
+    }
+
+    #[test]
+    fn a_cut_chart_short_free_is_tried_from_its_square_solve_next() {
+        let list = all(&chart(false, FREE_LAW), Ended::ShortFree);
+        assert_eq!((list[0].form.name(), list[0].start), ("cut", Start::Own));
+        assert_eq!((list[1].form.name(), list[1].start), ("cut", Start::Square));
+        // Short on the square already: no square start to try.
+        let list = all(&chart(false, FREE_LAW), Ended::Short);
+        assert!(list.iter().all(|c| c.start == Start::Own), "{list:?}");
     }
 }

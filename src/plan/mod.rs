@@ -60,6 +60,14 @@ impl Trial {
     fn ended(&self) -> Ended {
         match &self.report.outcome {
             TrialOutcome::Solved { reached: true, .. } => Ended::Reached,
+            TrialOutcome::Solved { .. }
+                if self
+                    .tried
+                    .as_ref()
+                    .is_some_and(|t| t.chart.prepared.domain.free().is_some()) =>
+            {
+                Ended::ShortFree
+            }
             TrialOutcome::Solved { .. } => Ended::Short,
             TrialOutcome::Dropped { .. } => Ended::Dropped,
         }
