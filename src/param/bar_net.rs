@@ -20,8 +20,6 @@ pub const FORCE_DENSITY_EPSILON: f64 = 1e-3;
 
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum BarNetError {
-    #[error("no free vertices: every vertex is on the outer boundary")]
-    NoFreeVertices,
     #[error("force-density system: {0}")]
     Sparse(#[from] SparseError),
 }
@@ -128,7 +126,9 @@ pub struct BarNet {
     free_vertices: Vec<u32>,
     /// `(free row, fixed vertex, q)`: the entries of `−D_f`.
     couplings: Vec<(u32, u32, f64)>,
-    factor: SpdFactor,
+    /// `None` when every node is fixed: nothing to solve, the outer loop
+    /// is the layout (a triangulated convex polygon embeds).
+    factor: Option<SpdFactor>,
 }
 
 impl BarNet {
@@ -136,8 +136,8 @@ impl BarNet {
     /// bars of the filled chart. `is_fixed[v]` marks fixed nodes.
     ///
     /// # Errors
-    /// No free vertex, or `D` not positive definite (a free component that
-    /// touches no fixed vertex).
+    /// `D` not positive definite (a free component that touches no fixed
+    /// vertex). With no free vertex there is nothing to factor.
     pub fn factor(filled: &FilledChart, is_fixed: &[bool]) -> Result<Self, BarNetError> {
         let q = force_densities(&filled.mesh, &filled.edges);
         Self::factor_with_densities(&filled.mesh.positions, &filled.edges, &q, is_fixed)
@@ -162,7 +162,12 @@ impl BarNet {
         }
         let n = free_vertices.len();
         if n == 0 {
-            return Err(BarNetError::NoFreeVertices);
+            return Ok(BarNet {
+                free_row,
+                free_vertices,
+                couplings: Vec::new(),
+                factor: None,
+            });
         }
         let mut entries = Vec::with_capacity(n + edges.len() * 3);
         let mut values = Vec::with_capacity(n + edges.len() * 3);
@@ -206,13 +211,16 @@ impl BarNet {
             free_row,
             free_vertices,
             couplings,
-            factor,
+            factor: Some(factor),
         })
     }
 
     /// Solves Eq. 1 (p = 0) for the free nodes. `layout` holds the fixed
     /// nodes' positions on entry; the free nodes' positions are overwritten.
     pub fn solve(&self, layout: &mut [DVec2]) {
+        let Some(factor) = &self.factor else {
+            return;
+        };
         let n = self.free_vertices.len();
         let mut rhs = Mat::<f64>::zeros(n, 2);
         for &(r, v, q) in &self.couplings {
@@ -220,7 +228,7 @@ impl BarNet {
             rhs[(r as usize, 0)] += q * p.x;
             rhs[(r as usize, 1)] += q * p.y;
         }
-        self.factor.solve_in_place(&mut rhs);
+        factor.solve_in_place(&mut rhs);
         for (r, &v) in self.free_vertices.iter().enumerate() {
             layout[v as usize] = DVec2::new(rhs[(r, 0)], rhs[(r, 1)]);
         }
@@ -235,7 +243,7 @@ impl BarNet {
     /// order for any system on the same vertex graph, such as the Newton
     /// Hessians of the completion.
     pub fn elimination_order(&self) -> Option<Vec<u32>> {
-        let order = self.factor.pattern().elimination_order()?;
+        let order = self.factor.as_ref()?.pattern().elimination_order()?;
         Some(order.into_iter().map(|r| self.free_vertices[r]).collect())
     }
 
@@ -265,6 +273,16 @@ mod tests {
         let net = BarNet::factor(&filled, &fixed).unwrap();
         net.solve(&mut layout);
         (filled, layout, net)
+    }
+
+    #[test]
+    fn a_strip_with_every_vertex_on_its_loop_is_its_loop() {
+        // One row of quads: no node is free; the bulged square's loop,
+        // strictly convex, is a fold-free layout of any triangulation.
+        let mesh = grid_mesh(6, 2);
+        let (filled, layout, net) = step1(&mesh);
+        assert_eq!(net.n_free(), 0);
+        assert!(crate::guard::all_positive(&layout, &filled.mesh.triangles));
     }
 
     #[test]
