@@ -387,91 +387,34 @@ pub fn fit_into_room(
             shrink: 1.0,
         });
     }
-    let span = (bhi - blo).length();
-    let trial = Trial {
-        room,
-        placed: &placed,
-        triangles,
-        in_place: kind == StartKind::StepOne && fit == Fit::InPlace,
-    };
-    // The anchor pairs at one shrink: about the targets' centre (in place,
-    // and moved the least that brings the box inside), then the others.
-    let anchors_at = |shrink: f64| {
+    for &shrink in &SHRINKS {
         let near = targets_centre.map_or(Vec::new(), |c| {
             vec![(c, c), (c, c + least_move_inside((blo, bhi), c, shrink, (lo, hi)))]
         });
-        near.into_iter().chain(anchors.iter().copied()).collect::<Vec<_>>()
-    };
-    for (k, &shrink) in SHRINKS.iter().enumerate() {
-        if span * shrink < MIN_SPAN * (hi - lo).length() {
-            return None;
-        }
-        for (j, (from, to)) in anchors_at(shrink).into_iter().enumerate() {
-            let Some(layout) = trial.at(shrink, from, to) else {
-                continue;
+        for &(from, to) in near.iter().chain(&anchors) {
+            let layout: Vec<DVec2> = placed.iter().map(|&p| to + (p - from) * shrink).collect();
+            if (bhi - blo).length() * shrink < MIN_SPAN * (hi - lo).length() {
+                return None;
+            }
+            // The room first: it looks at the boundary only. Step 1 where it
+            // lies is relaxed before anything is stored: double precision
+            // is enough (its thinnest triangles may be too thin for f32).
+            let fits = if kind == StartKind::StepOne && fit == Fit::InPlace {
+                inside_region(room, &layout) && room.embeds(&layout) && guard::all_positive(&layout, triangles)
+            } else {
+                room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles)
             };
-            // The rungs are coarse: the largest shrink between this one and
-            // the last that failed, found by halving, with the same anchor.
-            let larger = k.checked_sub(1).map(|i| SHRINKS[i]).filter(|_| shrink < 0.99);
-            let (layout, shrink) = larger.map_or((layout.clone(), shrink), |big| {
-                trial.largest((shrink, big), |s| anchors_at(s)[j], layout)
-            });
-            return Some(ChosenStart {
-                layout,
-                kind,
-                rest_area,
-                shrink,
-            });
+            if fits {
+                return Some(ChosenStart {
+                    layout,
+                    kind,
+                    rest_area,
+                    shrink,
+                });
+            }
         }
     }
     None
-}
-
-/// One way of fitting a placed start into its room: shrunk about an
-/// anchor, then checked.
-struct Trial<'a> {
-    room: &'a Room,
-    placed: &'a [DVec2],
-    triangles: &'a [[u32; 3]],
-    /// Step 1 where it lies: checked in double precision (relaxed before
-    /// anything is stored; its thinnest triangles may be too thin for f32).
-    in_place: bool,
-}
-
-impl Trial<'_> {
-    /// The start shrunk by `shrink` about `from`, moved to `to`, if it
-    /// fits (the room first: it looks at the boundary only).
-    fn at(&self, shrink: f64, from: DVec2, to: DVec2) -> Option<Vec<DVec2>> {
-        let layout: Vec<DVec2> = self.placed.iter().map(|&p| to + (p - from) * shrink).collect();
-        let fits = if self.in_place {
-            inside_region(self.room, &layout)
-                && self.room.embeds(&layout)
-                && guard::all_positive(&layout, self.triangles)
-        } else {
-            self.room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, self.triangles)
-        };
-        fits.then_some(layout)
-    }
-
-    /// The largest shrink in `(fits, fails)` that fits, by halving the
-    /// gap (a few times: a start within a few percent of the largest is as
-    /// good); `anchor` gives the anchor pair at a shrink.
-    fn largest(
-        &self,
-        (mut fits, mut fails): (f64, f64),
-        anchor: impl Fn(f64) -> (DVec2, DVec2),
-        mut layout: Vec<DVec2>,
-    ) -> (Vec<DVec2>, f64) {
-        for _ in 0..5 {
-            let mid = 0.5 * (fits + fails);
-            let (from, to) = anchor(mid);
-            match self.at(mid, from, to) {
-                Some(l) => (layout, fits) = (l, mid),
-                None => fails = mid,
-            }
-        }
-        (layout, fits)
-    }
 }
 
 /// Step 1's square drawn in to [`FIRST_FILL`] of the region about its
