@@ -345,30 +345,16 @@ fn coarse_chart(
     Some((coarse, fine_ids))
 }
 
-/// A free coarse level keeps this share of its region's size clear of its
-/// border (less where a target is nearer): the fine loop, put back between
-/// coarse loop vertices pressed against the border, stays inside it.
-const INSET: f64 = 0.002;
-
-/// The fine chart's domain for its coarse level: free, its region inset
-/// by [`INSET`], a given start taken at the coarse vertices (`fine_ids`)
-/// and left out where it folds there.
+/// The fine chart's domain for its coarse level: free in the same region
+/// (a level solved in a room inset from it falls short of targets the
+/// chart reaches, while a fine loop put back outside the region is caught
+/// where the level is prolonged), a given start taken at the coarse
+/// vertices (`fine_ids`) and left out where it folds there.
 fn coarse_domain(prepared: &PreparedChart, fine_ids: &[u32], coarse: &FilledChart) -> Domain {
     let Domain::Free(setup) = &prepared.domain else {
         return Domain::Square;
     };
     let mut setup = (**setup).clone();
-    let r = setup.region;
-    let room = prepared
-        .constraints
-        .iter()
-        .map(|c| (c.target_uv - r.min).min(r.max - c.target_uv).min_element())
-        .fold(f64::INFINITY, f64::min);
-    let inset = (INSET * (r.max - r.min).min_element()).min(0.5 * room);
-    if inset > 0.0 {
-        setup.region.min += DVec2::splat(inset);
-        setup.region.max -= DVec2::splat(inset);
-    }
     if let Some(given) = &setup.given {
         let layout: Vec<DVec2> = fine_ids.iter().map(|&f| given.layout[f as usize]).collect();
         setup.given = crate::guard::all_positive(&layout, &coarse.mesh.triangles).then(|| crate::free::GivenStart {
