@@ -95,7 +95,20 @@ pub fn export(finished: &Finished, report: &Report, outputs: &Outputs) -> Report
     {
         let pictures = &outputs.pictures;
         let (asset, prepared, layout) = (finished.asset, finished.prepared, finished.layout);
-        match crate::preview::render_chart(asset, prepared, finished.outer_loop, layout, &report, pictures) {
+        let written = if pictures.layout.is_some() {
+            written_triangles(finished, &report)
+        } else {
+            Vec::new()
+        };
+        match crate::preview::render_chart(
+            asset,
+            prepared,
+            finished.outer_loop,
+            layout,
+            &report,
+            pictures,
+            &written,
+        ) {
             Ok(pictures) => pictures.into_iter().for_each(|(path, png)| staged.add(path, png)),
             Err(e) => report.warnings.push(format!("preview: {e}")),
         }
@@ -158,6 +171,19 @@ pub fn final_uvs(finished: &Finished, report: &mut Report) -> Option<Vec<crate::
     let uvs = chart::assemble_corner_uvs(finished.asset, &finished.prepared.welded, &parts);
     every_copy_on_target(finished.asset, &finished.prepared.welded, &uvs, report);
     Some(uvs)
+}
+
+/// Every triangle of the UV set as it is written (texture coordinates),
+/// for the layout picture: empty when the layout is refused.
+#[cfg(feature = "pictures")]
+fn written_triangles(finished: &Finished, report: &Report) -> Vec<[DVec2; 3]> {
+    let Some(uvs) = final_uvs(finished, &mut report.clone()) else {
+        return Vec::new();
+    };
+    let uv = |c: [f32; 2]| DVec2::new(f64::from(c[0]), f64::from(c[1]));
+    uvs.iter()
+        .flat_map(|u| u.corners.chunks_exact(3).map(move |t| [uv(t[0]), uv(t[1]), uv(t[2])]))
+        .collect()
 }
 
 /// Every laid-out part: the solved chart, the rest placed around it, and

@@ -28,7 +28,13 @@ impl Caption {
             Status::Partial => "PARTIAL",
             Status::Error => "ERROR (not written)",
         };
-        let on_target = report.constraints.iter().filter(|c| c.reached).count();
+        // Every chart's landmarks count, the first's and the others'.
+        let all: Vec<_> = report
+            .constraints
+            .iter()
+            .chain(report.charts.iter().flat_map(|c| &c.constraints))
+            .collect();
+        let on_target = all.iter().filter(|c| c.reached).count();
         let mut first = format!("{file}: {status}");
         if let Some(image) = over {
             first += &format!(", over {image}");
@@ -38,7 +44,7 @@ impl Caption {
                 first,
                 format!(
                     "{on_target} of {} landmarks on target, max residual {:.1e}",
-                    report.constraints.len(),
+                    all.len(),
                     report.max_residual
                 ),
                 format!(
@@ -71,8 +77,9 @@ fn shorten(line: &str, fits: usize) -> String {
 }
 
 /// The layout picture's legend, in the band that ends `margin` above the
-/// bottom: the stretch ramp with its values, then the marker key.
-pub fn draw_layout_legend(image: &mut RgbaImage, margin: f32, hole_fill: bool) {
+/// bottom: the stretch ramp with its values, then the marker key and
+/// `more` (what the arrows or the grey charts are).
+pub fn draw_layout_legend(image: &mut RgbaImage, margin: f32, hole_fill: bool, more: &str) {
     let scale = text::scale_for(image.width());
     let line = text::line_height(scale) as i64;
     let glyph = i64::from(text::GLYPH * scale);
@@ -95,7 +102,7 @@ pub fn draw_layout_legend(image: &mut RgbaImage, margin: f32, hole_fill: bool) {
         text::fill_rect(image, x, y0, (glyph) as u32, (glyph) as u32, [110, 110, 120], 140);
         text::draw(image, x + glyph + glyph / 2, y0, "hole fill", Ink::dark(scale));
     }
-    draw_marker_key(image, margin as i64, y0 + line, scale, "arrow: step 1 -> target");
+    draw_marker_key(image, margin as i64, y0 + line, scale, more);
 }
 
 /// The key of the landmark dots (and `more`, a last item), at (x, y).

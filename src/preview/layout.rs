@@ -1,7 +1,9 @@
 //! The UV layout picture: the unit square (over the base-colour texture when
 //! there is one), every triangle coloured by its stretch, holes shaded, the
-//! outer boundary drawn, and each constraint as an arrow from its step-1
-//! position to its target with a dot where it ended (red if unreached).
+//! outer boundary drawn, the rest of the written UV set in grey with each
+//! chart outlined, and each constraint as a dot where it ended (red if
+//! unreached), with an arrow from its step-1 position to its target on the
+//! square (where step 1 is in the same frame).
 
 use super::{Marker, REACHED_COLOUR, UNREACHED_COLOUR, stretch_colour};
 use glam::DVec2;
@@ -22,6 +24,9 @@ pub struct LayoutScene<'a> {
     pub markers: &'a [Marker],
     /// The base-colour texture, drawn under the triangles.
     pub texture: Option<&'a image::RgbaImage>,
+    /// Every triangle of the written UV set (texture coordinates): the
+    /// other charts, drawn in grey under the chart, each outlined.
+    pub written: &'a [[DVec2; 3]],
 }
 
 /// Margin around the square, pixels, for a picture of `size`.
@@ -86,6 +91,7 @@ pub fn draw_layout(scene: &LayoutScene, size: u32) -> Pixmap {
     let mut pixmap = Pixmap::new(size, size).expect("non-zero size");
     pixmap.fill(Color::WHITE);
     draw_background(&mut pixmap, scene, size);
+    draw_written(&mut pixmap, scene, size);
     draw_triangles(&mut pixmap, scene, size);
     draw_outer_loop(&mut pixmap, scene, size);
     // Constraints: arrows first, then dots on top.
@@ -120,7 +126,15 @@ pub fn draw_captioned(scene: &LayoutScene, size: u32, caption: &super::caption::
     }
     super::caption::draw_title(&mut image, caption, margin(size));
     let holes = scene.triangles.len() > scene.n_real_triangles;
-    super::caption::draw_layout_legend(&mut image, margin(size), holes);
+    let arrows = scene.markers.iter().any(|m| m.arrow);
+    let others = scene.written.len() > scene.n_real_triangles;
+    let more = match (arrows, others) {
+        (true, false) => "arrow: step 1 -> target",
+        (true, true) => "arrow: step 1 -> target   grey: other charts",
+        (false, true) => "grey: other charts",
+        (false, false) => "",
+    };
+    super::caption::draw_layout_legend(&mut image, margin(size), holes, more);
     image
 }
 
@@ -150,6 +164,60 @@ fn draw_background(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
 
 /// The triangles coloured by stretch (virtual hole triangles shaded), and
 /// their edges where they are big enough to see (about 8 px² or more).
+/// The whole written UV set under the chart: grey triangles, and the
+/// outline of every chart (the edges only one triangle has, by their two
+/// texture coordinates).
+fn draw_written(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
+    if scene.written.is_empty() {
+        return;
+    }
+    let px = |uv: DVec2| uv_to_pixel(uv, size);
+    let key = |p: DVec2| (p.x.to_bits(), p.y.to_bits());
+    // Ordered: the same picture on every run (strokes drawn in one order).
+    let mut uses: std::collections::BTreeMap<((u64, u64), (u64, u64)), (DVec2, DVec2, u32)> =
+        std::collections::BTreeMap::new();
+    let mut fill = PathBuilder::new();
+    for t in scene.written.iter().filter(|t| t.iter().all(|p| p.is_finite())) {
+        let [a, b, c] = t.map(px);
+        fill.move_to(a.0, a.1);
+        fill.line_to(b.0, b.1);
+        fill.line_to(c.0, c.1);
+        fill.close();
+        for k in 0..3 {
+            let (p, q) = (t[k], t[(k + 1) % 3]);
+            let e = if key(p) < key(q) {
+                (key(p), key(q))
+            } else {
+                (key(q), key(p))
+            };
+            uses.entry(e).or_insert((p, q, 0)).2 += 1;
+        }
+    }
+    let grey = if scene.texture.is_some() { 90 } else { 255 };
+    if let Some(path) = fill.finish() {
+        pixmap.fill_path(
+            &path,
+            &paint([214, 218, 226], grey),
+            FillRule::Winding,
+            Transform::identity(),
+            None,
+        );
+    }
+    let mut outline = PathBuilder::new();
+    for (p, q, _) in uses.values().filter(|e| e.2 == 1) {
+        let (a, b) = (px(*p), px(*q));
+        outline.move_to(a.0, a.1);
+        outline.line_to(b.0, b.1);
+    }
+    if let Some(path) = outline.finish() {
+        let stroke = Stroke {
+            width: (size as f32 / 700.0).max(0.75),
+            ..Default::default()
+        };
+        pixmap.stroke_path(&path, &paint([90, 98, 120], 255), &stroke, Transform::identity(), None);
+    }
+}
+
 fn draw_triangles(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
     let px = |uv: DVec2| uv_to_pixel(uv, size);
     let textured = scene.texture.is_some();
@@ -227,7 +295,7 @@ fn draw_arrows(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32, radius: f32)
         line_cap: LineCap::Round,
         ..Default::default()
     };
-    for mk in scene.markers {
+    for mk in scene.markers.iter().filter(|m| m.arrow) {
         let (s, t) = (px(mk.step1), px(mk.target));
         let (dx, dy) = (t.0 - s.0, t.1 - s.1);
         let len = (dx * dx + dy * dy).sqrt();

@@ -59,6 +59,10 @@ pub struct Marker {
     /// Where the vertex ended.
     pub result: DVec2,
     pub reached: bool,
+    /// Whether the arrow from step 1 to the target is drawn: on the square,
+    /// where step 1 is in the layout's frame (a free or cut chart's step 1
+    /// is not where anything starts).
+    pub arrow: bool,
 }
 
 /// The pictures of a solved chart that `pictures` asks for, as PNG files to
@@ -74,6 +78,7 @@ pub fn render_chart(
     layout: &[DVec2],
     report: &crate::report::Report,
     pictures: &Pictures,
+    written: &[[DVec2; 3]],
 ) -> Result<Vec<(PathBuf, Vec<u8>)>, String> {
     let mut out = Vec::new();
     if !pictures.any() {
@@ -86,16 +91,21 @@ pub fn render_chart(
     let real_triangles = &filled.mesh.triangles[..filled.n_real_triangles];
     let real_positions = &prepared.chart.mesh.positions;
     let caption = caption::Caption::of_report(report, over.as_deref());
-    let markers: Vec<Marker> = report
-        .constraints
-        .iter()
-        .map(|c| Marker {
+    // Every chart's landmarks; arrows on the square's chart only.
+    let on_square = matches!(prepared.domain, crate::domain::Domain::Square);
+    let main = report.constraints.iter().map(|c| (c, on_square));
+    let others = report.charts.iter().flat_map(|r| &r.constraints).map(|c| (c, false));
+    let markers: Vec<Marker> = main
+        .chain(others)
+        .filter(|(c, _)| c.result.is_finite())
+        .map(|(c, arrow)| Marker {
             number: c.index + 1,
             label: c.label.clone(),
             step1: c.step1,
             target: c.target,
             result: c.result,
             reached: c.reached,
+            arrow,
         })
         .collect();
     if let Some(path) = &pictures.layout {
@@ -109,6 +119,7 @@ pub fn render_chart(
             outer_loop,
             markers: &markers,
             texture: texture.as_deref(),
+            written,
         };
         let image = layout::draw_captioned(&scene, size, &caption);
         let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
@@ -233,7 +244,7 @@ pub fn draw_chart(
     writing: &crate::io::atomic::Writing,
 ) -> Result<(), String> {
     let mut staged = crate::io::atomic::Staged::new().writing(writing.clone());
-    for (path, png) in render_chart(asset, prepared, outer_loop, layout, report, pictures)? {
+    for (path, png) in render_chart(asset, prepared, outer_loop, layout, report, pictures, &[])? {
         staged.add(path, png);
     }
     staged.commit().map_err(|e| e.to_string())
