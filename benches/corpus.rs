@@ -388,7 +388,14 @@ fn main() {
     if !notable.is_empty() {
         body += &format!("\nCrashes and false exits:\n\n{notable}");
     }
-    let _ = std::fs::remove_dir_all(&work);
+    if notable.is_empty() {
+        let _ = std::fs::remove_dir_all(&work);
+    } else {
+        eprintln!(
+            "the cases that crashed or exited falsely are kept in {}",
+            work.display()
+        );
+    }
     println!("\n{body}");
     if filter.is_none() {
         common::write_section("corpus", "Meshes as they come (`--bench corpus`)", &body);

@@ -55,9 +55,16 @@ impl Scaffold {
             .iter()
             .map(|p| cdt.insert(Point2::new(p.x, p.y)).ok())
             .collect();
+        // Islands as they come may cross or overlap one another (an atlas
+        // need not be one-to-one): an edge that would cross a constraint
+        // already in is left out (the island grid still keeps the chart
+        // clear of its triangles), never split (which the CDT cannot always do).
         for e in &obstacles.edges {
-            if let (Some(a), Some(b)) = (island[e[0] as usize], island[e[1] as usize]) {
-                cdt.add_constraint_and_split(a, b, |p| p);
+            if let (Some(a), Some(b)) = (island[e[0] as usize], island[e[1] as usize])
+                && a != b
+                && cdt.can_add_constraint(a, b)
+            {
+                cdt.add_constraint(a, b);
             }
         }
         let fixed = cdt
@@ -260,6 +267,64 @@ mod tests {
         // A boundary vertex outside the region: no scaffold.
         layout[boundary[0] as usize] = DVec2::new(1.5, 0.5);
         assert!(scaffold.triangulate(&layout, &boundary, &edges, offset).is_none());
+    }
+
+    #[test]
+    fn islands_that_cross_each_other_make_a_scaffold() {
+        // Two islands overlapping, edges crossing and collinear (an atlas
+        // that is not one-to-one): built, no panic, its edges uncrossed.
+        let uvs = [
+            [0.1f32, 0.1],
+            [0.5, 0.1],
+            [0.1, 0.5],
+            [0.3, 0.05],
+            [0.3, 0.4],
+            [0.05, 0.3],
+            [0.2, 0.1],
+            [0.4, 0.1],
+            [0.3, 0.3],
+        ];
+        let triangles = [[0, 1, 2], [3, 4, 5], [6, 7, 8]];
+        let obstacles = Obstacles::new(&uvs, &triangles, crate::param::region::Region::TEXTURE);
+        let scaffold = Scaffold::new(DVec2::ZERO, DVec2::ONE, &obstacles, 16);
+        let p = scaffold.fixed_points();
+        for (i, a) in scaffold.fixed_edges.iter().enumerate() {
+            for b in &scaffold.fixed_edges[i + 1..] {
+                let shared = a.iter().any(|v| b.contains(v));
+                let crossing = |[x, y]: [usize; 2], [u, w]: [usize; 2]| {
+                    let o = |a: usize, b: usize, c: usize| guard::orientation(p[a], p[b], p[c]);
+                    o(x, y, u) * o(x, y, w) < 0.0 && o(u, w, x) * o(u, w, y) < 0.0
+                };
+                assert!(shared || !crossing(*a, *b), "{a:?} crosses {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn random_overlapping_sliver_islands_make_a_scaffold() {
+        // Slivers from corners on a 1/16 grid, their third corner near the
+        // first edge's line: crossings, near-collinear and overlapping
+        // edges (splitting such crossings panicked inside the CDT).
+        let mut rng = crate::testing::Rng::new(5);
+        for _ in 0..3000 {
+            let n = 2 + rng.below(40);
+            let mut uvs = Vec::new();
+            let mut triangles = Vec::new();
+            for t in 0..n as u32 {
+                let at = |rng: &mut crate::testing::Rng| (1 + rng.below(15)) as f32 / 16.0;
+                let a = [at(&mut rng), at(&mut rng)];
+                let b = [at(&mut rng), at(&mut rng)];
+                // Thin: the third corner near the first edge's line.
+                let s = rng.f64() as f32;
+                let e = (rng.f64() as f32 - 0.5) * 1e-3;
+                let c = [a[0] + s * (b[0] - a[0]) + e, a[1] + s * (b[1] - a[1]) - e];
+                uvs.extend([a, b, c]);
+                triangles.push([3 * t, 3 * t + 1, 3 * t + 2]);
+            }
+            let obstacles = Obstacles::new(&uvs, &triangles, crate::param::region::Region::TEXTURE);
+            let scaffold = Scaffold::new(DVec2::ZERO, DVec2::ONE, &obstacles, 16);
+            assert!(!scaffold.fixed_points().is_empty());
+        }
     }
 
     #[test]
