@@ -108,6 +108,12 @@ def test_the_model_carries_the_photo_and_a_labelled_editable_constraint_file(ast
     scene = trimesh.load(out, force="scene")  # an independent reader
     (geometry,) = scene.geometry.values()
     assert geometry.visual.material.baseColorTexture.size == (512, 512)
+    validator = needed("GLTF_VALIDATOR_MODULE", REPO / ".tools" / "node_modules" / "gltf-validator",
+                       "the Khronos glTF validator (npm install --prefix .tools gltf-validator)")
+    ran = subprocess.run(["node", str(REPO / "tests" / "helpers" / "validate.mjs"), str(out)],
+                         env=dict(os.environ, GLTF_VALIDATOR_MODULE=str(validator)),
+                         capture_output=True, text=True, timeout=300)
+    assert ran.returncode == 0 and json.loads(ran.stdout)["errors"] == 0, ran.stdout + ran.stderr
     # The constraint file names each landmark, opens and solves again.
     ron = out.with_suffix(".uvpin.ron")
     text = ron.read_text()
