@@ -213,9 +213,11 @@ fn run(args: &[&str]) -> (Option<i32>, String) {
 
 /// A refusal's first line with its numbers and paths made general.
 fn reason(stderr: &str) -> String {
+    let first = stderr.lines().find(|l| !l.trim().is_empty());
     let line = stderr
         .lines()
         .find(|l| l.starts_with("error"))
+        .or(first)
         .unwrap_or("(no message)");
     let words: Vec<String> = line
         .split_whitespace()

@@ -46,8 +46,10 @@ pub enum Command {
         /// Print what each phase did (step 1, spline path, completion, polish).
         #[arg(long)]
         explain: bool,
-        /// Draw the UV layout here (PNG): triangles coloured by stretch over
-        /// the base-colour texture, holes shaded, boundary, constraint arrows.
+        /// Draw the UV layout here (PNG): the whole written UV set (other
+        /// charts grey, each outlined), the solved chart's triangles coloured
+        /// by stretch over the base-colour texture, holes shaded, every
+        /// landmark, arrows from step 1 on the square.
         #[arg(long)]
         preview: Option<PathBuf>,
         /// Draw a render of the mesh with a checker (or its texture) mapped
