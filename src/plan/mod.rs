@@ -317,7 +317,11 @@ impl ChartPlan {
                 };
             }
             Err(e) => {
-                let candidate = format!("{}, {}", key.form.name(), boundary_word(key.boundary));
+                let from = match key.start {
+                    candidates::Start::Own => "",
+                    candidates::Start::Square => ", from its solve on the square",
+                };
+                let candidate = format!("{}, {}{from}", key.form.name(), boundary_word(key.boundary));
                 self.trials.push(Trial {
                     report: TrialReport {
                         candidate,
