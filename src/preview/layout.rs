@@ -173,9 +173,9 @@ fn draw_written(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
     }
     let px = |uv: DVec2| uv_to_pixel(uv, size);
     let key = |p: DVec2| (p.x.to_bits(), p.y.to_bits());
+    let point = |(x, y): (u64, u64)| DVec2::new(f64::from_bits(x), f64::from_bits(y));
     // Ordered: the same picture on every run (strokes drawn in one order).
-    let mut uses: std::collections::BTreeMap<((u64, u64), (u64, u64)), (DVec2, DVec2, u32)> =
-        std::collections::BTreeMap::new();
+    let mut uses: std::collections::BTreeMap<[(u64, u64); 2], u32> = std::collections::BTreeMap::new();
     let mut fill = PathBuilder::new();
     for t in scene.written.iter().filter(|t| t.iter().all(|p| p.is_finite())) {
         let [a, b, c] = t.map(px);
@@ -184,13 +184,9 @@ fn draw_written(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
         fill.line_to(c.0, c.1);
         fill.close();
         for k in 0..3 {
-            let (p, q) = (t[k], t[(k + 1) % 3]);
-            let e = if key(p) < key(q) {
-                (key(p), key(q))
-            } else {
-                (key(q), key(p))
-            };
-            uses.entry(e).or_insert((p, q, 0)).2 += 1;
+            let mut e = [key(t[k]), key(t[(k + 1) % 3])];
+            e.sort_unstable();
+            *uses.entry(e).or_default() += 1;
         }
     }
     let grey = if scene.texture.is_some() { 90 } else { 255 };
@@ -204,8 +200,8 @@ fn draw_written(pixmap: &mut Pixmap, scene: &LayoutScene, size: u32) {
         );
     }
     let mut outline = PathBuilder::new();
-    for (p, q, _) in uses.values().filter(|e| e.2 == 1) {
-        let (a, b) = (px(*p), px(*q));
+    for [p, q] in uses.iter().filter(|e| *e.1 == 1).map(|e| *e.0) {
+        let (a, b) = (px(point(p)), px(point(q)));
         outline.move_to(a.0, a.1);
         outline.line_to(b.0, b.1);
     }
