@@ -76,6 +76,22 @@ def write_back(mesh: bpy.types.Mesh, uv_layer, arrays: dict, uv: np.ndarray) -> 
     return int(changed.sum())
 
 
+def solved(operator, solve):
+    """`solve()`'s result, or None with the reason in the status bar (bad
+    input, or nothing laid out)."""
+    import uvpin
+
+    try:
+        result = solve()
+    except uvpin.InputError as e:
+        operator.report({"ERROR"}, f"uvpin: {e}")
+        return None
+    if result.uv is None:
+        operator.report({"ERROR"}, f"uvpin: nothing laid out: {result.report.get('message')}")
+        return None
+    return result
+
+
 def region_of(settings) -> tuple[float, float, float, float]:
     """The region (u min, v min, u max, v max), in Blender's UV coordinates
     as uvpin is given them."""
@@ -131,20 +147,18 @@ class UVPIN_OT_solve_pinned(bpy.types.Operator):
         if not pins:
             self.report({"ERROR"}, "uvpin: no pinned UVs: pin the landmarks (P in the UV editor) first")
             return {"CANCELLED"}
-        try:
-            result = uvpin.solve(
+        result = solved(
+            self,
+            lambda: uvpin.solve(
                 arrays["vertices"],
                 arrays["faces"],
                 pins,
                 uvs=arrays["uvs"],
                 boundary=self.boundary.lower(),
                 region=region_of(self.region) if self.boundary == "FREE" else None,
-            )
-        except uvpin.InputError as e:
-            self.report({"ERROR"}, f"uvpin: {e}")
-            return {"CANCELLED"}
-        if result.uv is None:
-            self.report({"ERROR"}, f"uvpin: nothing laid out: {result.report.get('message')}")
+            ),
+        )
+        if result is None:
             return {"CANCELLED"}
         changed = write_back(mesh, uv_layer, arrays, result.uv)
         worst = float(np.nanmax(result.residuals))
@@ -230,12 +244,11 @@ class UVPIN_OT_photo(bpy.types.Operator):
         vertices, faces, loops = triangles_of(mesh)
         try:
             pins = photo.photo_pins(vertices, faces, bpy.path.abspath(self.filepath))
-            result = uvpin.solve(vertices, faces, (pins.ids, pins.uv))
         except uvpin.InputError as e:
             self.report({"ERROR"}, f"uvpin: {e}")
             return {"CANCELLED"}
-        if result.uv is None:
-            self.report({"ERROR"}, f"uvpin: nothing laid out: {result.report.get('message')}")
+        result = solved(self, lambda: uvpin.solve(vertices, faces, (pins.ids, pins.uv)))
+        if result is None:
             return {"CANCELLED"}
         corner = result.corner_uv if result.corner_uv is not None else result.uv[faces]
         layer = mesh.uv_layers.get(self.uv_map) or mesh.uv_layers.new(name=self.uv_map)

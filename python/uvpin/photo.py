@@ -298,13 +298,19 @@ def _turned(f: Facing, degrees: float) -> Facing:
     return Facing(view=math.cos(t) * f.view + math.sin(t) * side, up=f.up)
 
 
-def _depth_at(at: np.ndarray, triangle: np.ndarray, faces: np.ndarray, v: np.ndarray, view: np.ndarray) -> float | None:
-    """How far along `view` the surface the render shows at pixel `at` is."""
+def _shown_at(at: np.ndarray, triangle: np.ndarray) -> int | None:
+    """The triangle a render's triangle buffer shows at pixel `at`, if any."""
     side = triangle.shape[0]
     i, j = int(math.floor(at[0])), int(math.floor(at[1]))
     if not (0 <= i < side and 0 <= j < side) or triangle[j, i] < 0:
         return None
-    return float(np.mean(v[faces[triangle[j, i]]] @ view))
+    return int(triangle[j, i])
+
+
+def _depth_at(at: np.ndarray, triangle: np.ndarray, faces: np.ndarray, v: np.ndarray, view: np.ndarray) -> float | None:
+    """How far along `view` the surface the render shows at pixel `at` is."""
+    t = _shown_at(at, triangle)
+    return None if t is None else float(np.mean(v[faces[t]] @ view))
 
 
 def _hollow(face: Face, triangle: np.ndarray, faces: np.ndarray, v: np.ndarray, view: np.ndarray) -> bool:
@@ -404,13 +410,12 @@ def _render_face(detector: Detector, v: np.ndarray, faces: np.ndarray, facing: F
 def _nearest_corner(at: np.ndarray, triangle: np.ndarray, screen: np.ndarray, faces: np.ndarray) -> int | str:
     """The corner nearest `at` of the triangle the render shows there, or
     why there is none."""
-    side = triangle.shape[0]
-    i, j = int(math.floor(at[0])), int(math.floor(at[1]))
-    if not (0 <= i < side and 0 <= j < side) or triangle[j, i] < 0:
+    t = _shown_at(at, triangle)
+    if t is None:
         return "off the mesh on the render"
     # The front-most surface there (the depth buffer's); its winding says
     # nothing, meshes come wound either way.
-    corners = faces[triangle[j, i]]
+    corners = faces[t]
     return int(corners[np.argmin(np.linalg.norm(screen[corners] - at, axis=1))])
 
 
@@ -598,11 +603,10 @@ class Check:
 
 def _photo_point(at: np.ndarray, triangle: np.ndarray, screen: np.ndarray, faces: np.ndarray, uvs: np.ndarray, size: tuple[int, int]) -> np.ndarray | None:
     """The photo pixel the textured render shows at `at` (barycentric)."""
-    side = triangle.shape[0]
-    i, j = int(math.floor(at[0])), int(math.floor(at[1]))
-    if not (0 <= i < side and 0 <= j < side) or triangle[j, i] < 0:
+    t = _shown_at(at, triangle)
+    if t is None:
         return None
-    c = faces[triangle[j, i]]
+    c = faces[t]
     a, b, d = screen[c]
     m = np.array([b - a, d - a]).T
     if abs(np.linalg.det(m)) < 1e-12:
