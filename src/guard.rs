@@ -113,6 +113,8 @@ pub fn smallest_area(layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct OrientationCounts {
     pub flipped: usize,
+    /// Triangles without area, a NaN or infinite corner's among them (no
+    /// place in the texture at all).
     pub zero_area: usize,
 }
 
@@ -122,7 +124,8 @@ impl OrientationCounts {
     }
 }
 
-/// Counts triangles with negative and zero area in layout coordinates (y up).
+/// Counts triangles with negative and zero area in layout coordinates (y
+/// up); a NaN orientation counts as zero area.
 pub fn count_orientations(layout: &[DVec2], triangles: &[[u32; 3]]) -> OrientationCounts {
     let mut counts = OrientationCounts::default();
     for t in triangles {
@@ -130,7 +133,7 @@ pub fn count_orientations(layout: &[DVec2], triangles: &[[u32; 3]]) -> Orientati
         let o = orientation(a, b, c);
         if o < 0.0 {
             counts.flipped += 1;
-        } else if o == 0.0 {
+        } else if !(o > 0.0) {
             counts.zero_area += 1;
         }
     }
@@ -168,7 +171,7 @@ pub fn count_stored_orientations(uvs: &[[f32; 2]], triangles: &[[u32; 3]], axis:
         let o = sign * orientation(a, b, c);
         if o < 0.0 {
             counts.flipped += 1;
-        } else if o == 0.0 {
+        } else if !(o > 0.0) {
             counts.zero_area += 1;
         }
     }
@@ -206,6 +209,11 @@ mod tests {
             DVec2::new(0.5, 0.5 + 1e-15),
         ];
         assert!(all_positive(&tiny, &[[0, 1, 2]]));
+        // A NaN corner is no place at all: counted, never passed as fine.
+        let nan = vec![DVec2::ZERO, DVec2::X, DVec2::NAN];
+        assert_eq!(count_orientations(&nan, &[[0, 1, 2]]).zero_area, 1);
+        let stored = [[0.0f32, 0.0], [1.0, 0.0], [f32::NAN, 1.0]];
+        assert_eq!(count_stored_orientations(&stored, &[[0, 1, 2]], VAxis::Up).zero_area, 1);
     }
 
     #[test]

@@ -298,6 +298,16 @@ pub fn atlas_overlaps(
         overlapping: Vec::new(),
         complete: true,
     };
+    // A triangle with a NaN or infinite corner has no place in the texture:
+    // the rest of its chart is judged without it (it is counted as broken
+    // where orientations are counted).
+    let (triangles, chart_of): (Vec<[u32; 3]>, Vec<u32>) = triangles
+        .iter()
+        .zip(chart_of)
+        .filter(|(t, _)| t.iter().all(|&v| points[v as usize].is_finite()))
+        .map(|(t, &c)| (*t, c))
+        .unzip();
+    let (triangles, chart_of) = (&triangles[..], &chart_of[..]);
     let edges = boundary_edges(triangles);
     // Every vertex is in one chart: the chart of an edge is its first vertex's.
     let mut chart_of_vertex = vec![u32::MAX; points.len()];
@@ -453,6 +463,19 @@ mod tests {
             points.extend(square(o, s));
             triangles.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
             chart_of.extend([c as u32, c as u32]);
+        }
+        let found = atlas_overlaps(&points, &triangles, &chart_of, 4, 100);
+        assert_eq!(found.overlapping, vec![(0, 1), (0, 2)]);
+        assert_eq!(found.self_crossings, vec![0, 0, 0, 0]);
+        // A NaN corner in the nested and the crossing chart (on the
+        // triangle listed first, the probe's): their finite triangles
+        // still count.
+        let nan = points.len() as u32;
+        points.push(DVec2::NAN);
+        for c in [1u32, 2] {
+            let base = 4 * c;
+            triangles.insert(0, [base, base + 1, nan]);
+            chart_of.insert(0, c);
         }
         let found = atlas_overlaps(&points, &triangles, &chart_of, 4, 100);
         assert_eq!(found.overlapping, vec![(0, 1), (0, 2)]);

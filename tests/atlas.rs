@@ -299,8 +299,74 @@ fn a_new_uv_set_beside_an_obj_atlas_is_written_as_gltf() {
     }
 }
 
+/// Two 9 × 9 grid islands, pieces of their own: A over u `a.0..a.1`, B
+/// over u `b.0..b.1` (v 0.1..0.9 both, stored right side up); corner 0 of
+/// B's first triangle NaN when `nan`. Written as a .glb at `path`.
+fn two_islands(path: &Path, a: (f32, f32), b: (f32, f32), nan: bool) {
+    let grid = uvpin::testing::grid_mesh(9, 9);
+    let (mut positions, mut indices, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+    for (k, (u0, u1)) in [a, b].into_iter().enumerate() {
+        let base = positions.len() as u32;
+        for p in &grid.positions {
+            positions.push([p.x as f32 + 2.0 * k as f32, p.y as f32, p.z as f32]);
+            uvs.push([u0 + (u1 - u0) * p.x as f32, 0.9 - 0.8 * p.y as f32]);
+        }
+        indices.extend(grid.triangles.iter().flatten().map(|&v| v + base));
+    }
+    if nan {
+        let first_of_b = indices[3 * grid.triangles.len()] as usize;
+        uvs[first_of_b] = [f32::NAN, 0.5];
+    }
+    let (json, blob) = uvpin::io::gltf_file::new_document(&positions, &indices, Some(&uvs), "islands");
+    uvpin::io::gltf_file::write_new_document(&json, &blob, path).expect("write glb");
+}
+
+fn a_nan_corner_hides_no_overlap_from_check_or_solve() {
+    let tmp = TempDir::new("atlas-nan-island");
+    // Islands overlapping, a NaN corner on the probe triangle of one: the
+    // check still finds the overlap, and counts the NaN triangle.
+    let overlapping = tmp.path("overlapping.glb");
+    two_islands(&overlapping, (0.05, 0.5), (0.4, 0.9), true);
+    let o = uvpin(&["check", overlapping.to_str().unwrap(), "--json"]);
+    let checked: Value = serde_json::from_slice(&o.stdout).expect("check --json");
+    assert_eq!(checked["atlas"]["injective"], false, "{checked}");
+    assert!(checked["atlas"]["overlapping_pairs"].as_u64() >= Some(1), "{checked}");
+    assert_eq!((checked["clean"].as_bool(), o.status.code()), (Some(false), Some(2)));
+    let zero: u64 = checked["charts"].as_array().unwrap().iter().map(|c| c["zero_area"].as_u64().unwrap()).sum();
+    assert_eq!(zero, 2, "the NaN corner's two triangles are counted: {checked}");
+    assert!(checked["charts"][1]["stretch_l2"].as_f64().is_some_and(f64::is_finite), "{checked}");
+    // Islands apart, the NaN in B; A's landmarks ask it to grow over B's
+    // place. Whatever the solve writes keeps A off B's finite triangles.
+    let apart = tmp.path("apart.glb");
+    two_islands(&apart, (0.05, 0.45), (0.55, 0.95), true);
+    let grid = uvpin::testing::grid_mesh(9, 9);
+    let landmarks: Vec<(u32, f64, f64)> = [(20u32, 0.2, 0.3), (24, 0.5, 0.3), (56, 0.2, 0.7), (60, 0.7, 0.7)]
+        .into_iter()
+        .filter(|&(v, ..)| (v as usize) < grid.positions.len())
+        .collect();
+    let ron = tmp.path("apart.uvpin.ron");
+    write_constraints(&ron, &apart, &landmarks, "    boundary: Free,\n");
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    eprintln!("{}: {}", report["status"], stderr(&o));
+    assert!(o.status.code() != Some(101), "{}", stderr(&o));
+    if !out.exists() {
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        return;
+    }
+    let o = uvpin(&["check", out.to_str().unwrap(), "--json"]);
+    let checked: Value = serde_json::from_slice(&o.stdout).expect("check --json");
+    assert_eq!(checked["atlas"]["overlapping_pairs"], 0, "{checked}\n{report}");
+    assert_eq!(checked["atlas"]["crossings"], 0, "{checked}");
+}
+
 fn main() -> std::process::ExitCode {
     run_cases(&[
+        (
+            "a_nan_corner_hides_no_overlap_from_check_or_solve",
+            &[],
+            a_nan_corner_hides_no_overlap_from_check_or_solve,
+        ),
         (
             "landmarks_on_two_charts_of_an_atlas_are_solved_each_in_its_island",
             &[Needs::SharedMeshes, Needs::Validator],

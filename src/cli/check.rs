@@ -39,6 +39,7 @@ fn print_json(report: &CheckReport) {
         "charts": report.charts,
         "atlas": report.atlas,
         "constraints": report.constraints,
+        "clean": report.clean,
     });
     super::print_out(&serde_json::to_string_pretty(&out).expect("json"));
 }
