@@ -880,39 +880,75 @@ fn last_message(lines: &[Value], event: &str) -> String {
     last.and_then(|l| l["message"].as_str()).unwrap_or("").to_string()
 }
 
-fn daemon_survives_hostile_input_and_recovers() {
-    use std::io::{BufRead, BufReader};
-    let tmp = watched_project("h-daemon");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
-        .args(["watch", "--no-previews", "--log", "json", "--debounce-ms", "50"])
-        .current_dir(&tmp.0)
-        .stderr(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let lines = std::sync::Arc::new(std::sync::Mutex::new(Vec::<Value>::new()));
-    let sink = lines.clone();
-    let err = child.stderr.take().unwrap();
-    std::thread::spawn(move || {
-        for l in BufReader::new(err).lines().map_while(Result::ok) {
-            if let Ok(v) = serde_json::from_str(&l) {
-                sink.lock().unwrap().push(v);
+/// A running `uvpin watch --log json` with its log lines gathered.
+struct Daemon {
+    child: std::process::Child,
+    lines: std::sync::Arc<std::sync::Mutex<Vec<Value>>>,
+}
+
+impl Daemon {
+    /// Starts `command` (uvpin, or a wrapper running it) with `watch --log
+    /// json --no-previews --debounce-ms 50` and the arguments after, in `cwd`.
+    fn spawn(mut command: Command, cwd: &Path) -> Daemon {
+        use std::io::{BufRead, BufReader};
+        let mut child = command
+            .args(["watch", "--no-previews", "--log", "json", "--debounce-ms", "50"])
+            .current_dir(cwd)
+            .stderr(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let lines = std::sync::Arc::new(std::sync::Mutex::new(Vec::<Value>::new()));
+        let sink = lines.clone();
+        let err = child.stderr.take().unwrap();
+        std::thread::spawn(move || {
+            for l in BufReader::new(err).lines().map_while(Result::ok) {
+                if let Ok(v) = serde_json::from_str(&l) {
+                    sink.lock().unwrap().push(v);
+                }
             }
-        }
-    });
-    let count = |event: &str| lines.lock().unwrap().iter().filter(|l| l["event"] == event).count();
-    let wait = |event: &str, n: usize| {
+        });
+        Daemon { child, lines }
+    }
+
+    fn count(&self, event: &str) -> usize {
+        self.lines.lock().unwrap().iter().filter(|l| l["event"] == event).count()
+    }
+
+    /// Waits until `n` lines of `event` were logged (a minute at most: a
+    /// deadline for a hung daemon, not a timing).
+    fn wait(&self, event: &str, n: usize) {
         let t0 = std::time::Instant::now();
-        while count(event) < n {
+        while self.count(event) < n {
             assert!(
-                t0.elapsed().as_secs() < 20,
+                t0.elapsed().as_secs() < 60,
                 "waiting for {n} {event}: {:?}",
-                lines.lock().unwrap()
+                self.lines.lock().unwrap()
             );
             std::thread::sleep(std::time::Duration::from_millis(20));
         }
-    };
-    wait("solved", 1);
+    }
+
+    fn last_message(&self, event: &str) -> String {
+        last_message(&self.lines.lock().unwrap(), event)
+    }
+
+    fn alive(&mut self) -> bool {
+        self.child.try_wait().unwrap().is_none()
+    }
+
+    /// Stops it with SIGTERM: its exit code.
+    fn stop(mut self) -> Option<i32> {
+        // SAFETY: signalling our own child.
+        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
+        self.child.wait().unwrap().code()
+    }
+}
+
+fn daemon_survives_hostile_input_and_recovers() {
+    let tmp = watched_project("h-daemon");
+    let mut daemon = Daemon::spawn(Command::new(env!("CARGO_BIN_EXE_uvpin")), &tmp.0);
+    daemon.wait("solved", 1);
     let good = std::fs::read(tmp.path("out/grid.glb")).unwrap();
     let (json, bin) = grid_document();
     let hostile: Vec<Save> = vec![
@@ -934,17 +970,18 @@ fn daemon_survives_hostile_input_and_recovers() {
     ];
     for (k, make) in hostile.iter().enumerate() {
         make(&tmp.path("assets/grid.glb"));
-        wait("error", k + 1);
+        daemon.wait("error", k + 1);
         if k == 3 {
             // A FIFO where the asset was: unreadable, not "removed".
-            let message = last_message(&lines.lock().unwrap(), "error");
+            let message = daemon.last_message("error");
             assert!(
                 message.contains("cannot be read") && !message.contains("removed"),
                 "{message}"
             );
+            assert_eq!(message.matches("output is kept").count(), 1, "said once: {message}");
         }
         assert!(
-            child.try_wait().unwrap().is_none(),
+            daemon.alive(),
             "the daemon died on hostile input {k}"
         );
         assert_eq!(
@@ -957,8 +994,8 @@ fn daemon_survives_hostile_input_and_recovers() {
         std::thread::sleep(std::time::Duration::from_millis(300));
     }
     // A burst of truncate-and-write saves gives no error line.
-    let errors = count("error");
-    let solved = count("solved");
+    let errors = daemon.count("error");
+    let solved = daemon.count("solved");
     let text = std::fs::read_to_string(tmp.path("assets/grid.uvpin.ron")).unwrap();
     for k in 0..50 {
         let t = text.replace("0.45", &format!("{:.3}", 0.40 + 0.001 * k as f64));
@@ -968,21 +1005,66 @@ fn daemon_survives_hostile_input_and_recovers() {
         drop(f);
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
-    wait("solved", solved + 1);
+    daemon.wait("solved", solved + 1);
     std::thread::sleep(std::time::Duration::from_millis(500));
-    assert_eq!(count("error"), errors, "{:?}", lines.lock().unwrap());
+    assert_eq!(daemon.count("error"), errors, "{:?}", daemon.lines.lock().unwrap());
     // Deleting the asset and writing the same bytes back solves nothing.
-    let solving = count("solving");
+    let solving = daemon.count("solving");
     let bytes = std::fs::read(tmp.path("assets/grid.glb")).unwrap();
     std::fs::remove_file(tmp.path("assets/grid.glb")).unwrap();
     std::thread::sleep(std::time::Duration::from_millis(400));
     std::fs::write(tmp.path("assets/grid.glb"), &bytes).unwrap();
     std::thread::sleep(std::time::Duration::from_millis(600));
-    assert_eq!(count("solving"), solving, "{:?}", lines.lock().unwrap());
-    assert!(child.try_wait().unwrap().is_none());
-    // SAFETY: signalling our own child.
-    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
-    assert_eq!(child.wait().unwrap().code(), Some(0));
+    assert_eq!(daemon.count("solving"), solving, "{:?}", daemon.lines.lock().unwrap());
+    assert!(daemon.alive());
+    assert_eq!(daemon.stop(), Some(0));
+}
+
+
+/// As an unprivileged user (run as root: under `setpriv` as nobody), an
+/// asset made unreadable or replaced by a FIFO is "cannot be read", never
+/// "removed", and the kept output is said once.
+fn an_unprivileged_daemon_names_unreadable_assets() {
+    // SAFETY: geteuid has no preconditions.
+    if unsafe { libc::geteuid() } != 0 || !Path::new("/usr/bin/setpriv").exists() {
+        eprintln!("SKIPPED: needs root and setpriv to run the daemon as another user");
+        return;
+    }
+    let tmp = watched_project("h-unprivileged");
+    let bin = tmp.path("uvpin");
+    std::fs::copy(env!("CARGO_BIN_EXE_uvpin"), &bin).unwrap();
+    let open_up = |p: &Path, mode: u32| {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(p, std::fs::Permissions::from_mode(mode)).unwrap();
+    };
+    for p in [tmp.0.clone(), tmp.path("assets"), tmp.path("assets/grid.glb"), tmp.path("assets/grid.uvpin.ron")] {
+        open_up(&p, 0o777);
+    }
+    let mut command = Command::new("/usr/bin/setpriv");
+    command.args(["--reuid=65534", "--regid=65534", "--clear-groups"]).arg(&bin);
+    let mut daemon = Daemon::spawn(command, &tmp.0);
+    daemon.wait("solved", 1);
+    let good = std::fs::read(tmp.path("out/grid.glb")).unwrap();
+    let asset = tmp.path("assets/grid.glb");
+    open_up(&asset, 0o000);
+    daemon.wait("error", 1);
+    let message = daemon.last_message("error");
+    assert!(
+        message.contains("cannot be read") && message.contains("ermission denied") && !message.contains("removed"),
+        "{message}"
+    );
+    assert_eq!(message.matches("output is kept").count(), 1, "said once: {message}");
+    open_up(&asset, 0o644);
+    daemon.wait("unchanged", 1);
+    std::fs::remove_file(&asset).unwrap();
+    mkfifo(&asset);
+    daemon.wait("error", 2);
+    let message = daemon.last_message("error");
+    assert!(message.contains("a FIFO") && !message.contains("removed"), "{message}");
+    assert_eq!(message.matches("output is kept").count(), 1, "said once: {message}");
+    assert!(daemon.alive());
+    assert_eq!(std::fs::read(tmp.path("out/grid.glb")).unwrap(), good, "the output is kept");
+    assert_eq!(daemon.stop(), Some(0));
 }
 
 fn a_killed_daemons_temporaries_are_removed_at_start() {
@@ -1059,6 +1141,11 @@ fn main() -> std::process::ExitCode {
             "daemon_survives_hostile_input_and_recovers",
             &[],
             daemon_survives_hostile_input_and_recovers,
+        ),
+        (
+            "an_unprivileged_daemon_names_unreadable_assets",
+            &[],
+            an_unprivileged_daemon_names_unreadable_assets,
         ),
         (
             "a_killed_daemons_temporaries_are_removed_at_start",

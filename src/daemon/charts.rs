@@ -333,7 +333,11 @@ pub fn report_results(
         let name = display(&watched.path, &settings.0.cwd);
         match (failed, exported) {
             (Some(_), _) if state.registry.is_removed(&watched.path) => {}
-            (Some(Failed(err)), _) => report_error(&mut log, &name, &err.to_string(), true),
+            (Some(Failed(err)), _) => {
+                // Said only when there is one: a first solve that fails has none.
+                let kept = state.registry.output_of(&watched.path).is_some_and(Path::exists);
+                report_error(&mut log, &name, &err.to_string(), kept);
+            }
             (None, Some(Exported(report))) if report.status == Status::Error => {
                 let message = report.message.clone().unwrap_or_else(|| "the write failed".into());
                 report_error(&mut log, &name, &message, false);

@@ -320,9 +320,9 @@ impl Registry {
     fn asset_gone(&mut self, asset: &Path, read: &ReadError, actions: &mut Vec<Action>) {
         self.set_missing(asset, true);
         let why = if read.is_not_found() {
-            "the asset was removed; the last output is kept".to_string()
+            "the asset was removed".to_string()
         } else {
-            format!("the asset cannot be read ({read}); the last output is kept")
+            format!("the asset cannot be read ({read})")
         };
         for file in self.dependants(asset) {
             let error = Arc::new(Error::Asset(AssetError::Read {
@@ -621,6 +621,11 @@ impl Registry {
                 }
             }
         }
+    }
+
+    /// The output `file` writes, once known.
+    pub fn output_of(&self, file: &Path) -> Option<&Path> {
+        self.files.get(file).and_then(|r| r.output.as_deref())
     }
 
     /// Whether `file` was removed (its errors are not reported).
