@@ -130,9 +130,9 @@ pub fn unwrap_all(
                 queue.extend(solvable.rest.iter().cloned().map(Arc::new));
                 let opening = Opening::without_landmarks(&solvable);
                 let unwrapped = free_layout(prepared, solvable.chart, solvable.topology, opening, options);
-                out.push(unwrapped.unwrap_or_else(|chart| soup(&chart)));
+                out.push(unwrapped.unwrap_or_else(|chart| soup(&chart, SoupShape::Own)));
             }
-            Err(_) => out.push(soup(&chart)),
+            Err(_) => out.push(soup(&chart, SoupShape::Own)),
         }
     }
     Rest { charts: out }
@@ -212,23 +212,43 @@ fn mesh_scale(chart: &Chart, layout: &[DVec2]) -> f64 {
     (chart.mesh.area() / area_2d.max(1e-300)).sqrt()
 }
 
+/// How a chart laid out triangle by triangle shapes each triangle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SoupShape {
+    /// Flat at its 3D shape (texel density kept).
+    Own,
+    /// Equilateral, as wide as its longest side: for triangles too thin to
+    /// keep an area once packed and stored as f32.
+    Fat,
+}
+
 /// `chart` laid out triangle by triangle: every corner its own vertex,
-/// each triangle flat at its 3D shape, side by side along a row.
-fn soup(chart: &Chart) -> Unwrapped {
+/// each triangle flat (see [`SoupShape`]), side by side on shelves about
+/// as wide as the whole is tall (one long row would pack at a tiny scale).
+pub fn soup(chart: &Chart, shape: SoupShape) -> Unwrapped {
     let wedges = crate::mesh::wedges::split_wedges(&chart.mesh, &|_| true);
     let opened = chart.opened(&wedges);
+    let flat: Vec<[DVec2; 3]> = opened
+        .mesh
+        .triangles
+        .iter()
+        .map(|t| flat_triangle(t.map(|v| opened.mesh.positions[v as usize]), shape))
+        .collect();
+    let extent = |f: &[DVec2; 3]| f[1].max(f[2]) - f[0].min(f[2]);
+    let area: f64 = flat.iter().map(|f| extent(f).x * extent(f).y).sum();
+    let row_width = (1.3 * area).sqrt();
+    let (mut x, mut y, mut row_height) = (0.0, 0.0, 0.0f64);
     let mut points = vec![DVec2::ZERO; opened.mesh.n_vertices()];
-    let mut x = 0.0;
-    for t in &opened.mesh.triangles {
-        let [a, b, c] = t.map(|v| opened.mesh.positions[v as usize]);
-        let (ab, ac) = (b - a, c - a);
-        let len = ab.length().max(1e-12);
-        let along = ac.dot(ab) / len;
-        let up = (ac - ab * (along / len)).length().max(1e-9 * len);
-        points[t[0] as usize] = DVec2::new(x, 0.0);
-        points[t[1] as usize] = DVec2::new(x + len, 0.0);
-        points[t[2] as usize] = DVec2::new(x + along, up);
-        x += len.max(along) + len * 0.1;
+    for (t, f) in opened.mesh.triangles.iter().zip(&flat) {
+        let (lo, size) = (f[0].min(f[2]), extent(f));
+        if x > 0.0 && x + size.x > row_width {
+            (x, y, row_height) = (0.0, y + row_height, 0.0);
+        }
+        for (k, &v) in t.iter().enumerate() {
+            points[v as usize] = f[k] - lo + DVec2::new(x, y);
+        }
+        let gap = 0.1 * size.x.max(size.y);
+        (x, row_height) = (x + size.x + gap, row_height.max(size.y + gap));
     }
     Unwrapped {
         shape: Shape {
@@ -239,6 +259,24 @@ fn soup(chart: &Chart) -> Unwrapped {
         duplicates: Vec::new(),
         soup: true,
         filled: Vec::new(),
+    }
+}
+
+/// A triangle of 3D corners `[a, b, c]` laid flat: `a` at the origin, `b`
+/// along x, `c` above (counter-clockwise), at its own shape or fat.
+fn flat_triangle([a, b, c]: [glam::DVec3; 3], shape: SoupShape) -> [DVec2; 3] {
+    let (ab, ac) = (b - a, c - a);
+    let len = ab.length().max(1e-12);
+    match shape {
+        SoupShape::Own => {
+            let along = ac.dot(ab) / len;
+            let up = (ac - ab * (along / len)).length().max(1e-9 * len);
+            [DVec2::ZERO, DVec2::new(len, 0.0), DVec2::new(along, up)]
+        }
+        SoupShape::Fat => {
+            let side = len.max(ac.length()).max((c - b).length());
+            [DVec2::ZERO, DVec2::new(side, 0.0), DVec2::new(0.5 * side, 0.75f64.sqrt() * side)]
+        }
     }
 }
 
@@ -264,4 +302,70 @@ pub fn place(rest: &Rest, occupied: &[[DVec2; 3]], whole: Region, rules: &PackRu
         })
         .collect();
     Ok(PlacedRest { charts, scale })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::Rng;
+
+    /// A soup of random triangles: obtuse ones leaning back past their first
+    /// corner, slivers, tiny and large ones.
+    fn random_soup(rng: &mut Rng, n: usize) -> Chart {
+        let mut positions = Vec::new();
+        for _ in 0..n {
+            let size = 10f64.powf(rng.range(-3.0, 1.0));
+            let a = glam::DVec3::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
+            let b = a + glam::DVec3::X * size;
+            let lean = rng.range(-3.0, 3.0) * size;
+            let height = if rng.below(3) == 0 { 1e-8 * size } else { rng.range(0.01, 2.0) * size };
+            positions.extend([a, b, a + glam::DVec3::new(lean, height, 0.0)]);
+        }
+        let welded = crate::mesh::weld::weld(&[crate::mesh::weld::PrimitiveGeometry {
+            index: 0,
+            positions: positions.iter().map(|p| p.as_vec3().to_array()).collect(),
+            indices: (0..positions.len() as u32).collect(),
+            uvs: None,
+        }]);
+        let mut chart = welded.chart(0);
+        for c in 1..welded.n_charts as u32 {
+            let more = welded.chart(c);
+            let base = chart.mesh.positions.len() as u32;
+            chart.mesh.positions.extend(&more.mesh.positions);
+            chart.mesh.triangles.extend(more.mesh.triangles.iter().map(|t| t.map(|v| v + base)));
+            chart.welded_ids.extend(&more.welded_ids);
+            chart.triangle_ids.extend(&more.triangle_ids);
+        }
+        chart
+    }
+
+    #[test]
+    fn a_soup_lays_every_triangle_apart_and_the_right_way_round() {
+        let mut rng = Rng::new(7);
+        for n in [1, 2, 7, 60, 400] {
+            let chart = random_soup(&mut rng, n);
+            for shape in [SoupShape::Own, SoupShape::Fat] {
+                let u = soup(&chart, shape);
+                let (points, triangles) = (&u.shape.points, &u.shape.triangles);
+                assert!(crate::guard::all_positive(points, triangles), "{n} {shape:?}");
+                let one_chart = vec![0u32; triangles.len()];
+                let found = crate::injective::atlas_overlaps(points, triangles, &one_chart, 1, 10);
+                assert_eq!(found.self_crossings, vec![0], "{n} {shape:?}");
+                // Shelves: about as tall as wide, never one long row.
+                let (lo, hi) = crate::injective::bounds(points);
+                let size = hi - lo;
+                assert!(n < 60 || size.x < 4.0 * size.y, "{n} {shape:?}: {size}");
+                if shape == SoupShape::Fat {
+                    let thinnest = triangles
+                        .iter()
+                        .map(|t| {
+                            let [a, b, c] = t.map(|v| points[v as usize]);
+                            crate::guard::orientation(a, b, c) / (b - a).length_squared()
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(thinnest > 0.8, "fat triangles: {thinnest}");
+                }
+            }
+        }
+    }
 }

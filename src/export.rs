@@ -322,19 +322,33 @@ fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::
         let o = &setup.obstacles;
         occupied.extend(o.triangles.iter().map(|t| t.map(|v| o.layout[v as usize])));
     }
-    let placed = crate::atlas::place(rest, &occupied, prepared.whole, &crate::pack::PackRules::DEFAULT)
-        .map_err(|e| format!("{e}; nothing written"))?;
-    for (chart, _, layout) in &placed.charts {
-        let stored: Vec<[f32; 2]> = layout.iter().map(|&p| crate::guard::stored_uv(p)).collect();
-        let counts = crate::guard::count_stored_orientations(&stored, &chart.mesh.triangles, crate::guard::VAxis::Down);
-        if !counts.is_clean() {
+    let mut rest = rest.clone();
+    let mut placed = pack_rest(&rest, &occupied, prepared.whole)?;
+    // A chart whose triangles lose their area once packed and stored as f32
+    // (slivers, a soup packed small) is laid out again triangle by triangle,
+    // each triangle fat, and the rest packed again: a chart without
+    // landmarks never makes the solve fail.
+    let thin = thin_charts(&placed);
+    if !thin.is_empty() {
+        for &k in &thin {
+            let u = &rest.charts[k];
+            let duplicates = u.duplicates.clone();
+            rest.charts[k] = crate::atlas::soup(&u.chart, crate::atlas::SoupShape::Fat);
+            rest.charts[k].duplicates = duplicates;
+        }
+        placed = pack_rest(&rest, &occupied, prepared.whole)?;
+        let still = thin_charts(&placed);
+        if !still.is_empty() {
             return Err(format!(
-                "{} charts without landmarks do not fit the texture at a size that keeps their triangles once stored as f32 \
-                 ({} would be flipped or flat); nothing written",
+                "{} of {} charts without landmarks do not fit the texture at a size that keeps their triangles once \
+                 stored as f32, even laid out triangle by triangle; nothing written",
+                still.len(),
                 rest.charts.len(),
-                counts.flipped + counts.zero_area
             ));
         }
+    }
+    if let Some(pair) = rest_overlap(&placed) {
+        return Err(format!("internal error: two packed charts without landmarks overlap ({pair}); nothing written"));
     }
     report.rest = Some(crate::report::RestReport {
         charts: rest.charts.len(),
@@ -348,6 +362,43 @@ fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::
         scale: placed.scale,
     });
     Ok(placed)
+}
+
+/// The rest packed around `occupied` in `whole`.
+fn pack_rest(
+    rest: &crate::atlas::Rest,
+    occupied: &[[DVec2; 3]],
+    whole: crate::param::region::Region,
+) -> Result<crate::atlas::PlacedRest, String> {
+    crate::atlas::place(rest, occupied, whole, &crate::pack::PackRules::DEFAULT).map_err(|e| format!("{e}; nothing written"))
+}
+
+/// Whether the placed charts cross themselves or each other (the packer
+/// keeps shapes apart, each shape's own layout must be one-to-one).
+fn rest_overlap(placed: &crate::atlas::PlacedRest) -> Option<String> {
+    let (mut points, mut triangles, mut chart_of) = (Vec::new(), Vec::new(), Vec::new());
+    for (c, (chart, _, layout)) in placed.charts.iter().enumerate() {
+        let base = points.len() as u32;
+        points.extend(layout);
+        triangles.extend(chart.mesh.triangles.iter().map(|t| t.map(|v| v + base)));
+        chart_of.extend(std::iter::repeat_n(c as u32, chart.mesh.n_triangles()));
+    }
+    let found = crate::injective::atlas_overlaps(&points, &triangles, &chart_of, placed.charts.len(), 1);
+    let crossing = found.self_crossings.iter().position(|&n| n > 0);
+    match (crossing, found.overlapping.first()) {
+        (Some(c), _) => Some(format!("chart {c} of them crosses itself")),
+        (None, Some((a, b))) => Some(format!("charts {a} and {b} of them")),
+        (None, None) => None,
+    }
+}
+
+/// The placed charts with a triangle flipped or flat once stored as f32.
+fn thin_charts(placed: &crate::atlas::PlacedRest) -> Vec<usize> {
+    let thin = |(chart, _, layout): &crate::atlas::PlacedChart| {
+        let stored: Vec<[f32; 2]> = layout.iter().map(|&p| crate::guard::stored_uv(p)).collect();
+        !crate::guard::count_stored_orientations(&stored, &chart.mesh.triangles, crate::guard::VAxis::Down).is_clean()
+    };
+    placed.charts.iter().enumerate().filter(|(_, c)| thin(c)).map(|(k, _)| k).collect()
 }
 
 /// For a free chart: why its layout, as glTF and OBJ store it, is not

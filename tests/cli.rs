@@ -688,13 +688,9 @@ fn a_near_point_off_the_mesh_is_an_error_that_suggests_the_y_up_reading() {
     assert_eq!(report["constraints"][0]["vertex"], 820);
 }
 
-/// A refusal after the solve (a piece without landmarks, a sliver 1e-7
-/// thick, that no packing keeps unflattened once stored as f32) says why
-/// on standard error even with `-q`, and writes nothing: exit 1 always
-/// comes with its reason.
-#[test]
-fn a_quiet_refusal_still_says_why() {
-    let tmp = TempDir::new("quiet-refusal");
+/// A 10 × 10 grid and, apart from it, one triangle 10 long and 1e-7 thick
+/// (an OBJ); the landmark on the grid.
+fn grid_and_sliver(tmp: &TempDir) -> std::path::PathBuf {
     let mut text = String::new();
     for j in 0..10 {
         for i in 0..10 {
@@ -710,8 +706,32 @@ fn a_quiet_refusal_still_says_why() {
     }
     text += "f 101 102 103\n";
     std::fs::write(tmp.path("g.obj"), text).unwrap();
+    tmp.path("g.obj")
+}
+
+#[test]
+fn a_sliver_piece_without_landmarks_is_laid_out_not_refused() {
+    // Packed at its own shape the sliver has no area once stored as f32:
+    // it is laid out fat instead, and the solve succeeds.
+    let tmp = TempDir::new("sliver-piece");
+    grid_and_sliver(&tmp);
     let ron = tmp.path("g.uvpin.ron");
     write_constraints(&ron, std::path::Path::new("g.obj"), &[(44, 0.45, 0.5)], "");
+    let out = tmp.path("out.glb");
+    let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+}
+
+/// A refusal (two targets for one vertex) says why on standard error even
+/// with `-q`, and writes nothing: exit 1 always comes with its reason.
+#[test]
+fn a_quiet_refusal_still_says_why() {
+    let tmp = TempDir::new("quiet-refusal");
+    grid_and_sliver(&tmp);
+    let ron = tmp.path("g.uvpin.ron");
+    write_constraints(&ron, std::path::Path::new("g.obj"), &[(44, 0.45, 0.5), (44, 0.55, 0.5)], "");
     let out = tmp.path("out.glb");
     let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "-q"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
