@@ -182,10 +182,18 @@ fn constraint_file(mesh: &Mesh, marks: &[(DVec3, DVec2)], free: bool) -> String 
     text + ")\n"
 }
 
+/// The `uvpin` binary to run: this build's, or `UVPIN_BIN` (another build,
+/// for a side-by-side run; its table is then not written into the docs).
+fn binary() -> PathBuf {
+    std::env::var_os("UVPIN_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_uvpin")))
+}
+
 /// Runs `uvpin` with `args`, killed after [`TIMEOUT`]: exit code (None:
 /// killed or signalled) and standard error.
 fn run(args: &[&str]) -> (Option<i32>, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+    let mut child = Command::new(binary())
         .args(args)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -325,6 +333,7 @@ fn main() {
     let mut all = Tally::default();
     let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
     let mut notable = String::new();
+    let mut ever = common::Reached::open("corpus");
     for path in files
         .iter()
         .filter(|p| filter.as_ref().is_none_or(|f| p.to_string_lossy().contains(f.as_str())))
@@ -347,6 +356,7 @@ fn main() {
             let (outcome, seconds) = solve_case(&mesh, &marks, free, &work);
             let mode = if free { "boundary: Free" } else { "default boundary" };
             eprintln!("{} ({mode}): {outcome:?} in {seconds:.2} s", mesh.name);
+            ever.record(&format!("{} | {mode}", mesh.name), outcome == Outcome::Reached);
             for tally in [
                 by_format.entry(mesh.format.clone()).or_insert_with(Tally::default),
                 by_genus.entry(mesh.genus.clone()).or_insert_with(Tally::default),
@@ -399,7 +409,8 @@ fn main() {
         );
     }
     println!("\n{body}");
-    if filter.is_none() {
+    if filter.is_none() && std::env::var_os("UVPIN_BIN").is_none() {
         common::write_section("corpus", "Meshes as they come (`--bench corpus`)", &body);
     }
+    ever.finish();
 }

@@ -296,6 +296,7 @@ fn main() {
     let tmp = std::env::temp_dir().join(format!("uvpin-bench-free-{}", std::process::id()));
     std::fs::create_dir_all(&tmp).expect("tmp");
     let mut rows = Vec::new();
+    let mut ever = common::Reached::open("free");
     for (label, mesh, runs, ks) in subjects() {
         for (&k, witness) in ks.iter().flat_map(|k| [(k, Witness::Free), (k, Witness::Square)]) {
             let name = match witness {
@@ -311,6 +312,8 @@ fn main() {
             };
             let [step1, square, free, slim] = measure(&mesh, &case, runs, python.as_deref().ok(), &tmp);
             eprintln!("{name}: free {}", free.cells());
+            ever.record(&format!("{name} | Square"), square.reached);
+            ever.record(&format!("{name} | Free"), free.reached);
             rows.push((name, mesh.positions.len(), step1, square, free, slim));
         }
     }
@@ -342,4 +345,5 @@ fn main() {
         body += "\nSLIM was not run (no Python with libigl).\n";
     }
     common::publish("free", "Free boundary", &body);
+    ever.finish();
 }

@@ -80,3 +80,67 @@ pub fn publish(name: &str, title: &str, body: &str) {
         eprintln!("(filtered run: docs/benchmarks.md not updated)");
     }
 }
+
+/// The rows a bench has ever reached, kept in `benches/reached/NAME.txt`
+/// (one row key per line): the table only grows. A row reached before and
+/// run again without being reached is lost, and a lost row fails the bench.
+pub struct Reached {
+    path: PathBuf,
+    ever: std::collections::BTreeSet<String>,
+    lost: Vec<String>,
+    new: Vec<String>,
+}
+
+impl Reached {
+    pub fn open(bench: &str) -> Reached {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("benches/reached/{bench}.txt"));
+        let ever = std::fs::read_to_string(&path)
+            .unwrap_or_default()
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.starts_with('#'))
+            .map(String::from)
+            .collect();
+        Reached {
+            path,
+            ever,
+            lost: Vec::new(),
+            new: Vec::new(),
+        }
+    }
+
+    /// Row `key` was run now: reached or not.
+    pub fn record(&mut self, key: &str, reached: bool) {
+        match (self.ever.contains(key), reached) {
+            (true, false) => self.lost.push(key.to_string()),
+            (false, true) => self.new.push(key.to_string()),
+            _ => {}
+        }
+    }
+
+    /// Adds the rows reached for the first time to the file, prints them and
+    /// the lost ones, and ends the bench with exit 1 when a row was lost
+    /// (call it after the tables are written).
+    pub fn finish(mut self) {
+        if !self.new.is_empty() {
+            eprintln!("{} rows reached for the first time: {:?}", self.new.len(), self.new);
+            self.ever.extend(self.new.drain(..));
+            let mut text = String::from(
+                "# Every row this bench has ever reached; a row run again and not reached fails the bench.\n",
+            );
+            for key in &self.ever {
+                text += key;
+                text.push('\n');
+            }
+            let _ = std::fs::create_dir_all(self.path.parent().expect("benches/reached"));
+            std::fs::write(&self.path, text).expect("write the reached rows");
+        }
+        if !self.lost.is_empty() {
+            eprintln!("error: {} rows reached before are lost:", self.lost.len());
+            for key in &self.lost {
+                eprintln!("  lost: {key}");
+            }
+            std::process::exit(1);
+        }
+    }
+}
