@@ -48,7 +48,6 @@ pub use coarse::{CoarseMesh, CoarseSolution, CoarseView};
 struct Secondaries {
     solved: Vec<export::Secondary>,
     reports: Vec<Report>,
-    failures: Vec<String>,
     unsolved: Vec<(Arc<crate::mesh::weld::Chart>, String)>,
 }
 
@@ -503,10 +502,9 @@ impl ChartSession {
         let Secondaries {
             solved,
             reports,
-            failures,
             unsolved,
         } = self.solve_secondary(solver);
-        report.add_charts(reports, failures);
+        report.add_charts(reports);
         self.secondary = Arc::new(solved);
         self.set_aside(unsolved, report);
     }
@@ -635,7 +633,7 @@ impl ChartSession {
         let mut placed = triangles_of(&self.prepared, solver.layout());
         let mut replaced = vec![self.prepared.chart.id];
         replaced.extend(&self.prepared.secondary);
-        let (mut solved, mut reports, mut failures, mut unsolved) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut solved, mut reports, mut unsolved) = (Vec::new(), Vec::new(), Vec::new());
         let charts = self.prepared.secondary.iter().map(|&id| (id, None));
         let pieces = self.prepared.opening.pieces.iter().map(|p| (p.id, Some(p.clone())));
         for (id, piece) in pieces.chain(charts) {
@@ -663,16 +661,17 @@ impl ChartSession {
                         prepared,
                     });
                 }
+                // A chart or piece that cannot be solved is laid out with the
+                // rest, its landmarks unreached: partial, never an error.
                 Err(e) => match pick.piece {
                     Some(piece) => unsolved.push((piece, e.to_string())),
-                    None => failures.push(format!("chart {id}: {e}")),
+                    None => unsolved.push((Arc::new(self.prepared.welded.chart(id)), format!("chart {id}: {e}"))),
                 },
             }
         }
         Secondaries {
             solved,
             reports,
-            failures,
             unsolved,
         }
     }

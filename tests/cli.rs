@@ -691,21 +691,12 @@ fn a_near_point_off_the_mesh_is_an_error_that_suggests_the_y_up_reading() {
 /// A 10 × 10 grid and, apart from it, one triangle 10 long and 1e-7 thick
 /// (an OBJ); the landmark on the grid.
 fn grid_and_sliver(tmp: &TempDir) -> std::path::PathBuf {
-    let mut text = String::new();
-    for j in 0..10 {
-        for i in 0..10 {
-            text += &format!("v {i} {j} 0\n");
-        }
-    }
-    text += "v 0 -20 1\nv 10 -20 1\nv 5 -20 1.0000001\n";
-    for j in 0..9 {
-        for i in 0..9 {
-            let a = j * 10 + i + 1;
-            text += &format!("f {a} {} {}\nf {a} {} {}\n", a + 1, a + 11, a + 11, a + 10);
-        }
-    }
-    text += "f 101 102 103\n";
-    std::fs::write(tmp.path("g.obj"), text).unwrap();
+    let mut mesh = grid_mesh(10, 10);
+    let base = mesh.positions.len() as u32;
+    let sliver = [(0.0, -20.0, 1.0), (10.0, -20.0, 1.0), (5.0, -20.0, 1.0000001)];
+    mesh.positions.extend(sliver.map(|(x, y, z)| glam::DVec3::new(x, y, z)));
+    mesh.triangles.push([base, base + 1, base + 2]);
+    write_obj(&tmp.path("g.obj"), &mesh.positions, &mesh.triangles);
     tmp.path("g.obj")
 }
 
@@ -738,4 +729,56 @@ fn a_quiet_refusal_still_says_why() {
     let err = stderr(&o);
     assert!(err.starts_with("error: ") && err.lines().count() == 1, "{err:?}");
     assert!(!out.exists());
+}
+
+/// Writes `mesh` as an OBJ at `path`.
+fn write_obj(path: &std::path::Path, positions: &[glam::DVec3], triangles: &[[u32; 3]]) {
+    let mut text = String::new();
+    for p in positions {
+        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+    }
+    for t in triangles {
+        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn a_closed_mesh_with_a_three_vertex_hole_is_cut_like_a_closed_one() {
+    // One triangle missing: the one boundary loop has three vertices, too
+    // few for the square's corners; the automatic seams open it.
+    let tmp = TempDir::new("three-vertex-hole");
+    let mut sphere = uvpin::testing::uv_sphere(24, 36);
+    sphere.triangles.remove(400);
+    write_obj(&tmp.path("holed.obj"), &sphere.positions, &sphere.triangles);
+    let ron = tmp.path("holed.uvpin.ron");
+    write_constraints(&ron, std::path::Path::new("holed.obj"), &[(300, 0.4, 0.5), (310, 0.6, 0.5)], "");
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(report["status"], "reached");
+    let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+}
+
+#[test]
+fn a_one_triangle_piece_holding_a_landmark_makes_the_solve_partial_not_an_error() {
+    let tmp = TempDir::new("one-triangle-piece");
+    let mut grid = grid_mesh(10, 10);
+    let base = grid.positions.len() as u32;
+    grid.positions.extend([glam::DVec3::new(0.0, -20.0, 0.0), glam::DVec3::new(3.0, -20.0, 0.0), glam::DVec3::new(1.0, -18.0, 0.0)]);
+    grid.triangles.push([base, base + 1, base + 2]);
+    write_obj(&tmp.path("soup.obj"), &grid.positions, &grid.triangles);
+    for extra in ["", "    boundary: Free,\n"] {
+        let ron = tmp.path("soup.uvpin.ron");
+        let landmarks = [(44, 0.45, 0.5), (base, 0.1, 0.1)];
+        write_constraints(&ron, std::path::Path::new("soup.obj"), &landmarks, extra);
+        let out = tmp.path("out.glb");
+        let (o, report) = solve_json(&ron, &out);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert_eq!(report["status"], "partial");
+        assert!(report["message"].as_str().unwrap().contains("laid out without them"), "{report}");
+        let o = uvpin(&["check", out.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "written fold-free and one-to-one: {}", stdout(&o));
+    }
 }

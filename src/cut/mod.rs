@@ -94,6 +94,8 @@ pub enum CutError {
     InsidePolygon { path: usize, a: u32, b: u32 },
     #[error("the seams leave the chart {left}: add seams that open it (or `seams: Auto`)")]
     NotOpened { left: String },
+    #[error("the automatic seams leave the chart {left}: give `seams` that open it")]
+    AutoNotOpened { left: String },
 }
 
 /// The chart opened along `seam`: its wedges and its topology.
@@ -144,6 +146,7 @@ pub fn open(
     let wedges = split_wedges(mesh, &|e| edges.binary_search(&e).is_ok());
     match Topology::build(&wedges.mesh) {
         Ok(topology) => Ok(Some(Opened { wedges, topology, seam })),
+        Err(e) if matches!(spec, SeamSpec::Auto) => Err(CutError::AutoNotOpened { left: describe(&e) }),
         Err(e) => Err(CutError::NotOpened { left: describe(&e) }),
     }
 }
@@ -229,7 +232,11 @@ fn plan(mesh: &TriMesh, graph: &EdgeGraph, landmarks: &[u32], unseamable: &[[u32
     let handle_edges = handles::handle_cuts(mesh, graph, &cost, root);
     let boundary = graph.boundary_vertices();
     let closed = boundary.is_empty();
-    let spread = Topology::build(mesh).is_ok_and(|t| rules.spread_disks || nearly_closed(mesh, &t));
+    // A disk open only at a hole of three vertices is as good as closed.
+    let spread = match Topology::build(mesh) {
+        Ok(t) => rules.spread_disks || nearly_closed(mesh, &t),
+        Err(e) => matches!(e, TopologyError::TooFewBoundaryVertices { .. }),
+    };
     if !closed && !spread {
         // An open surface with room to lie flat needs its handles cut, nothing more.
         let edges = handle_edges.iter().map(|&e| graph.edges[e as usize]).collect();

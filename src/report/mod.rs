@@ -543,7 +543,7 @@ impl Report {
     /// Adds the reports of the other charts solved with this one (and why
     /// any could not be): the status is the worst of all, the residuals
     /// the largest and mean over every constraint.
-    pub fn add_charts(&mut self, charts: Vec<Report>, failures: Vec<String>) {
+    pub fn add_charts(&mut self, charts: Vec<Report>) {
         let rank = |s: Status| match s {
             Status::Reached => 0,
             Status::Partial => 1,
@@ -561,10 +561,6 @@ impl Report {
             n += c.constraints.len() as f64;
         }
         self.mean_residual = if n > 0.0 { sum / n } else { 0.0 };
-        if let Some(f) = failures.first() {
-            self.status = Status::Error;
-            self.message = Some(f.clone());
-        }
         self.charts = charts;
     }
 
