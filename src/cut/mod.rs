@@ -161,6 +161,16 @@ pub fn nearly_closed(mesh: &TriMesh, topology: &Topology) -> bool {
     boundary < NEARLY_CLOSED * mesh.area().sqrt()
 }
 
+/// [`nearly_closed`] for any surface: its boundary edges' total length
+/// against its area.
+fn short_boundary(mesh: &TriMesh) -> bool {
+    let boundary: f64 = crate::injective::boundary_edges(&mesh.triangles)
+        .iter()
+        .map(|e| mesh.positions[e[0] as usize].distance(mesh.positions[e[1] as usize]))
+        .sum();
+    boundary < NEARLY_CLOSED * mesh.area().sqrt()
+}
+
 /// See [`nearly_closed`].
 const NEARLY_CLOSED: f64 = 1.5;
 
@@ -232,11 +242,9 @@ fn plan(mesh: &TriMesh, graph: &EdgeGraph, landmarks: &[u32], unseamable: &[[u32
     let handle_edges = handles::handle_cuts(mesh, graph, &cost, root);
     let boundary = graph.boundary_vertices();
     let closed = boundary.is_empty();
-    // A disk open only at a hole of three vertices is as good as closed.
-    let spread = match Topology::build(mesh) {
-        Ok(t) => rules.spread_disks || nearly_closed(mesh, &t),
-        Err(e) => matches!(e, TopologyError::TooFewBoundaryVertices { .. }),
-    };
+    // A surface open only at small holes (a disk or not, a hole of three
+    // vertices among them) is as good as closed.
+    let spread = rules.spread_disks || short_boundary(mesh);
     if !closed && !spread {
         // An open surface with room to lie flat needs its handles cut, nothing more.
         let edges = handle_edges.iter().map(|&e| graph.edges[e as usize]).collect();
@@ -250,7 +258,10 @@ fn plan(mesh: &TriMesh, graph: &EdgeGraph, landmarks: &[u32], unseamable: &[[u32
     for &e in &handle_edges {
         graph.edges[e as usize].iter().for_each(|&v| fixed[v as usize] = true);
     }
-    let cones = place_cones(mesh, graph, &fixed, &around, rules, closed && handle_edges.is_empty());
+    // A boundary too short for the square's four corners opens along a
+    // seam out to one cone at least, as a closed surface does.
+    let need_one = (closed || boundary.len() < 4) && handle_edges.is_empty();
+    let cones = place_cones(mesh, graph, &fixed, &around, rules, need_one);
     let mut edges: Vec<[u32; 2]> = handle_edges.iter().map(|&e| graph.edges[e as usize]).collect();
     let mut tree: Vec<u32> = (0..mesh.n_vertices() as u32).filter(|&v| fixed[v as usize]).collect();
     for &c in &cones {
