@@ -5,7 +5,7 @@
 
 use crate::io::MeshSelector;
 use crate::io::{self, AssetError, InputRules, SourceAsset};
-use crate::mesh::nearest::{self, Bounds, Nearest};
+use crate::mesh::nearest::{self, Bounds, Nearest, UpAxis};
 use crate::mesh::topology::Topology;
 use crate::mesh::weld::{WeldedMesh, weld};
 use glam::DVec3;
@@ -204,7 +204,7 @@ fn up_hint(bounds: Option<Bounds>) -> String {
         return "no triangles".into();
     };
     let s = b.size();
-    if s.z > 1.5 * s.y && s.z >= s.x {
+    if b.up_axis() == UpAxis::Z {
         "tallest along Z: it may have been exported Z-up (glTF is Y-up; Blender shows glTF's (x, y, z) as (x, -z, y))"
             .into()
     } else if s.y >= s.x.max(s.z) {

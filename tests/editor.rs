@@ -454,6 +454,68 @@ fn the_image_a_file_names_elsewhere_is_served() {
     assert_eq!((status, &png[1..4]), (200, &b"PNG"[..]));
 }
 
+/// A closed egg standing on Z (as scanners and CAD tools export), its
+/// landmarks on the +X side with targets where a camera there sees them:
+/// cut open by the solve. The mesh payload names Z as up; every triangle
+/// is given to the texture view either from the chart's vertex UVs (equal
+/// to what the file holds) or from the written corners, never from a
+/// vertex's UV that a seam splits; in Chromium the 3D view stands on Z and
+/// opens facing the landmarks.
+fn a_z_up_closed_mesh_opens_facing_its_landmarks_and_draws_every_triangle_where_written() {
+    let dir = TempDir::new("editor-z-up");
+    let mut egg = uvpin::testing::uv_sphere(20, 32);
+    egg.positions.iter_mut().for_each(|p| p.z *= 2.5);
+    write_mesh_glb(&dir.path("egg.glb"), &egg);
+    let side: Vec<u32> = (0..egg.positions.len() as u32)
+        .filter(|&v| egg.positions[v as usize].x > 0.75)
+        .step_by(7)
+        .take(8)
+        .collect();
+    let marks: Vec<(u32, f64, f64)> = side
+        .iter()
+        .map(|&v| {
+            let p = egg.positions[v as usize];
+            (v, 0.5 + 0.3 * p.y, 0.5 - 0.12 * p.z)
+        })
+        .collect();
+    write_constraints(&dir.path("egg.uvpin.ron"), Path::new("egg.glb"), &marks, "");
+    let mean = side.iter().fold(glam::DVec3::ZERO, |s, &v| s + egg.positions[v as usize]) / side.len() as f64;
+    let mut d = Daemon::edit(&dir.0, &["egg.uvpin.ron", "--out", "out"]);
+    let addr = address(&d);
+    let state = wait_state(&addr, &d, |s| s["solved"].is_object());
+    let mesh = get_json(&addr, "/api/file/0/mesh");
+    assert_eq!(mesh["up"], json!([0.0, 0.0, 1.0]), "tallest along Z");
+    let solved = &state["solved"];
+    let (uvs, in_chart, written) = (&solved["uvs"][0], &solved["in_chart"][0], &solved["written"][0]);
+    let n = egg.triangles.len();
+    assert_eq!((in_chart.as_array().unwrap().len(), written.as_array().unwrap().len()), (n, 6 * n));
+    let at = |a: &Value, k: usize| [a[2 * k].as_f64().unwrap(), a[2 * k + 1].as_f64().unwrap()];
+    let mut from_corners = 0;
+    for (t, tri) in egg.triangles.iter().enumerate() {
+        let corners: Vec<[f64; 2]> = (0..3).map(|i| at(written, 3 * t + i)).collect();
+        if in_chart[t] == 1 {
+            for (i, &v) in tri.iter().enumerate() {
+                assert_eq!(at(uvs, v as usize), corners[i], "triangle {t} drawn where written");
+            }
+        } else {
+            from_corners += 1;
+        }
+        let [a, b, c] = [corners[0], corners[1], corners[2]];
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        assert!(area.abs() > 0.0, "triangle {t} has its place in the written set");
+    }
+    assert!(from_corners > 0, "the seam's triangles are drawn from the written corners");
+    let o = std::process::Command::new("node")
+        .arg(repo().join("tests/browser/zup.mjs"))
+        .arg(format!("http://{addr}/"))
+        .args([mean.x, mean.y, mean.z].map(|x| x.to_string()))
+        .env("NODE_PATH", repo().join(".tools/node_modules"))
+        .output()
+        .expect("run node");
+    assert!(o.status.success(), "browser test failed:\n{}\n{}\n{}", stdout(&o), stderr(&o), d.dump());
+    assert!(d.terminate().success());
+}
+
 fn main() -> std::process::ExitCode {
     run_cases(&[
         (
@@ -482,6 +544,11 @@ fn main() -> std::process::ExitCode {
             the_image_a_file_names_elsewhere_is_served,
         ),
         ("in_chromium", &[Needs::Browser], in_chromium),
+        (
+            "a_z_up_closed_mesh_opens_facing_its_landmarks_and_draws_every_triangle_where_written",
+            &[Needs::Browser],
+            a_z_up_closed_mesh_opens_facing_its_landmarks_and_draws_every_triangle_where_written,
+        ),
         (
             "a_drag_is_previewed_on_the_coarse_level_in_chromium",
             &[Needs::Browser],

@@ -33,8 +33,12 @@ pub struct EditInputs {
 pub struct SolvedView {
     pub report: Report,
     pub uvs: PrimitiveUvs,
-    /// Per primitive and vertex: 1 in the solved chart, 0 outside it.
+    /// Per primitive and triangle: 1 where the page draws it from the
+    /// chart's vertex UVs, 0 where from `written`.
     pub in_chart: Vec<Vec<u8>>,
+    /// Per primitive and face corner: the UV set as written (every chart
+    /// and packed piece where the file has it; empty if refused).
+    pub written: PrimitiveUvs,
     /// The chart session after the solve, which drag previews start from
     /// (its last layout), and its asset.
     pub session: Arc<ChartSession>,

@@ -94,6 +94,7 @@ pub fn state(view: &FileView, texture: Option<String>) -> Value {
             "report": report(&s.report),
             "uvs": flat_uvs(&s.uvs),
             "in_chart": s.in_chart,
+            "written": flat_uvs(&s.written),
         })),
     })
 }
@@ -108,6 +109,7 @@ pub fn mesh(asset: &SourceAsset) -> Value {
             "indices": p.indices,
         })).collect::<Vec<_>>(),
         "bounds": bounds.map(|b| json!({ "min": [b.min.x, b.min.y, b.min.z], "max": [b.max.x, b.max.y, b.max.z] })),
+        "up": bounds.map(|b| b.up_axis().vector().to_array()),
     })
 }
 

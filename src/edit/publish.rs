@@ -5,6 +5,7 @@
 //! server reads.
 
 use super::hub::{EditInputs, FileUpdate, Hub, SolvedView};
+use crate::chart::PrimitiveUvs;
 use super::text::ExistingItem;
 use crate::constraints::ConstraintSource;
 use crate::daemon::charts::{DaemonLog, DaemonState, Settings, WatchedFile, report_results, write_status_file};
@@ -47,24 +48,56 @@ fn inputs(job: &SolveJob, session: &Session, text_hash: Option<u64>) -> Option<A
 /// The written solve of a file: its report, UVs, and the session the
 /// editor's drag previews start from.
 fn solved(job: &SolveJob, session: &Session, solver: &Solver, report: &crate::report::Report) -> Arc<SolvedView> {
-    let prepared = session.0.prepared();
-    let in_chart = prepared
-        .welded
-        .vertex_of
-        .iter()
-        .map(|map| {
-            map.iter()
-                .map(|&w| u8::from(prepared.chart.local_of(w).is_some()))
-                .collect()
-        })
-        .collect();
+    let uvs = session.0.uvs(solver.0.layout());
+    let written: PrimitiveUvs = session
+        .0
+        .final_uvs(&solver.0, report)
+        .1
+        .map(|corners| corners.into_iter().map(|u| u.corners).collect())
+        .unwrap_or_default();
     Arc::new(SolvedView {
         report: report.clone(),
-        uvs: session.0.uvs(solver.0.layout()),
-        in_chart,
+        in_chart: drawn_from_vertices(&job.asset, session.0.prepared(), &uvs, &written),
+        uvs,
+        written,
         session: Arc::new(session.0.clone()),
         asset: job.asset.clone(),
     })
+}
+
+/// Per primitive and triangle: 1 where the page draws the triangle from its
+/// vertices' UVs (a triangle of the solved chart, which moves while a
+/// target is dragged), 0 where from the written corners (another chart, a
+/// packed piece, a triangle beside a seam whose corners differ from its
+/// vertices' UVs).
+fn drawn_from_vertices(
+    asset: &crate::io::SourceAsset,
+    prepared: &crate::chart::PreparedChart,
+    uvs: &PrimitiveUvs,
+    written: &PrimitiveUvs,
+) -> Vec<Vec<u8>> {
+    let mut in_chart = vec![false; prepared.welded.mesh.n_triangles()];
+    prepared.chart.triangle_ids.iter().for_each(|&t| in_chart[t as usize] = true);
+    let mut welded_triangle = 0;
+    asset
+        .primitives
+        .iter()
+        .enumerate()
+        .map(|(p, prim)| {
+            prim.indices
+                .chunks_exact(3)
+                .enumerate()
+                .map(|(t, corners)| {
+                    let chart = in_chart.get(welded_triangle).copied().unwrap_or(false);
+                    welded_triangle += 1;
+                    let same = written.get(p).is_none_or(|w| {
+                        corners.iter().enumerate().all(|(i, &v)| w.get(3 * t + i) == uvs[p].get(v as usize))
+                    });
+                    u8::from(chart && same)
+                })
+                .collect()
+        })
+        .collect()
 }
 
 type FileParts<'a> = (

@@ -18,9 +18,33 @@ pub struct Bounds {
     pub max: DVec3,
 }
 
+/// The axis a mesh stands along (see [`Bounds::up_axis`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UpAxis {
+    Y,
+    Z,
+}
+
+impl UpAxis {
+    pub fn vector(self) -> DVec3 {
+        match self {
+            UpAxis::Y => DVec3::Y,
+            UpAxis::Z => DVec3::Z,
+        }
+    }
+}
+
 impl Bounds {
     pub fn diagonal(&self) -> f64 {
         (self.max - self.min).length()
+    }
+
+    /// Which way the mesh most likely stands: Z when it is tallest along Z
+    /// by a clear margin (exported Z-up, as from a scanner or a CAD tool),
+    /// else glTF's Y.
+    pub fn up_axis(&self) -> UpAxis {
+        let s = self.size();
+        if s.z > 1.5 * s.y && s.z >= s.x { UpAxis::Z } else { UpAxis::Y }
     }
 
     pub fn size(&self) -> DVec3 {

@@ -29,12 +29,27 @@ const app = {
   warm: null, // ... once it answered
 };
 
+// Turns the 3D view to the landmarks (their mean position), once per mesh.
+function faceLandmarks() {
+  const sum = [0, 0, 0];
+  let n = 0;
+  for (const c of app.constraints) {
+    const p = app.mesh.primitives.find((q) => q.index === c.primitive);
+    if (!p || c.vertex * 3 + 2 >= p.positions.length) continue;
+    for (let i = 0; i < 3; i++) sum[i] += p.positions[c.vertex * 3 + i];
+    n += 1;
+  }
+  if (n) meshView.face(sum.map((x) => x / n));
+}
+
 // Measurements the drag benchmark and the browser test read.
 window.uvpinEditor = {
   latencies: [], // ms from a pointer move to the redraw of its solve
   previews: 0,
   saves: 0,
   state: () => ({ constraints: app.constraints, selected: app.selected, fileState: app.file && app.file.state }),
+  // The 3D view's camera: its up axis and where its eye is.
+  camera: () => ({ up: meshView.camera.up, eye: meshView.eye(), target: meshView.camera.target }),
   // Where a vertex is in the layout shown (glTF texture coordinates).
   uvOf: (vertex, primitive = 0) => {
     const k = app.mesh ? app.mesh.primitives.findIndex((p) => p.index === primitive) : -1;
@@ -175,6 +190,7 @@ async function refreshFile() {
     app.coarse = null;
     meshView.setMesh(app.mesh);
     textureView.setMesh(app.mesh);
+    app.faceLandmarks = true;
   }
   // A new mesh, another image: named, repainted: the texture anew.
   if (file.asset && file.texture !== app.textureKey) {
@@ -186,8 +202,13 @@ async function refreshFile() {
   if (!app.dragStart && !ahead) {
     app.constraints = file.constraints.map((c) => ({ primitive: c.primitive, vertex: c.vertex, uv: c.target, label: c.label }));
   }
+  if (app.faceLandmarks && app.constraints.length) {
+    app.faceLandmarks = false;
+    faceLandmarks();
+  }
   if (file.solved && !app.dragStart && !app.preview.inFlight && !ahead) {
     app.inChart = file.solved.in_chart;
+    app.written = uvArrays(file.solved.written);
     app.results = { report: file.solved.report, uvs: uvArrays(file.solved.uvs), from: 'file' };
     warmPreviews();
   }
@@ -303,7 +324,7 @@ function render() {
   });
   if (dirty.layout && app.results) {
     meshView.setUvs(app.results.uvs, app.results.coarse);
-    textureView.setLayout(app.results.uvs, app.inChart, app.results.coarse);
+    textureView.setLayout(app.results.uvs, app.inChart, app.results.coarse, app.written);
   }
   meshView.setMarkers(markers, app.selected);
   textureView.setMarkers(markers);

@@ -155,7 +155,7 @@ export class MeshView {
     }
     this.texture = null;
     this.primitives = [];
-    this.camera = { yaw: 0, pitch: 0, distance: 3, target: [0, 0, 0], radius: 1 };
+    this.camera = { yaw: 0, pitch: 0, distance: 3, target: [0, 0, 0], radius: 1, up: [0, 1, 0] };
     this.markers = [];
     this.selected = null;
     this.listen();
@@ -179,9 +179,32 @@ export class MeshView {
     this.camera.target = scale(add(b.min, b.max), 0.5);
     this.camera.radius = Math.max(1e-9, Math.hypot(...sub(b.max, b.min)) / 2);
     this.camera.distance = this.camera.radius * 2.6;
+    this.camera.up = mesh.up || [0, 1, 0];
     this.camera.yaw = 0;
     this.camera.pitch = 0;
     this.draw();
+  }
+
+  // Turns the camera round the up axis to look at `point` (mesh
+  // coordinates) from outside: the side the landmarks are on.
+  face(point) {
+    const c = this.camera;
+    const [f0, s0] = this.ground();
+    const d = sub(point, c.target);
+    const x = dot(d, s0);
+    const z = dot(d, f0);
+    if (Math.hypot(x, z) < 1e-9 * c.radius) return;
+    c.yaw = Math.atan2(x, z);
+    c.pitch = 0;
+    this.draw();
+  }
+
+  // Two directions across the up axis: yaw 0 looks from the first.
+  ground() {
+    const up = this.camera.up;
+    const seed = Math.abs(up[2]) < 0.9 ? [0, 0, 1] : [0, -1, 0];
+    const f0 = normalize(sub(seed, scale(up, dot(seed, up))));
+    return [f0, cross(up, f0)];
   }
 
   // A vertex array of `positions` and `indices`, with an empty UV buffer.
@@ -267,7 +290,9 @@ export class MeshView {
 
   eye() {
     const c = this.camera;
-    const dir = [Math.sin(c.yaw) * Math.cos(c.pitch), Math.sin(c.pitch), Math.cos(c.yaw) * Math.cos(c.pitch)];
+    const [f0, s0] = this.ground();
+    const across = add(scale(f0, Math.cos(c.yaw)), scale(s0, Math.sin(c.yaw)));
+    const dir = add(scale(across, Math.cos(c.pitch)), scale(c.up, Math.sin(c.pitch)));
     return add(c.target, scale(dir, c.distance));
   }
 
@@ -276,7 +301,7 @@ export class MeshView {
     const h = this.canvas.height;
     const eye = this.eye();
     const forward = normalize(sub(this.camera.target, eye));
-    const right = normalize(cross(forward, [0, 1, 0]));
+    const right = normalize(cross(forward, this.camera.up));
     const up = cross(right, forward);
     const view = [
       right[0], up[0], -forward[0], 0,
@@ -537,12 +562,15 @@ export class TextureView {
     this.draw();
   }
 
-  // The chart's UVs per primitive, which of their vertices are the chart's;
-  // `coarse` ({level, uvs}): its coarse level in place of the primitives it covers.
-  setLayout(uvs, inChart, coarse) {
+  // The chart's UVs per primitive, which of their triangles are drawn from them;
+  // `coarse` ({level, uvs}): its coarse level in place of the primitives it
+  // covers; `written`: per primitive, the UV set as written per face corner
+  // (the other charts and packed pieces are drawn from it, where they are).
+  setLayout(uvs, inChart, coarse, written) {
     this.uvs = uvs;
     this.coarse = coarse || null;
     if (inChart) this.inChart = inChart;
+    if (written) this.written = written;
     this.layerKey = null;
     this.draw();
   }
@@ -627,14 +655,18 @@ export class TextureView {
     let area3 = 0;
     let area2 = 0;
     const tris = [];
-    const add = (pos, uv, idx, inChart) => {
+    const add = (pos, uv, idx, inChart, written) => {
       for (let t = 0; t < idx.length; t += 3) {
         const a = idx[t], b = idx[t + 1], c = idx[t + 2];
-        const pts = [a, b, c].map((v) => this.toScreen([uv[v * 2], uv[v * 2 + 1]], f));
-        if (inChart && !inChart[a]) {
-          others.moveTo(...pts[0]); others.lineTo(...pts[1]); others.lineTo(...pts[2]); others.closePath();
+        if (inChart && !inChart[t / 3]) {
+          // Another chart: where the file has it (a cut or packed piece's
+          // corners are not its vertices' UVs); without it, not drawn.
+          if (!written || written.length < (t + 3) * 2) continue;
+          const at = [0, 1, 2].map((i) => this.toScreen([written[(t + i) * 2], written[(t + i) * 2 + 1]], f));
+          others.moveTo(...at[0]); others.lineTo(...at[1]); others.lineTo(...at[2]); others.closePath();
           continue;
         }
+        const pts = [a, b, c].map((v) => this.toScreen([uv[v * 2], uv[v * 2 + 1]], f));
         const s = triangleStretch(pos, uv, a, b, c);
         area3 += s.area3;
         area2 += s.area2;
@@ -645,7 +677,7 @@ export class TextureView {
     this.mesh.primitives.forEach((p, k) => {
       const uv = this.uvs && this.uvs[k];
       if (!uv || (coarse && coarse.level.primitives.has(k))) return;
-      add(p.positions, uv, p.indices, this.inChart && this.inChart[k]);
+      add(p.positions, uv, p.indices, this.inChart && this.inChart[k], this.written && this.written[k]);
     });
     if (coarse) add(coarse.level.positions, coarse.uvs, coarse.level.indices, null);
     // Stretch relative to the whole chart's scale (Sander's normalisation).
