@@ -275,7 +275,11 @@ fn flat_triangle([a, b, c]: [glam::DVec3; 3], shape: SoupShape) -> [DVec2; 3] {
         }
         SoupShape::Fat => {
             let side = len.max(ac.length()).max((c - b).length());
-            [DVec2::ZERO, DVec2::new(side, 0.0), DVec2::new(0.5 * side, 0.75f64.sqrt() * side)]
+            [
+                DVec2::ZERO,
+                DVec2::new(side, 0.0),
+                DVec2::new(0.5 * side, 0.75f64.sqrt() * side),
+            ]
         }
     }
 }
@@ -318,7 +322,11 @@ mod tests {
             let a = glam::DVec3::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
             let b = a + glam::DVec3::X * size;
             let lean = rng.range(-3.0, 3.0) * size;
-            let height = if rng.below(3) == 0 { 1e-8 * size } else { rng.range(0.01, 2.0) * size };
+            let height = if rng.below(3) == 0 {
+                1e-8 * size
+            } else {
+                rng.range(0.01, 2.0) * size
+            };
             positions.extend([a, b, a + glam::DVec3::new(lean, height, 0.0)]);
         }
         let welded = crate::mesh::weld::weld(&[crate::mesh::weld::PrimitiveGeometry {
@@ -332,7 +340,10 @@ mod tests {
             let more = welded.chart(c);
             let base = chart.mesh.positions.len() as u32;
             chart.mesh.positions.extend(&more.mesh.positions);
-            chart.mesh.triangles.extend(more.mesh.triangles.iter().map(|t| t.map(|v| v + base)));
+            chart
+                .mesh
+                .triangles
+                .extend(more.mesh.triangles.iter().map(|t| t.map(|v| v + base)));
             chart.welded_ids.extend(&more.welded_ids);
             chart.triangle_ids.extend(&more.triangle_ids);
         }

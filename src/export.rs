@@ -348,7 +348,9 @@ fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::
         }
     }
     if let Some(pair) = rest_overlap(&placed) {
-        return Err(format!("internal error: two packed charts without landmarks overlap ({pair}); nothing written"));
+        return Err(format!(
+            "internal error: two packed charts without landmarks overlap ({pair}); nothing written"
+        ));
     }
     report.rest = Some(crate::report::RestReport {
         charts: rest.charts.len(),
@@ -370,7 +372,8 @@ fn pack_rest(
     occupied: &[[DVec2; 3]],
     whole: crate::param::region::Region,
 ) -> Result<crate::atlas::PlacedRest, String> {
-    crate::atlas::place(rest, occupied, whole, &crate::pack::PackRules::DEFAULT).map_err(|e| format!("{e}; nothing written"))
+    crate::atlas::place(rest, occupied, whole, &crate::pack::PackRules::DEFAULT)
+        .map_err(|e| format!("{e}; nothing written"))
 }
 
 /// Whether the placed charts cross themselves or each other (the packer
@@ -398,7 +401,13 @@ fn thin_charts(placed: &crate::atlas::PlacedRest) -> Vec<usize> {
         let stored: Vec<[f32; 2]> = layout.iter().map(|&p| crate::guard::stored_uv(p)).collect();
         !crate::guard::count_stored_orientations(&stored, &chart.mesh.triangles, crate::guard::VAxis::Down).is_clean()
     };
-    placed.charts.iter().enumerate().filter(|(_, c)| thin(c)).map(|(k, _)| k).collect()
+    placed
+        .charts
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| thin(c))
+        .map(|(k, _)| k)
+        .collect()
 }
 
 /// For a free chart: why its layout, as glTF and OBJ store it, is not

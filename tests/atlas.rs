@@ -332,9 +332,17 @@ fn a_nan_corner_hides_no_overlap_from_check_or_solve() {
     assert_eq!(checked["atlas"]["injective"], false, "{checked}");
     assert!(checked["atlas"]["overlapping_pairs"].as_u64() >= Some(1), "{checked}");
     assert_eq!((checked["clean"].as_bool(), o.status.code()), (Some(false), Some(2)));
-    let zero: u64 = checked["charts"].as_array().unwrap().iter().map(|c| c["zero_area"].as_u64().unwrap()).sum();
+    let zero: u64 = checked["charts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["zero_area"].as_u64().unwrap())
+        .sum();
     assert_eq!(zero, 2, "the NaN corner's two triangles are counted: {checked}");
-    assert!(checked["charts"][1]["stretch_l2"].as_f64().is_some_and(f64::is_finite), "{checked}");
+    assert!(
+        checked["charts"][1]["stretch_l2"].as_f64().is_some_and(f64::is_finite),
+        "{checked}"
+    );
     // Islands apart, the NaN in B; A's landmarks ask it to grow over B's
     // place. Whatever the solve writes keeps A off B's finite triangles.
     let apart = tmp.path("apart.glb");

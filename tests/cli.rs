@@ -722,7 +722,12 @@ fn a_quiet_refusal_still_says_why() {
     let tmp = TempDir::new("quiet-refusal");
     grid_and_sliver(&tmp);
     let ron = tmp.path("g.uvpin.ron");
-    write_constraints(&ron, std::path::Path::new("g.obj"), &[(44, 0.45, 0.5), (44, 0.55, 0.5)], "");
+    write_constraints(
+        &ron,
+        std::path::Path::new("g.obj"),
+        &[(44, 0.45, 0.5), (44, 0.55, 0.5)],
+        "",
+    );
     let out = tmp.path("out.glb");
     let o = uvpin(&["solve", ron.to_str().unwrap(), "-o", out.to_str().unwrap(), "-q"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
@@ -752,7 +757,12 @@ fn a_closed_mesh_with_a_three_vertex_hole_is_cut_like_a_closed_one() {
     sphere.triangles.remove(400);
     write_obj(&tmp.path("holed.obj"), &sphere.positions, &sphere.triangles);
     let ron = tmp.path("holed.uvpin.ron");
-    write_constraints(&ron, std::path::Path::new("holed.obj"), &[(300, 0.4, 0.5), (310, 0.6, 0.5)], "");
+    write_constraints(
+        &ron,
+        std::path::Path::new("holed.obj"),
+        &[(300, 0.4, 0.5), (310, 0.6, 0.5)],
+        "",
+    );
     let out = tmp.path("out.glb");
     let (o, report) = solve_json(&ron, &out);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -766,7 +776,11 @@ fn a_one_triangle_piece_holding_a_landmark_makes_the_solve_partial_not_an_error(
     let tmp = TempDir::new("one-triangle-piece");
     let mut grid = grid_mesh(10, 10);
     let base = grid.positions.len() as u32;
-    grid.positions.extend([glam::DVec3::new(0.0, -20.0, 0.0), glam::DVec3::new(3.0, -20.0, 0.0), glam::DVec3::new(1.0, -18.0, 0.0)]);
+    grid.positions.extend([
+        glam::DVec3::new(0.0, -20.0, 0.0),
+        glam::DVec3::new(3.0, -20.0, 0.0),
+        glam::DVec3::new(1.0, -18.0, 0.0),
+    ]);
     grid.triangles.push([base, base + 1, base + 2]);
     write_obj(&tmp.path("soup.obj"), &grid.positions, &grid.triangles);
     for extra in ["", "    boundary: Free,\n"] {
@@ -777,8 +791,16 @@ fn a_one_triangle_piece_holding_a_landmark_makes_the_solve_partial_not_an_error(
         let (o, report) = solve_json(&ron, &out);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert_eq!(report["status"], "partial");
-        assert!(report["message"].as_str().unwrap().contains("laid out without them"), "{report}");
+        assert!(
+            report["message"].as_str().unwrap().contains("laid out without them"),
+            "{report}"
+        );
         let o = uvpin(&["check", out.to_str().unwrap()]);
-        assert_eq!(o.status.code(), Some(0), "written fold-free and one-to-one: {}", stdout(&o));
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "written fold-free and one-to-one: {}",
+            stdout(&o)
+        );
     }
 }

@@ -479,7 +479,10 @@ fn a_z_up_closed_mesh_opens_facing_its_landmarks_and_draws_every_triangle_where_
         })
         .collect();
     write_constraints(&dir.path("egg.uvpin.ron"), Path::new("egg.glb"), &marks, "");
-    let mean = side.iter().fold(glam::DVec3::ZERO, |s, &v| s + egg.positions[v as usize]) / side.len() as f64;
+    let mean = side
+        .iter()
+        .fold(glam::DVec3::ZERO, |s, &v| s + egg.positions[v as usize])
+        / side.len() as f64;
     let mut d = Daemon::edit(&dir.0, &["egg.uvpin.ron", "--out", "out"]);
     let addr = address(&d);
     let state = wait_state(&addr, &d, |s| s["solved"].is_object());
@@ -488,7 +491,10 @@ fn a_z_up_closed_mesh_opens_facing_its_landmarks_and_draws_every_triangle_where_
     let solved = &state["solved"];
     let (uvs, in_chart, written) = (&solved["uvs"][0], &solved["in_chart"][0], &solved["written"][0]);
     let n = egg.triangles.len();
-    assert_eq!((in_chart.as_array().unwrap().len(), written.as_array().unwrap().len()), (n, 6 * n));
+    assert_eq!(
+        (in_chart.as_array().unwrap().len(), written.as_array().unwrap().len()),
+        (n, 6 * n)
+    );
     let at = |a: &Value, k: usize| [a[2 * k].as_f64().unwrap(), a[2 * k + 1].as_f64().unwrap()];
     let mut from_corners = 0;
     for (t, tri) in egg.triangles.iter().enumerate() {
@@ -504,7 +510,10 @@ fn a_z_up_closed_mesh_opens_facing_its_landmarks_and_draws_every_triangle_where_
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
         assert!(area.abs() > 0.0, "triangle {t} has its place in the written set");
     }
-    assert!(from_corners > 0, "the seam's triangles are drawn from the written corners");
+    assert!(
+        from_corners > 0,
+        "the seam's triangles are drawn from the written corners"
+    );
     let o = std::process::Command::new("node")
         .arg(repo().join("tests/browser/zup.mjs"))
         .arg(format!("http://{addr}/"))
@@ -512,7 +521,13 @@ fn a_z_up_closed_mesh_opens_facing_its_landmarks_and_draws_every_triangle_where_
         .env("NODE_PATH", repo().join(".tools/node_modules"))
         .output()
         .expect("run node");
-    assert!(o.status.success(), "browser test failed:\n{}\n{}\n{}", stdout(&o), stderr(&o), d.dump());
+    assert!(
+        o.status.success(),
+        "browser test failed:\n{}\n{}\n{}",
+        stdout(&o),
+        stderr(&o),
+        d.dump()
+    );
     assert!(d.terminate().success());
 }
 

@@ -912,7 +912,12 @@ impl Daemon {
     }
 
     fn count(&self, event: &str) -> usize {
-        self.lines.lock().unwrap().iter().filter(|l| l["event"] == event).count()
+        self.lines
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|l| l["event"] == event)
+            .count()
     }
 
     /// Waits until `n` lines of `event` were logged (a minute at most: a
@@ -980,10 +985,7 @@ fn daemon_survives_hostile_input_and_recovers() {
             );
             assert_eq!(message.matches("output is kept").count(), 1, "said once: {message}");
         }
-        assert!(
-            daemon.alive(),
-            "the daemon died on hostile input {k}"
-        );
+        assert!(daemon.alive(), "the daemon died on hostile input {k}");
         assert_eq!(
             std::fs::read(tmp.path("out/grid.glb")).unwrap(),
             good,
@@ -1020,7 +1022,6 @@ fn daemon_survives_hostile_input_and_recovers() {
     assert_eq!(daemon.stop(), Some(0));
 }
 
-
 /// As an unprivileged user (run as root: under `setpriv` as nobody), an
 /// asset made unreadable or replaced by a FIFO is "cannot be read", never
 /// "removed", and the kept output is said once.
@@ -1037,11 +1038,18 @@ fn an_unprivileged_daemon_names_unreadable_assets() {
         use std::os::unix::fs::PermissionsExt;
         std::fs::set_permissions(p, std::fs::Permissions::from_mode(mode)).unwrap();
     };
-    for p in [tmp.0.clone(), tmp.path("assets"), tmp.path("assets/grid.glb"), tmp.path("assets/grid.uvpin.ron")] {
+    for p in [
+        tmp.0.clone(),
+        tmp.path("assets"),
+        tmp.path("assets/grid.glb"),
+        tmp.path("assets/grid.uvpin.ron"),
+    ] {
         open_up(&p, 0o777);
     }
     let mut command = Command::new("/usr/bin/setpriv");
-    command.args(["--reuid=65534", "--regid=65534", "--clear-groups"]).arg(&bin);
+    command
+        .args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+        .arg(&bin);
     let mut daemon = Daemon::spawn(command, &tmp.0);
     daemon.wait("solved", 1);
     let good = std::fs::read(tmp.path("out/grid.glb")).unwrap();
@@ -1063,7 +1071,11 @@ fn an_unprivileged_daemon_names_unreadable_assets() {
     assert!(message.contains("a FIFO") && !message.contains("removed"), "{message}");
     assert_eq!(message.matches("output is kept").count(), 1, "said once: {message}");
     assert!(daemon.alive());
-    assert_eq!(std::fs::read(tmp.path("out/grid.glb")).unwrap(), good, "the output is kept");
+    assert_eq!(
+        std::fs::read(tmp.path("out/grid.glb")).unwrap(),
+        good,
+        "the output is kept"
+    );
     assert_eq!(daemon.stop(), Some(0));
 }
 

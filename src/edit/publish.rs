@@ -5,8 +5,8 @@
 //! server reads.
 
 use super::hub::{EditInputs, FileUpdate, Hub, SolvedView};
-use crate::chart::PrimitiveUvs;
 use super::text::ExistingItem;
+use crate::chart::PrimitiveUvs;
 use crate::constraints::ConstraintSource;
 use crate::daemon::charts::{DaemonLog, DaemonState, Settings, WatchedFile, report_results, write_status_file};
 use crate::daemon::log::Logger;
@@ -77,7 +77,11 @@ fn drawn_from_vertices(
     written: &PrimitiveUvs,
 ) -> Vec<Vec<u8>> {
     let mut in_chart = vec![false; prepared.welded.mesh.n_triangles()];
-    prepared.chart.triangle_ids.iter().for_each(|&t| in_chart[t as usize] = true);
+    prepared
+        .chart
+        .triangle_ids
+        .iter()
+        .for_each(|&t| in_chart[t as usize] = true);
     let mut welded_triangle = 0;
     asset
         .primitives
@@ -91,7 +95,10 @@ fn drawn_from_vertices(
                     let chart = in_chart.get(welded_triangle).copied().unwrap_or(false);
                     welded_triangle += 1;
                     let same = written.get(p).is_none_or(|w| {
-                        corners.iter().enumerate().all(|(i, &v)| w.get(3 * t + i) == uvs[p].get(v as usize))
+                        corners
+                            .iter()
+                            .enumerate()
+                            .all(|(i, &v)| w.get(3 * t + i) == uvs[p].get(v as usize))
                     });
                     u8::from(chart && same)
                 })

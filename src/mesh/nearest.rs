@@ -44,7 +44,11 @@ impl Bounds {
     /// else glTF's Y.
     pub fn up_axis(&self) -> UpAxis {
         let s = self.size();
-        if s.z > 1.5 * s.y && s.z >= s.x { UpAxis::Z } else { UpAxis::Y }
+        if s.z > 1.5 * s.y && s.z >= s.x {
+            UpAxis::Z
+        } else {
+            UpAxis::Y
+        }
     }
 
     pub fn size(&self) -> DVec3 {
