@@ -209,11 +209,13 @@ fn every_copy_on_target(
     uvs: &[crate::io::corners::CornerUvs],
     report: &mut Report,
 ) {
+    // Reached ones, and set-aside ones whose place is not known yet.
+    let measured = |c: &&crate::report::ConstraintReport| c.reached || !c.residual.is_finite();
     let mut farthest: std::collections::HashMap<u32, (f64, DVec2)> = report
         .constraints
         .iter()
         .chain(report.charts.iter().flat_map(|r| &r.constraints))
-        .filter(|c| c.reached)
+        .filter(measured)
         .map(|c| (c.welded, (0.0, c.target)))
         .collect();
     for (p, (prim, corners)) in asset.primitives.iter().zip(uvs).enumerate() {
@@ -230,8 +232,13 @@ fn every_copy_on_target(
         }
     }
     let mut missed = Vec::new();
+    let mut set_aside = Vec::new();
     let lists = std::iter::once(&mut report.constraints).chain(report.charts.iter_mut().map(|r| &mut r.constraints));
     for list in lists {
+        for c in list.iter_mut().filter(|c| !c.reached && !c.residual.is_finite()) {
+            c.residual = farthest[&c.welded].0;
+            set_aside.push(c.residual);
+        }
         for c in list.iter_mut().filter(|c| c.reached) {
             let (far, _) = farthest[&c.welded];
             if far > COPY_TOLERANCE {
@@ -239,6 +246,13 @@ fn every_copy_on_target(
                 missed.push((c.index, far));
             }
         }
+    }
+    if !set_aside.is_empty() && report.max_residual.is_infinite() {
+        let all = report
+            .constraints
+            .iter()
+            .chain(report.charts.iter().flat_map(|r| &r.constraints));
+        report.max_residual = all.map(|c| c.residual).fold(0.0, f64::max);
     }
     if let Some(&(index, far)) = missed.first() {
         report.max_residual = report.max_residual.max(far);

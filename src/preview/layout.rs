@@ -27,6 +27,9 @@ pub struct LayoutScene<'a> {
     /// Every triangle of the written UV set (texture coordinates): the
     /// other charts, drawn in grey under the chart, each outlined.
     pub written: &'a [[DVec2; 3]],
+    /// The other charts' texel density over the chart's (texture length per
+    /// mesh length), when some were packed beside it.
+    pub rest_density: Option<f64>,
 }
 
 /// Margin around the square, pixels, for a picture of `size`.
@@ -128,14 +131,24 @@ pub fn draw_captioned(scene: &LayoutScene, size: u32, caption: &super::caption::
     let holes = scene.triangles.len() > scene.n_real_triangles;
     let arrows = scene.markers.iter().any(|m| m.arrow);
     let others = scene.written.len() > scene.n_real_triangles;
-    let more = match (arrows, others) {
-        (true, false) => "arrow: step 1 -> target",
-        (true, true) => "arrow: step 1 -> target   grey: other charts",
-        (false, true) => "grey: other charts",
-        (false, false) => "",
+    let grey = match scene.rest_density {
+        Some(d) => format!("grey: other charts, {}x texels", significant(d)),
+        None => "grey: other charts".to_string(),
     };
-    super::caption::draw_layout_legend(&mut image, margin(size), holes, more);
+    let more = match (arrows, others) {
+        (true, false) => "arrow: step 1 -> target".to_string(),
+        (true, true) => format!("arrow: step 1 -> target   {grey}"),
+        (false, true) => grey,
+        (false, false) => String::new(),
+    };
+    super::caption::draw_layout_legend(&mut image, margin(size), holes, &more);
     image
+}
+
+/// `x` with two significant digits (0.071, 1.3, 12).
+fn significant(x: f64) -> String {
+    let digits = (1.0 - x.abs().max(1e-9).log10().floor()).max(0.0) as usize;
+    format!("{x:.digits$}")
 }
 
 /// The texture (or a light grey square) under the layout.
