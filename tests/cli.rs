@@ -795,6 +795,9 @@ fn a_one_triangle_piece_holding_a_landmark_makes_the_solve_partial_not_an_error(
             report["message"].as_str().unwrap().contains("laid out without them"),
             "{report}"
         );
+        // The set-aside landmark's residual is where the file has it.
+        let residual = report["max_residual"].as_f64();
+        assert!(residual.is_some_and(|r| r.is_finite() && r > 0.1), "{report}");
         let o = uvpin(&["check", out.to_str().unwrap()]);
         assert_eq!(
             o.status.code(),
