@@ -133,7 +133,7 @@ pub fn count_orientations(layout: &[DVec2], triangles: &[[u32; 3]]) -> Orientati
         let o = orientation(a, b, c);
         if o < 0.0 {
             counts.flipped += 1;
-        } else if !(o > 0.0) {
+        } else if o == 0.0 || o.is_nan() {
             counts.zero_area += 1;
         }
     }
@@ -171,7 +171,7 @@ pub fn count_stored_orientations(uvs: &[[f32; 2]], triangles: &[[u32; 3]], axis:
         let o = sign * orientation(a, b, c);
         if o < 0.0 {
             counts.flipped += 1;
-        } else if !(o > 0.0) {
+        } else if o == 0.0 || o.is_nan() {
             counts.zero_area += 1;
         }
     }
