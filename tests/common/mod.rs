@@ -259,6 +259,23 @@ pub const TIME_LIMIT: std::time::Duration = std::time::Duration::from_secs(5);
 /// [`MEMORY_LIMIT`], killing it after twice [`TIME_LIMIT`]; asserts it
 /// finished within [`TIME_LIMIT`] and did not panic or abort.
 pub fn uvpin_limited(args: &[&str], cwd: &Path) -> Output {
+    match run_limited(args, cwd, 2 * TIME_LIMIT) {
+        Ok((o, elapsed)) => {
+            assert!(elapsed < TIME_LIMIT, "uvpin {args:?} took {elapsed:?}");
+            o
+        }
+        Err(why) => panic!("{why}"),
+    }
+}
+
+/// Runs the uvpin binary with `args` in `cwd` under an address-space limit of
+/// [`MEMORY_LIMIT`], killed after `kill_after`: its output and how long it
+/// took, or why it failed (hung, panicked, aborted).
+pub fn run_limited(
+    args: &[&str],
+    cwd: &Path,
+    kill_after: std::time::Duration,
+) -> Result<(Output, std::time::Duration), String> {
     use std::os::unix::process::CommandExt;
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_uvpin"));
     cmd.args(args)
@@ -282,22 +299,20 @@ pub fn uvpin_limited(args: &[&str], cwd: &Path) -> Output {
     let t0 = std::time::Instant::now();
     let mut child = cmd.spawn().expect("spawn uvpin");
     while child.try_wait().expect("wait").is_none() {
-        if t0.elapsed() > 2 * TIME_LIMIT {
+        if t0.elapsed() > kill_after {
             let _ = child.kill();
-            panic!("uvpin {args:?} hung (killed after {:?})", 2 * TIME_LIMIT);
+            let _ = child.wait();
+            return Err(format!("uvpin {args:?} hung (killed after {kill_after:?})"));
         }
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
     let o = child.wait_with_output().expect("output");
     let elapsed = t0.elapsed();
-    assert!(elapsed < TIME_LIMIT, "uvpin {args:?} took {elapsed:?}");
     let err = stderr(&o);
-    assert!(
-        o.status.code().is_some() && o.status.code() != Some(101) && !err.contains("panicked"),
-        "uvpin {args:?} panicked or was killed ({:?}): {err}",
-        o.status
-    );
-    o
+    if o.status.code().is_none() || o.status.code() == Some(101) || err.contains("panicked") {
+        return Err(format!("uvpin {args:?} panicked or was killed ({:?}): {err}", o.status));
+    }
+    Ok((o, elapsed))
 }
 
 /// Every file below `dir` with its bytes (to tell that nothing was written).
