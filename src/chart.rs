@@ -687,6 +687,19 @@ pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVe
         .collect()
 }
 
+/// Every part's triangles by their welded corners (sorted).
+fn by_corners(parts: &[Part]) -> std::collections::HashMap<[u32; 3], (u32, u32)> {
+    let mut out = std::collections::HashMap::new();
+    for (p, part) in parts.iter().enumerate() {
+        for (k, t) in part.chart.mesh.triangles.iter().enumerate() {
+            let mut c = t.map(|v| part.chart.welded_ids[v as usize]);
+            c.sort_unstable();
+            out.entry(c).or_insert((p as u32, k as u32));
+        }
+    }
+    out
+}
+
 fn assemble(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part], how: Storage) -> Vec<CornerUvs> {
     // An OBJ atlas's corners outside the parts keep their `vt` bits as read.
     let raw_vt = match &asset.container {
@@ -701,6 +714,26 @@ fn assemble(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part], how: Stora
         }
         for &(w, k) in part.duplicates {
             from[w as usize] = (p as u32, k);
+        }
+    }
+    // A triangle given twice takes its twin's corners: a duplicate whose
+    // recorded triangle is not over its corners (the part is a piece of the
+    // chart it was found in, numbered anew), or one no part names.
+    let mut twins = None;
+    for (w, f) in from.iter_mut().enumerate() {
+        let mut corners = welded.mesh.triangles[w];
+        corners.sort_unstable();
+        let over = |&(p, k): &(u32, u32)| {
+            let part = &parts[p as usize];
+            part.chart.mesh.triangles.get(k as usize).is_some_and(|t| {
+                let mut c = t.map(|v| part.chart.welded_ids[v as usize]);
+                c.sort_unstable();
+                c == corners
+            })
+        };
+        if f.0 == u32::MAX || !over(f) {
+            let twins = twins.get_or_insert_with(|| by_corners(parts));
+            *f = twins.get(&corners).copied().unwrap_or((u32::MAX, u32::MAX));
         }
     }
     let mut first_triangle = 0usize;
