@@ -43,6 +43,9 @@ pub struct ChartCheck {
     pub triangles: usize,
     pub flipped: usize,
     pub zero_area: usize,
+    /// Faces that name one vertex twice (no area in the mesh either): not
+    /// counted as flipped or zero-area.
+    pub repeated_corner: usize,
     /// Every triangle flipped: a mirrored chart (stretch measured on its mirror image).
     pub mirrored: bool,
     pub stretch_l2: f64,
@@ -211,8 +214,15 @@ fn layout_point(uv: [f32; 2], axis: VAxis) -> DVec2 {
 fn check_chart(welded: &WeldedMesh, c: u32, uv_of: &[[f32; 2]], axis: VAxis) -> ChartCheck {
     let chart = welded.chart(c);
     let uvs: Vec<[f32; 2]> = chart.welded_ids.iter().map(|&w| uv_of[w as usize]).collect();
-    let counts = guard::count_stored_orientations(&uvs, &chart.mesh.triangles, axis);
-    let mirrored = counts.flipped == chart.mesh.n_triangles();
+    // A face naming one vertex twice has no area in the mesh itself: no
+    // texture coordinates can give it one, so it is counted apart.
+    let (repeated, faces): (Vec<[u32; 3]>, Vec<[u32; 3]>) = chart
+        .mesh
+        .triangles
+        .iter()
+        .partition(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2]);
+    let counts = guard::count_stored_orientations(&uvs, &faces, axis);
+    let mirrored = counts.flipped > 0 && counts.flipped == faces.len();
     let layout: Vec<DVec2> = uvs
         .iter()
         .map(|&uv| {
@@ -221,9 +231,7 @@ fn check_chart(welded: &WeldedMesh, c: u32, uv_of: &[[f32; 2]], axis: VAxis) -> 
         })
         .collect();
     // A triangle with a NaN corner is counted above; the stretch is the rest's.
-    let placed: Vec<[u32; 3]> = chart
-        .mesh
-        .triangles
+    let placed: Vec<[u32; 3]> = faces
         .iter()
         .filter(|t| t.iter().all(|&v| layout[v as usize].is_finite()))
         .copied()
@@ -235,6 +243,7 @@ fn check_chart(welded: &WeldedMesh, c: u32, uv_of: &[[f32; 2]], axis: VAxis) -> 
         triangles: chart.mesh.n_triangles(),
         flipped: if mirrored { 0 } else { counts.flipped },
         zero_area: counts.zero_area,
+        repeated_corner: repeated.len(),
         mirrored,
         stretch_l2: s.l2,
         stretch_linf: s.linf,
