@@ -3,6 +3,7 @@
 //! a panic; refused inputs exit 1 with a clear message and change no file.
 
 mod common;
+use common::daemon::Daemon;
 use common::*;
 use serde_json::{Value, json};
 use std::path::Path;
@@ -874,86 +875,13 @@ fn red_png() -> Vec<u8> {
     out.into_inner()
 }
 
-/// The message of the last `event` line of a JSON log.
-fn last_message(lines: &[Value], event: &str) -> String {
-    let last = lines.iter().rev().find(|l| l["event"] == event);
-    last.and_then(|l| l["message"].as_str()).unwrap_or("").to_string()
-}
-
-/// A running `uvpin watch --log json` with its log lines gathered.
-struct Daemon {
-    child: std::process::Child,
-    lines: std::sync::Arc<std::sync::Mutex<Vec<Value>>>,
-}
-
-impl Daemon {
-    /// Starts `command` (uvpin, or a wrapper running it) with `watch --log
-    /// json --no-previews --debounce-ms 50` and the arguments after, in `cwd`.
-    fn spawn(mut command: Command, cwd: &Path) -> Daemon {
-        use std::io::{BufRead, BufReader};
-        let mut child = command
-            .args(["watch", "--no-previews", "--log", "json", "--debounce-ms", "50"])
-            .current_dir(cwd)
-            .stderr(std::process::Stdio::piped())
-            .stdout(std::process::Stdio::null())
-            .spawn()
-            .unwrap();
-        let lines = std::sync::Arc::new(std::sync::Mutex::new(Vec::<Value>::new()));
-        let sink = lines.clone();
-        let err = child.stderr.take().unwrap();
-        std::thread::spawn(move || {
-            for l in BufReader::new(err).lines().map_while(Result::ok) {
-                if let Ok(v) = serde_json::from_str(&l) {
-                    sink.lock().unwrap().push(v);
-                }
-            }
-        });
-        Daemon { child, lines }
-    }
-
-    fn count(&self, event: &str) -> usize {
-        self.lines
-            .lock()
-            .unwrap()
-            .iter()
-            .filter(|l| l["event"] == event)
-            .count()
-    }
-
-    /// Waits until `n` lines of `event` were logged (a minute at most: a
-    /// deadline for a hung daemon, not a timing).
-    fn wait(&self, event: &str, n: usize) {
-        let t0 = std::time::Instant::now();
-        while self.count(event) < n {
-            assert!(
-                t0.elapsed().as_secs() < 60,
-                "waiting for {n} {event}: {:?}",
-                self.lines.lock().unwrap()
-            );
-            std::thread::sleep(std::time::Duration::from_millis(20));
-        }
-    }
-
-    fn last_message(&self, event: &str) -> String {
-        last_message(&self.lines.lock().unwrap(), event)
-    }
-
-    fn alive(&mut self) -> bool {
-        self.child.try_wait().unwrap().is_none()
-    }
-
-    /// Stops it with SIGTERM: its exit code.
-    fn stop(mut self) -> Option<i32> {
-        // SAFETY: signalling our own child.
-        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
-        self.child.wait().unwrap().code()
-    }
-}
+/// What the daemon tests add to `uvpin watch`.
+const DAEMON_ARGS: &[&str] = &["--no-previews"];
 
 fn daemon_survives_hostile_input_and_recovers() {
     let tmp = watched_project("h-daemon");
-    let mut daemon = Daemon::spawn(Command::new(env!("CARGO_BIN_EXE_uvpin")), &tmp.0);
-    daemon.wait("solved", 1);
+    let mut daemon = Daemon::watch(&tmp.0, DAEMON_ARGS);
+    daemon.wait_count("solved", "grid.uvpin.ron", 1);
     let good = std::fs::read(tmp.path("out/grid.glb")).unwrap();
     let (json, bin) = grid_document();
     let hostile: Vec<Save> = vec![
@@ -975,7 +903,7 @@ fn daemon_survives_hostile_input_and_recovers() {
     ];
     for (k, make) in hostile.iter().enumerate() {
         make(&tmp.path("assets/grid.glb"));
-        daemon.wait("error", k + 1);
+        daemon.wait_count("error", "grid.uvpin.ron", k + 1);
         if k == 3 {
             // A FIFO where the asset was: unreadable, not "removed".
             let message = daemon.last_message("error");
@@ -996,8 +924,8 @@ fn daemon_survives_hostile_input_and_recovers() {
         std::thread::sleep(std::time::Duration::from_millis(300));
     }
     // A burst of truncate-and-write saves gives no error line.
-    let errors = daemon.count("error");
-    let solved = daemon.count("solved");
+    let errors = daemon.count("error", "grid.uvpin.ron");
+    let solved = daemon.count("solved", "grid.uvpin.ron");
     let text = std::fs::read_to_string(tmp.path("assets/grid.uvpin.ron")).unwrap();
     for k in 0..50 {
         let t = text.replace("0.45", &format!("{:.3}", 0.40 + 0.001 * k as f64));
@@ -1007,19 +935,19 @@ fn daemon_survives_hostile_input_and_recovers() {
         drop(f);
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
-    daemon.wait("solved", solved + 1);
+    daemon.wait_count("solved", "grid.uvpin.ron", solved + 1);
     std::thread::sleep(std::time::Duration::from_millis(500));
-    assert_eq!(daemon.count("error"), errors, "{:?}", daemon.lines.lock().unwrap());
+    assert_eq!(daemon.count("error", "grid.uvpin.ron"), errors, "{}", daemon.dump());
     // Deleting the asset and writing the same bytes back solves nothing.
-    let solving = daemon.count("solving");
+    let solving = daemon.count("solving", "grid.uvpin.ron");
     let bytes = std::fs::read(tmp.path("assets/grid.glb")).unwrap();
     std::fs::remove_file(tmp.path("assets/grid.glb")).unwrap();
     std::thread::sleep(std::time::Duration::from_millis(400));
     std::fs::write(tmp.path("assets/grid.glb"), &bytes).unwrap();
     std::thread::sleep(std::time::Duration::from_millis(600));
-    assert_eq!(daemon.count("solving"), solving, "{:?}", daemon.lines.lock().unwrap());
+    assert_eq!(daemon.count("solving", "grid.uvpin.ron"), solving, "{}", daemon.dump());
     assert!(daemon.alive());
-    assert_eq!(daemon.stop(), Some(0));
+    assert_eq!(daemon.terminate().code(), Some(0));
 }
 
 /// As an unprivileged user (run as root: under `setpriv` as nobody), an
@@ -1050,12 +978,12 @@ fn an_unprivileged_daemon_names_unreadable_assets() {
     command
         .args(["--reuid=65534", "--regid=65534", "--clear-groups"])
         .arg(&bin);
-    let mut daemon = Daemon::spawn(command, &tmp.0);
-    daemon.wait("solved", 1);
+    let mut daemon = Daemon::watch_via(command, &tmp.0, DAEMON_ARGS);
+    daemon.wait_count("solved", "grid.uvpin.ron", 1);
     let good = std::fs::read(tmp.path("out/grid.glb")).unwrap();
     let asset = tmp.path("assets/grid.glb");
     open_up(&asset, 0o000);
-    daemon.wait("error", 1);
+    daemon.wait_count("error", "grid.uvpin.ron", 1);
     let message = daemon.last_message("error");
     assert!(
         message.contains("cannot be read") && message.contains("ermission denied") && !message.contains("removed"),
@@ -1063,10 +991,10 @@ fn an_unprivileged_daemon_names_unreadable_assets() {
     );
     assert_eq!(message.matches("output is kept").count(), 1, "said once: {message}");
     open_up(&asset, 0o644);
-    daemon.wait("unchanged", 1);
+    daemon.wait_count("unchanged", "grid.uvpin.ron", 1);
     std::fs::remove_file(&asset).unwrap();
     mkfifo(&asset);
-    daemon.wait("error", 2);
+    daemon.wait_count("error", "grid.uvpin.ron", 2);
     let message = daemon.last_message("error");
     assert!(message.contains("a FIFO") && !message.contains("removed"), "{message}");
     assert_eq!(message.matches("output is kept").count(), 1, "said once: {message}");
@@ -1076,7 +1004,7 @@ fn an_unprivileged_daemon_names_unreadable_assets() {
         good,
         "the output is kept"
     );
-    assert_eq!(daemon.stop(), Some(0));
+    assert_eq!(daemon.terminate().code(), Some(0));
 }
 
 fn a_killed_daemons_temporaries_are_removed_at_start() {

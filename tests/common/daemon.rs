@@ -37,8 +37,32 @@ impl Daemon {
         Self::spawn(cwd, command, args, extra, &[])
     }
 
+    /// `uvpin watch ARGS --log json` started by `program` (a wrapper such
+    /// as `setpriv … uvpin`, its last argument the binary) in `cwd`.
+    pub fn watch_via(mut program: Command, cwd: &Path, args: &[&str]) -> Daemon {
+        Self::spawn_from(&mut program, cwd, "watch", args, &[], &[])
+    }
+
     fn spawn(cwd: &Path, command: &str, args: &[&str], extra: &[&str], env: &[(&str, &str)]) -> Daemon {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_uvpin"))
+        Self::spawn_from(
+            &mut Command::new(env!("CARGO_BIN_EXE_uvpin")),
+            cwd,
+            command,
+            args,
+            extra,
+            env,
+        )
+    }
+
+    fn spawn_from(
+        program: &mut Command,
+        cwd: &Path,
+        command: &str,
+        args: &[&str],
+        extra: &[&str],
+        env: &[(&str, &str)],
+    ) -> Daemon {
+        let mut child = program
             .envs(env.iter().copied())
             .arg(command)
             .args(args)
@@ -63,6 +87,18 @@ impl Daemon {
 
     pub fn log(&self) -> Vec<Value> {
         self.lines.lock().unwrap().clone()
+    }
+
+    /// The message of the last `event` line.
+    pub fn last_message(&self, event: &str) -> String {
+        let log = self.log();
+        let last = log.iter().rev().find(|l| l["event"] == event);
+        last.and_then(|l| l["message"].as_str()).unwrap_or("").to_string()
+    }
+
+    /// Whether it is still running.
+    pub fn alive(&mut self) -> bool {
+        self.child.try_wait().expect("wait").is_none()
     }
 
     /// Number of `event` lines about a file whose name ends with `file`.
