@@ -298,15 +298,45 @@ pub fn run_limited(
     }
     let t0 = std::time::Instant::now();
     let mut child = cmd.spawn().expect("spawn uvpin");
-    while child.try_wait().expect("wait").is_none() {
+    // Both pipes are drained while it runs: a long report must not fill a
+    // pipe and stall the child (which would pass for a hang).
+    let drain = |pipe: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_end(&mut bytes);
+            }
+            bytes
+        })
+    };
+    let out = drain(
+        child
+            .stdout
+            .take()
+            .map(|p| Box::new(p) as Box<dyn std::io::Read + Send>),
+    );
+    let err = drain(
+        child
+            .stderr
+            .take()
+            .map(|p| Box::new(p) as Box<dyn std::io::Read + Send>),
+    );
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            break status;
+        }
         if t0.elapsed() > kill_after {
             let _ = child.kill();
             let _ = child.wait();
             return Err(format!("uvpin {args:?} hung (killed after {kill_after:?})"));
         }
         std::thread::sleep(std::time::Duration::from_millis(10));
-    }
-    let o = child.wait_with_output().expect("output");
+    };
+    let o = Output {
+        status,
+        stdout: out.join().expect("stdout"),
+        stderr: err.join().expect("stderr"),
+    };
     let elapsed = t0.elapsed();
     let err = stderr(&o);
     if o.status.code().is_none() || o.status.code() == Some(101) || err.contains("panicked") {
