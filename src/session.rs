@@ -493,20 +493,55 @@ impl ChartSession {
         report
     }
 
-    /// The other charts and pieces holding landmarks solved after this
-    /// chart ([`Self::solve_secondary`]), their reports added to `report`.
-    fn solve_others(&mut self, solver: &ChartSolver, report: &mut Report) {
-        if self.prepared.secondary.is_empty() && self.prepared.opening.pieces.is_empty() {
+    /// A constraint of the file that no chart's report names (its vertex
+    /// set apart by a repair, say) is reported unreached, its residual
+    /// measured where it is written: "k of n" counts every constraint, and
+    /// exit 0 means every one is on target.
+    fn account_for_every_constraint(&self, report: &mut Report) {
+        // A chart solved after another (its pick replaces charts) reports
+        // only its own constraints; the first one accounts for them all.
+        if !self.pick.replaced.is_empty() {
             return;
         }
-        let Secondaries {
-            solved,
-            reports,
-            unsolved,
-        } = self.solve_secondary(solver);
-        report.add_charts(reports);
-        self.secondary = Arc::new(solved);
-        self.set_aside(unsolved, report);
+        let resolved = self.source.resolve(&self.asset.primitives, &self.prepared.welded);
+        let named = |i: usize| {
+            let charts = report.charts.iter().flat_map(|r| &r.constraints);
+            report.constraints.iter().chain(charts).any(|c| c.index == i)
+        };
+        let missing: Vec<report::ConstraintReport> = resolved
+            .iter()
+            .flat_map(|(all, _)| all)
+            .filter(|c| !named(c.index))
+            .map(|c| report::ConstraintReport::of(c, DVec2::NAN, DVec2::NAN, f64::INFINITY, false))
+            .collect();
+        let Some(first) = missing.first().map(|c| c.index) else {
+            return;
+        };
+        report.constraints.extend(missing);
+        report.max_residual = f64::INFINITY;
+        if report.status == report::Status::Reached {
+            report.status = report::Status::Partial;
+            report.message = Some(format!(
+                "constraints[{first}] is on a part of the mesh that was laid out without it (set apart by a repair)"
+            ));
+        }
+    }
+
+    /// The other charts and pieces holding landmarks solved after this
+    /// chart ([`Self::solve_secondary`]), their reports added to `report`;
+    /// then every constraint of the file accounted for.
+    fn solve_others(&mut self, solver: &ChartSolver, report: &mut Report) {
+        if !(self.prepared.secondary.is_empty() && self.prepared.opening.pieces.is_empty()) {
+            let Secondaries {
+                solved,
+                reports,
+                unsolved,
+            } = self.solve_secondary(solver);
+            report.add_charts(reports);
+            self.secondary = Arc::new(solved);
+            self.set_aside(unsolved, report);
+        }
+        self.account_for_every_constraint(report);
     }
 
     /// Pieces holding landmarks that could not be solved are laid out with

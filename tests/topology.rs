@@ -147,6 +147,10 @@ fn make_case(seed: u64, dir: &Path) {
     write_constraints(&dir.join("m.uvpin.ron"), Path::new("m.obj"), &marks, free);
 }
 
+/// Seeds that once failed (a panic, a zero-area face, a landmark left out
+/// of the report with exit 0), run first in every run.
+const FOUND: [u64; 4] = [49, 57, 164, 1519];
+
 /// A run longer than this is a hang (a small mesh settles in well under a
 /// second; the bound is for a loaded machine).
 const HANG: Duration = Duration::from_secs(60);
@@ -187,7 +191,7 @@ fn random_topology_is_solved_or_refused_for_a_reason() {
     let tmp = TempDir::new("topology");
     let t0 = Instant::now();
     let (mut ran, mut slow) = (0, Vec::new());
-    for seed in first..first + cases {
+    for seed in FOUND.iter().copied().chain(first..first + cases) {
         if t0.elapsed() > budget {
             eprintln!("topology fuzz: stopped after {ran} of {cases} cases ({budget:?})");
             break;
