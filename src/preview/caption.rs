@@ -79,7 +79,9 @@ fn shorten(line: &str, fits: usize) -> String {
 /// The layout picture's legend, in the band that ends `margin` above the
 /// bottom: the stretch ramp with its values, then the marker key and
 /// `more` (what the arrows or the grey charts are).
-pub fn draw_layout_legend(image: &mut RgbaImage, margin: f32, hole_fill: bool, more: &str) {
+/// `density`: the other charts' texel density over the chart's, said on
+/// the first line.
+pub fn draw_layout_legend(image: &mut RgbaImage, margin: f32, hole_fill: bool, density: Option<&str>, more: &str) {
     let scale = text::scale_for(image.width());
     let line = text::line_height(scale) as i64;
     let glyph = i64::from(text::GLYPH * scale);
@@ -100,7 +102,11 @@ pub fn draw_layout_legend(image: &mut RgbaImage, margin: f32, hole_fill: bool, m
     if hole_fill {
         x += glyph;
         text::fill_rect(image, x, y0, (glyph) as u32, (glyph) as u32, [110, 110, 120], 140);
-        text::draw(image, x + glyph + glyph / 2, y0, "hole fill", Ink::dark(scale));
+        x += glyph + glyph / 2;
+        x += i64::from(text::draw(image, x, y0, "hole fill", Ink::dark(scale)));
+    }
+    if let Some(d) = density {
+        text::draw(image, x + 2 * glyph, y0, d, Ink::dark(scale));
     }
     draw_marker_key(image, margin as i64, y0 + line, scale, more);
 }

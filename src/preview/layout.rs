@@ -131,17 +131,14 @@ pub fn draw_captioned(scene: &LayoutScene, size: u32, caption: &super::caption::
     let holes = scene.triangles.len() > scene.n_real_triangles;
     let arrows = scene.markers.iter().any(|m| m.arrow);
     let others = scene.written.len() > scene.n_real_triangles;
-    let grey = match scene.rest_density {
-        Some(d) => format!("grey: other charts, {}x texels", significant(d)),
-        None => "grey: other charts".to_string(),
-    };
     let more = match (arrows, others) {
-        (true, false) => "arrow: step 1 -> target".to_string(),
-        (true, true) => format!("arrow: step 1 -> target   {grey}"),
-        (false, true) => grey,
-        (false, false) => String::new(),
+        (true, false) => "arrow: step 1 -> target",
+        (true, true) => "arrow: step 1 -> target   grey: other charts",
+        (false, true) => "grey: other charts",
+        (false, false) => "",
     };
-    super::caption::draw_layout_legend(&mut image, margin(size), holes, &more);
+    let density = scene.rest_density.map(|d| format!("grey: {}x texels", significant(d)));
+    super::caption::draw_layout_legend(&mut image, margin(size), holes, density.as_deref(), more);
     image
 }
 
