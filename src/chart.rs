@@ -687,17 +687,53 @@ pub fn assemble_uvs(asset: &SourceAsset, prepared: &PreparedChart, layout: &[DVe
         .collect()
 }
 
+/// The welded vertices of triangle `k` of `part`, sorted.
+fn welded_corners(part: &Part, k: usize) -> [u32; 3] {
+    let mut c = part.chart.mesh.triangles[k].map(|v| part.chart.welded_ids[v as usize]);
+    c.sort_unstable();
+    c
+}
+
 /// Every part's triangles by their welded corners (sorted).
 fn by_corners(parts: &[Part]) -> std::collections::HashMap<[u32; 3], (u32, u32)> {
     let mut out = std::collections::HashMap::new();
     for (p, part) in parts.iter().enumerate() {
-        for (k, t) in part.chart.mesh.triangles.iter().enumerate() {
-            let mut c = t.map(|v| part.chart.welded_ids[v as usize]);
-            c.sort_unstable();
-            out.entry(c).or_insert((p as u32, k as u32));
+        for k in 0..part.chart.mesh.n_triangles() {
+            out.entry(welded_corners(part, k)).or_insert((p as u32, k as u32));
         }
     }
     out
+}
+
+/// A triangle given twice takes its twin's corners in `from` (welded
+/// triangle → part and triangle): a duplicate whose recorded triangle is
+/// not over its corners (the part is a piece of the chart it was found in,
+/// numbered anew), or one no part names. The parts' own triangles are over
+/// their corners by construction and are not looked at.
+fn give_twins(welded: &WeldedMesh, parts: &[Part], from: &mut [(u32, u32)]) {
+    let corners = |w: usize| {
+        let mut c = welded.mesh.triangles[w];
+        c.sort_unstable();
+        c
+    };
+    let over = |w: usize, (p, k): (u32, u32)| {
+        let part = parts.get(p as usize);
+        part.is_some_and(|part| {
+            (k as usize) < part.chart.mesh.n_triangles() && welded_corners(part, k as usize) == corners(w)
+        })
+    };
+    let duplicates = parts
+        .iter()
+        .flat_map(|part| part.duplicates.iter().map(|&(w, _)| w as usize));
+    let unnamed = (0..from.len()).filter(|&w| from[w].0 == u32::MAX);
+    let recheck: Vec<usize> = duplicates.chain(unnamed).filter(|&w| !over(w, from[w])).collect();
+    if recheck.is_empty() {
+        return;
+    }
+    let twins = by_corners(parts);
+    for w in recheck {
+        from[w] = twins.get(&corners(w)).copied().unwrap_or((u32::MAX, u32::MAX));
+    }
 }
 
 fn assemble(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part], how: Storage) -> Vec<CornerUvs> {
@@ -716,26 +752,7 @@ fn assemble(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part], how: Stora
             from[w as usize] = (p as u32, k);
         }
     }
-    // A triangle given twice takes its twin's corners: a duplicate whose
-    // recorded triangle is not over its corners (the part is a piece of the
-    // chart it was found in, numbered anew), or one no part names.
-    let mut twins = None;
-    for (w, f) in from.iter_mut().enumerate() {
-        let mut corners = welded.mesh.triangles[w];
-        corners.sort_unstable();
-        let over = |&(p, k): &(u32, u32)| {
-            let part = &parts[p as usize];
-            part.chart.mesh.triangles.get(k as usize).is_some_and(|t| {
-                let mut c = t.map(|v| part.chart.welded_ids[v as usize]);
-                c.sort_unstable();
-                c == corners
-            })
-        };
-        if f.0 == u32::MAX || !over(f) {
-            let twins = twins.get_or_insert_with(|| by_corners(parts));
-            *f = twins.get(&corners).copied().unwrap_or((u32::MAX, u32::MAX));
-        }
-    }
+    give_twins(welded, parts, &mut from);
     let mut first_triangle = 0usize;
     asset
         .primitives

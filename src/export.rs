@@ -232,12 +232,12 @@ fn every_copy_on_target(
         }
     }
     let mut missed = Vec::new();
-    let mut set_aside = Vec::new();
+    let mut set_aside = false;
     let lists = std::iter::once(&mut report.constraints).chain(report.charts.iter_mut().map(|r| &mut r.constraints));
     for list in lists {
         for c in list.iter_mut().filter(|c| !c.reached && !c.residual.is_finite()) {
             c.residual = farthest[&c.welded].0;
-            set_aside.push(c.residual);
+            set_aside = true;
         }
         for c in list.iter_mut().filter(|c| c.reached) {
             let (far, _) = farthest[&c.welded];
@@ -247,7 +247,7 @@ fn every_copy_on_target(
             }
         }
     }
-    if !set_aside.is_empty() && report.max_residual.is_infinite() {
+    if set_aside && report.max_residual.is_infinite() {
         let all = report
             .constraints
             .iter()

@@ -60,6 +60,13 @@ pub fn sander_stretch(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 
     }
 }
 
+/// Texture length per mesh length of `layout`: the square root of its
+/// area over the 3D area (the texel density of a chart, up to the texture's size).
+pub fn texture_per_mesh_length(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
+    let (area_3d, area_2d) = total_areas(positions, layout, triangles);
+    (area_2d / area_3d).sqrt()
+}
+
 /// Total 3D area and signed layout area of `triangles`.
 fn total_areas(positions: &[DVec3], layout: &[DVec2], triangles: &[[u32; 3]]) -> (f64, f64) {
     let (mut area_3d, mut area_2d) = (0.0, 0.0);

@@ -503,15 +503,34 @@ impl ChartSession {
         if !self.pick.replaced.is_empty() {
             return;
         }
+        let charts = report.charts.iter().flat_map(|r| &r.constraints);
+        let named: std::collections::HashSet<usize> =
+            report.constraints.iter().chain(charts).map(|c| c.index).collect();
+        self.report_unreached(
+            report,
+            |c| !named.contains(&c.index),
+            |first| {
+                format!(
+                    "constraints[{first}] is on a part of the mesh that was laid out without it (set apart by a repair)"
+                )
+            },
+        );
+    }
+
+    /// The file's constraints that `unreached` picks, reported unreached
+    /// (their residuals are measured where they are written); a reached
+    /// report becomes partial, with `message` of the first one's index.
+    fn report_unreached(
+        &self,
+        report: &mut Report,
+        unreached: impl Fn(&crate::pins::ResolvedConstraint) -> bool,
+        message: impl FnOnce(usize) -> String,
+    ) {
         let resolved = self.source.resolve(&self.asset.primitives, &self.prepared.welded);
-        let named = |i: usize| {
-            let charts = report.charts.iter().flat_map(|r| &r.constraints);
-            report.constraints.iter().chain(charts).any(|c| c.index == i)
-        };
         let missing: Vec<report::ConstraintReport> = resolved
             .iter()
             .flat_map(|(all, _)| all)
-            .filter(|c| !named(c.index))
+            .filter(|c| unreached(c))
             .map(|c| report::ConstraintReport::of(c, DVec2::NAN, DVec2::NAN, f64::INFINITY, false))
             .collect();
         let Some(first) = missing.first().map(|c| c.index) else {
@@ -521,9 +540,7 @@ impl ChartSession {
         report.max_residual = f64::INFINITY;
         if report.status == report::Status::Reached {
             report.status = report::Status::Partial;
-            report.message = Some(format!(
-                "constraints[{first}] is on a part of the mesh that was laid out without it (set apart by a repair)"
-            ));
+            report.message = Some(message(first));
         }
     }
 
@@ -555,18 +572,11 @@ impl ChartSession {
             "{} piece(s) holding landmarks laid out without them: {why}",
             unsolved.len()
         );
-        let resolved = self.source.resolve(&self.asset.primitives, &self.prepared.welded);
-        for c in resolved.iter().flat_map(|(all, _)| all) {
-            if unsolved.iter().any(|(piece, _)| piece.local_of(c.welded).is_some()) {
-                let unreached = report::ConstraintReport::of(c, DVec2::NAN, DVec2::NAN, f64::INFINITY, false);
-                report.constraints.push(unreached);
-            }
-        }
-        report.max_residual = f64::INFINITY;
-        if report.status == report::Status::Reached {
-            report.status = report::Status::Partial;
-            report.message = Some(message);
-        }
+        self.report_unreached(
+            report,
+            |c| unsolved.iter().any(|(piece, _)| piece.local_of(c.welded).is_some()),
+            |_| message,
+        );
         let mut opening = (*self.prepared.opening).clone();
         opening.rest.extend(unsolved.into_iter().map(|(piece, _)| piece));
         self.prepared.opening = Arc::new(opening);

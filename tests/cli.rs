@@ -696,7 +696,7 @@ fn grid_and_sliver(tmp: &TempDir) -> std::path::PathBuf {
     let sliver = [(0.0, -20.0, 1.0), (10.0, -20.0, 1.0), (5.0, -20.0, 1.0000001)];
     mesh.positions.extend(sliver.map(|(x, y, z)| glam::DVec3::new(x, y, z)));
     mesh.triangles.push([base, base + 1, base + 2]);
-    write_obj(&tmp.path("g.obj"), &mesh.positions, &mesh.triangles);
+    std::fs::write(tmp.path("g.obj"), obj_text(&mesh)).unwrap();
     tmp.path("g.obj")
 }
 
@@ -736,18 +736,6 @@ fn a_quiet_refusal_still_says_why() {
     assert!(!out.exists());
 }
 
-/// Writes `mesh` as an OBJ at `path`.
-fn write_obj(path: &std::path::Path, positions: &[glam::DVec3], triangles: &[[u32; 3]]) {
-    let mut text = String::new();
-    for p in positions {
-        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
-    }
-    for t in triangles {
-        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
-    }
-    std::fs::write(path, text).unwrap();
-}
-
 #[test]
 fn a_closed_mesh_with_a_three_vertex_hole_is_cut_like_a_closed_one() {
     // One triangle missing: the one boundary loop has three vertices, too
@@ -755,7 +743,7 @@ fn a_closed_mesh_with_a_three_vertex_hole_is_cut_like_a_closed_one() {
     let tmp = TempDir::new("three-vertex-hole");
     let mut sphere = uvpin::testing::uv_sphere(24, 36);
     sphere.triangles.remove(400);
-    write_obj(&tmp.path("holed.obj"), &sphere.positions, &sphere.triangles);
+    std::fs::write(tmp.path("holed.obj"), obj_text(&sphere)).unwrap();
     let ron = tmp.path("holed.uvpin.ron");
     write_constraints(
         &ron,
@@ -782,7 +770,7 @@ fn a_one_triangle_piece_holding_a_landmark_makes_the_solve_partial_not_an_error(
         glam::DVec3::new(1.0, -18.0, 0.0),
     ]);
     grid.triangles.push([base, base + 1, base + 2]);
-    write_obj(&tmp.path("soup.obj"), &grid.positions, &grid.triangles);
+    std::fs::write(tmp.path("soup.obj"), obj_text(&grid)).unwrap();
     for extra in ["", "    boundary: Free,\n"] {
         let ron = tmp.path("soup.uvpin.ron");
         let landmarks = [(44, 0.45, 0.5), (base, 0.1, 0.1)];

@@ -553,14 +553,7 @@ fn far_out_obj(seed: u64) -> String {
     let mut mesh = grid_mesh(8, 8);
     let v = 9 + rng.below(40);
     mesh.positions[v].z += 10f64.powf(rng.range(1.0, 4.0));
-    let mut text = String::new();
-    for p in &mesh.positions {
-        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
-    }
-    for t in &mesh.triangles {
-        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
-    }
-    text
+    obj_text(&mesh)
 }
 
 fn obj_outputs_are_fold_free_as_stored() {

@@ -114,17 +114,6 @@ fn mutate(mesh: &mut TriMesh, rng: &mut Rng) {
     }
 }
 
-fn write_obj(path: &Path, mesh: &TriMesh) {
-    let mut text = String::new();
-    for p in &mesh.positions {
-        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
-    }
-    for t in &mesh.triangles {
-        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
-    }
-    std::fs::write(path, text).unwrap();
-}
-
 /// The case of `seed` written into `dir`: the mesh and its constraint file.
 fn make_case(seed: u64, dir: &Path) {
     let mut rng = Rng::new(seed);
@@ -132,7 +121,7 @@ fn make_case(seed: u64, dir: &Path) {
     for _ in 0..rng.below(7) {
         mutate(&mut mesh, &mut rng);
     }
-    write_obj(&dir.join("m.obj"), &mesh);
+    std::fs::write(dir.join("m.obj"), obj_text(&mesh)).unwrap();
     let mut used: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     used.sort_unstable();
     used.dedup();

@@ -157,17 +157,23 @@ pub fn open(
 /// cone points. A flat disk's boundary is 3.5 times the square root of its
 /// area, a hemisphere's 2.5.
 pub fn nearly_closed(mesh: &TriMesh, topology: &Topology) -> bool {
-    let boundary: f64 = topology.loop_lengths.iter().sum();
-    boundary < NEARLY_CLOSED * mesh.area().sqrt()
+    short_for_its_area(mesh, topology.loop_lengths.iter().sum())
 }
 
-/// [`nearly_closed`] for any surface: its boundary edges' total length
-/// against its area.
-fn short_boundary(mesh: &TriMesh) -> bool {
-    let boundary: f64 = crate::injective::boundary_edges(&mesh.triangles)
-        .iter()
-        .map(|e| mesh.positions[e[0] as usize].distance(mesh.positions[e[1] as usize]))
+/// [`nearly_closed`] for any surface (a disk or not), from its edge graph.
+fn nearly_closed_surface(mesh: &TriMesh, graph: &EdgeGraph) -> bool {
+    let boundary: f64 = (0..graph.edges.len() as u32)
+        .filter(|&e| graph.is_boundary(e))
+        .map(|e| {
+            let [a, b] = graph.edges[e as usize];
+            mesh.positions[a as usize].distance(mesh.positions[b as usize])
+        })
         .sum();
+    short_for_its_area(mesh, boundary)
+}
+
+/// Whether a boundary of total length `boundary` is short for `mesh`'s area.
+fn short_for_its_area(mesh: &TriMesh, boundary: f64) -> bool {
     boundary < NEARLY_CLOSED * mesh.area().sqrt()
 }
 
@@ -244,7 +250,7 @@ fn plan(mesh: &TriMesh, graph: &EdgeGraph, landmarks: &[u32], unseamable: &[[u32
     let closed = boundary.is_empty();
     // A surface open only at small holes (a disk or not, a hole of three
     // vertices among them) is as good as closed.
-    let spread = rules.spread_disks || short_boundary(mesh);
+    let spread = rules.spread_disks || nearly_closed_surface(mesh, graph);
     if !closed && !spread {
         // An open surface with room to lie flat needs its handles cut, nothing more.
         let edges = handle_edges.iter().map(|&e| graph.edges[e as usize]).collect();

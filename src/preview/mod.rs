@@ -71,18 +71,6 @@ pub struct Marker {
 ///
 /// # Errors
 /// A picture that cannot be encoded (message).
-/// Texture length per mesh length of `layout` (layout over 3D area, square-rooted).
-fn own_scale(positions: &[glam::DVec3], layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
-    let (mut flat, mut solid) = (0.0, 0.0);
-    for t in triangles {
-        let [a, b, c] = t.map(|v| positions[v as usize]);
-        solid += 0.5 * (b - a).cross(c - a).length();
-        let [p, q, r] = t.map(|v| layout[v as usize]);
-        flat += 0.5 * crate::guard::orientation(p, q, r);
-    }
-    (flat / solid).sqrt()
-}
-
 pub fn render_chart(
     asset: &crate::io::SourceAsset,
     prepared: &crate::chart::PreparedChart,
@@ -135,7 +123,7 @@ pub fn render_chart(
             rest_density: report
                 .rest
                 .as_ref()
-                .map(|r| r.scale / own_scale(real_positions, &layout[..filled.n_real_vertices], real_triangles))
+                .map(|r| r.scale / crate::metrics::texture_per_mesh_length(real_positions, layout, real_triangles))
                 .filter(|d| d.is_finite() && *d > 0.0),
         };
         let image = layout::draw_captioned(&scene, size, &caption);

@@ -171,6 +171,18 @@ pub fn write_constraints(path: &Path, asset: &Path, constraints: &[(u32, f64, f6
 }
 
 /// Writes a mesh as a fresh .glb (positions and indices only).
+/// `mesh` as OBJ text (`v` and `f` lines).
+pub fn obj_text(mesh: &uvpin::mesh::TriMesh) -> String {
+    let mut text = String::new();
+    for p in &mesh.positions {
+        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+    }
+    for t in &mesh.triangles {
+        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    text
+}
+
 pub fn write_mesh_glb(path: &Path, mesh: &uvpin::mesh::TriMesh) {
     let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.as_vec3().to_array()).collect();
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
