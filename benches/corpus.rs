@@ -6,6 +6,7 @@
 //! `uvpin check` reads the written file).
 //!
 //! `cargo bench --bench corpus -- DIR [FILTER]` (or `UVPIN_CORPUS=DIR`);
+//! `UVPIN_CORPUS_KEEP=1` keeps the cases' files (constraints and outputs);
 //! the folder is not in the repository (public test-model collections, such
 //! as the ones geometry libraries keep for their tests, serve).
 //!
@@ -239,7 +240,8 @@ fn reason(stderr: &str) -> String {
             }
         })
         .collect();
-    words.join(" ").chars().take(150).collect()
+    // Backticks would break the table's code span.
+    words.join(" ").replace('`', "'").chars().take(150).collect()
 }
 
 /// Exit 0 checked against the written file: every landmark on target and
@@ -400,13 +402,10 @@ fn main() {
     if !notable.is_empty() {
         body += &format!("\nCrashes and false exits:\n\n{notable}");
     }
-    if notable.is_empty() {
+    if notable.is_empty() && std::env::var_os("UVPIN_CORPUS_KEEP").is_none() {
         let _ = std::fs::remove_dir_all(&work);
     } else {
-        eprintln!(
-            "the cases that crashed or exited falsely are kept in {}",
-            work.display()
-        );
+        eprintln!("the cases' files are kept in {}", work.display());
     }
     println!("\n{body}");
     if filter.is_none() && std::env::var_os("UVPIN_BIN").is_none() {

@@ -96,10 +96,10 @@ fn run(case: &Case, runs: usize) -> Figures {
         let mut session = ChartSession::open(source.clone(), case.asset.clone(), 0.0).expect("prepared");
         cut.push(t0.elapsed().as_secs_f64() * 1e3);
         let t1 = Instant::now();
-        let solved = session.solve(&options).expect("solved");
+        let solved = uvpin::assembly::solve(&mut session, &options).expect("solved");
         solve.push(t1.elapsed().as_secs_f64() * 1e3);
         let t2 = Instant::now();
-        let (report, uvs) = session.final_uvs(&solved.solver, &solved.report);
+        let (report, uvs) = uvpin::assembly::final_uvs(&session, &solved);
         pack.push(t2.elapsed().as_secs_f64() * 1e3);
         assert!(uvs.is_some(), "{}: {:?}", case.name, report.message);
         last = Some((session, report));

@@ -14,10 +14,11 @@ use glam::DVec2;
 use std::fmt::Write;
 use std::path::Path;
 use std::sync::Arc;
+use uvpin::assembly::Solution;
 use uvpin::constraints::ConstraintSource;
 use uvpin::options::SolverOptions;
 use uvpin::pins::BoundaryChoice;
-use uvpin::session::{ChartSession, Solution};
+use uvpin::session::ChartSession;
 
 const SIZE: f64 = 460.0;
 const MARGIN: f64 = 30.0;
@@ -114,7 +115,7 @@ fn solve(ron: &Path, boundary: Option<BoundaryChoice>) -> (ChartSession, Solutio
     let options = loaded.solver;
     let source = ConstraintSource::File(Arc::new(loaded));
     let mut session = ChartSession::open(source, Arc::new(asset), 0.0).expect("open");
-    let solved = session.solve(&options).expect("solve");
+    let solved = uvpin::assembly::solve(&mut session, &options).expect("solve");
     (session, solved)
 }
 

@@ -28,7 +28,7 @@ fn main() {
     let background = source.image_path();
     let asset = Arc::new(asset);
     let mut session = uvpin::session::ChartSession::open(source, asset.clone(), 0.0).expect("open");
-    let solved = session.solve(&options).expect("solve");
+    let solved = uvpin::assembly::solve(&mut session, &options).expect("solve");
     let report = &solved.report;
     let data = session.prepared();
     let step1 = session.step_one_layout().expect("step 1");

@@ -22,6 +22,7 @@
 
 #![warn(missing_docs)]
 
+use crate::assembly;
 use crate::chart::{self, PreparedChart};
 use crate::constraints::{ConstraintSource, LoadedConstraints};
 use crate::error::Error;
@@ -209,9 +210,9 @@ fn solve_loaded_in(
     let sink = options.progress.as_ref();
     ProgressSink::tell(sink, Progress::at(Stage::Opening));
     let mut session = ChartSession::open(source, asset.clone(), load_ms)?;
-    let solved = session.solve_watching(&solver_options, &mut |p| ProgressSink::tell(sink, p))?;
+    let solved = assembly::solve_watching(&mut session, &solver_options, &mut |p| ProgressSink::tell(sink, p))?;
     ProgressSink::tell(sink, Progress::at(Stage::Writing));
-    Ok(session.export(&solved.solver, &solved.report, &options.outputs()))
+    Ok(assembly::export(&session, &solved, &options.outputs()).report)
 }
 
 /// Solves a mesh held in memory with `pins` and `options.solver`; nothing
@@ -250,8 +251,8 @@ pub fn solve_atlas(mesh: &TriMesh, uvs: &[[f32; 2]], pins: &Pins, options: &Opti
 fn solve_memory(asset: SourceAsset, pins: &Pins, options: &Options) -> Result<MeshSolution, Error> {
     let source = ConstraintSource::Memory(Arc::new(pins.clone()));
     let mut session = ChartSession::open(source, Arc::new(asset), 0.0)?;
-    let solved = session.solve(&options.solver)?;
-    let (report, corners) = session.final_uvs(&solved.solver, &solved.report);
+    let solved = assembly::solve(&mut session, &options.solver)?;
+    let (report, corners) = assembly::final_uvs(&session, &solved);
     let asset = session.asset();
     let prim = &asset.primitives[0];
     let (uvs, corner_uvs) = match corners {

@@ -169,7 +169,7 @@ fn free_layout(
         rest_share: 0.0,
         whole: Region::TEXTURE,
     };
-    let solver = crate::plan::own::solve(&piece, options).ok_or_else(|| Box::new((*chart).clone()))?;
+    let solver = crate::solver::own::solve(&piece, options).ok_or_else(|| Box::new((*chart).clone()))?;
     let clean = crate::guard::all_positive_as_stored(solver.layout(), &piece.filled.mesh.triangles)
         && solver
             .free()

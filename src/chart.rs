@@ -6,6 +6,7 @@ use crate::cut::prepare::{Form, SolvableError, make_solvable};
 use crate::cut::separate::Budget;
 use crate::cut::{SeamRules, SeamSpec};
 use crate::domain::Domain;
+pub use crate::domain::setup::Pick;
 use crate::error::Error;
 use crate::guard::{self, OrientationCounts};
 use crate::io::SourceAsset;
@@ -52,29 +53,6 @@ pub struct PreparedChart {
     /// Where every UV this solve writes stays: the given region, or the
     /// texture (the charts packed beside this one too).
     pub whole: Region,
-}
-
-/// Which chart to prepare, and what this solve has laid out around it.
-#[derive(Debug, Clone, Default)]
-pub struct Pick {
-    /// The chart (default: the one holding the most constraints, or the
-    /// largest without any); only its constraints are solved with it.
-    pub chart: Option<u32>,
-    /// Triangles this solve has laid out already (layout coordinates):
-    /// obstacles of a free chart.
-    pub placed: Arc<Vec<[DVec2; 3]>>,
-    /// Charts whose stored UVs this solve replaces: not obstacles.
-    pub replaced: Vec<u32>,
-    /// How the chart is made a disk (`None`: as given when it is one,
-    /// else cut open).
-    pub form: Option<Form>,
-    /// The boundary when the constraint file names none and gives no
-    /// region (`None`: the default, [`crate::domain::setup::decide`]).
-    pub boundary: Option<crate::pins::BoundaryChoice>,
-    /// A piece of chart `chart` holding landmarks, split off another
-    /// solve's chart ([`Opening::pieces`]): solved with its own landmarks
-    /// instead of the whole chart.
-    pub piece: Option<Arc<Chart>>,
 }
 
 /// What was done to a chart so it could be solved: where it was cut open

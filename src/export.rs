@@ -76,30 +76,38 @@ pub struct Secondary {
     pub layout: Vec<DVec2>,
 }
 
+/// What [`export`] gives: the final report, and the UVs per face corner of
+/// every primitive as written (`None` when the layout was refused).
+#[derive(Debug, Clone)]
+pub struct Written {
+    /// The final report (status `Error` when refused or not written).
+    pub report: Report,
+    /// The UVs as a file stores them (glTF convention).
+    pub corners: Option<Vec<crate::io::corners::CornerUvs>>,
+}
+
 /// Checks the layout as stored, then writes every output `outputs` names
-/// in one commit (all or none); the final report. A refused layout writes
-/// nothing (or only the pictures, as `outputs.on_error` says).
-pub fn export(finished: &Finished, report: &Report, outputs: &Outputs) -> Report {
+/// in one commit (all or none): the final report and the UVs as written. A
+/// refused layout writes nothing (or only the pictures, as
+/// `outputs.on_error` says).
+pub fn export(finished: &Finished, report: &Report, outputs: &Outputs) -> Written {
     let t0 = Instant::now();
     let mut report = report.clone();
-    let model = outputs.model.as_deref();
-    let mut staged = stage_chart(finished, &mut report, model);
+    let stored = stored(finished, &mut report);
+    let mut staged = stage_chart(finished, stored.as_ref(), &mut report, outputs.model.as_deref());
     staged = staged.writing(outputs.writing.clone());
     report.times.export_ms += t0.elapsed().as_secs_f64() * 1e3;
     report.total_ms = report.times.total_ms();
+    let corners = stored.map(|s| s.gltf);
     let refused = report.status == Status::Error;
     if refused && outputs.on_error == OnError::WriteNothing {
-        return report;
+        return Written { report, corners };
     }
     #[cfg(feature = "pictures")]
     {
         let pictures = &outputs.pictures;
         let (asset, prepared, layout) = (finished.asset, finished.prepared, finished.layout);
-        let written = if pictures.layout.is_some() {
-            written_triangles(finished, &report)
-        } else {
-            Vec::new()
-        };
+        let written = corners.as_deref().map_or_else(Vec::new, triangles_of);
         match crate::preview::render_chart(
             asset,
             prepared,
@@ -118,7 +126,7 @@ pub fn export(finished: &Finished, report: &Report, outputs: &Outputs) -> Report
         staged.add(path.clone(), format!("{json}\n").into_bytes());
     }
     commit(staged, &mut report);
-    report
+    Written { report, corners }
 }
 
 /// Marks `report` as an error: nothing is written.
@@ -128,20 +136,14 @@ pub fn refuse(report: &mut Report, message: String) {
     report.output = None;
 }
 
-/// Checks the finished layout (the solved chart's, filled) as it will be
-/// stored and, if it keeps every triangle positive, packs the other charts
-/// that need UVs around it and stages the asset with them all as `output`
-/// (if given), naming the output in `report`. Otherwise `report` gets
-/// status `Error` and the reason, and nothing is staged. The guard that
+/// The UVs as the outputs store them: the finished layout (the solved
+/// chart's, filled) checked as stored and, if it keeps every triangle
+/// positive, the other charts that need UVs packed around it. Otherwise
+/// `None`, and `report` gets status `Error` and the reason. The guard that
 /// accepted the layout is named in the message about a folded one (only the
 /// paper's pointwise guard lets folds through).
-pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Path>) -> Staged {
-    let Some(placed) = checked(finished, report) else {
-        return Staged::new();
-    };
-    let Some(out) = output else {
-        return Staged::new();
-    };
+fn stored(finished: &Finished, report: &mut Report) -> Option<StoredUvs> {
+    let placed = checked(finished, report)?;
     let (asset, prepared) = (finished.asset, finished.prepared);
     let parts = every_part(finished, &placed);
     let uvs = StoredUvs {
@@ -150,7 +152,17 @@ pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Pat
             .then(|| chart::assemble_obj_corners(asset, &prepared.welded, &parts)),
     };
     every_copy_on_target(asset, &prepared.welded, &uvs.gltf, report);
-    match crate::io::gltf_file::stage_asset(asset, &uvs, out) {
+    Some(uvs)
+}
+
+/// The asset with `uvs` staged as `output` (if both are given), naming the
+/// output in `report`; nothing staged when the layout was refused or the
+/// asset cannot be written (then `report` says why).
+fn stage_chart(finished: &Finished, uvs: Option<&StoredUvs>, report: &mut Report, output: Option<&Path>) -> Staged {
+    let (Some(uvs), Some(out)) = (uvs, output) else {
+        return Staged::new();
+    };
+    match crate::io::gltf_file::stage_asset(finished.asset, uvs, out) {
         Ok(staged) => {
             report.output = Some(out.display().to_string());
             staged
@@ -163,25 +175,19 @@ pub fn stage_chart(finished: &Finished, report: &mut Report, output: Option<&Pat
 }
 
 /// The final texture coordinates per face corner of every primitive, as a
-/// file stores them (glTF convention), after the checks [`stage_chart`]
-/// makes; `None` (and `report` an error) when they refuse the layout.
+/// file stores them (glTF convention), after the checks of [`export`];
+/// `None` (and `report` an error) when they refuse the layout.
 pub fn final_uvs(finished: &Finished, report: &mut Report) -> Option<Vec<crate::io::corners::CornerUvs>> {
-    let placed = checked(finished, report)?;
-    let parts = every_part(finished, &placed);
-    let uvs = chart::assemble_corner_uvs(finished.asset, &finished.prepared.welded, &parts);
-    every_copy_on_target(finished.asset, &finished.prepared.welded, &uvs, report);
-    Some(uvs)
+    stored(finished, report).map(|s| s.gltf)
 }
 
 /// Every triangle of the UV set as it is written (texture coordinates),
-/// for the layout picture: empty when the layout is refused.
+/// for the layout picture.
 #[cfg(feature = "pictures")]
-fn written_triangles(finished: &Finished, report: &Report) -> Vec<[DVec2; 3]> {
-    let Some(uvs) = final_uvs(finished, &mut report.clone()) else {
-        return Vec::new();
-    };
+fn triangles_of(corners: &[crate::io::corners::CornerUvs]) -> Vec<[DVec2; 3]> {
     let uv = |c: [f32; 2]| DVec2::new(f64::from(c[0]), f64::from(c[1]));
-    uvs.iter()
+    corners
+        .iter()
         .flat_map(|u| u.corners.chunks_exact(3).map(move |t| [uv(t[0]), uv(t[1]), uv(t[2])]))
         .collect()
 }

@@ -36,6 +36,7 @@
 //! edits of [`edit::text`]).
 
 pub mod api;
+pub mod assembly;
 pub mod atlas;
 pub mod chart;
 pub mod check;

@@ -36,17 +36,18 @@ fn a_tick_advances_each_stage_in_order() {
     let session = |world: &World| world.get::<Session>(e).unwrap().0.clone();
     assert!(session(&world).boundary().is_none());
     schedule.run(&mut world);
-    // One tick: boundary → factor → step 1 → stepping set up → one proposal → guard.
+    // One tick: boundary → factor → step 1 → the plan started → its first step.
     assert!(session(&world).boundary().is_some());
     assert!(session(&world).bar_net().is_some());
     assert!(session(&world).step_one_layout().is_some());
-    assert!(world.get::<Solver>(e).is_some());
+    assert!(world.get::<Planning>(e).is_some());
     let ticks = run_to_convergence(&mut world, &mut schedule, 1000);
     assert!(ticks < 1000);
-    let report = &world.get::<Exported>(e).expect("exported").0;
+    let report = &world.get::<Exported>(e).expect("exported").0.report;
     assert_eq!(report.status, uvpin::Status::Reached);
+    assert!(world.get::<Planning>(e).is_none(), "the plan is over");
     assert!(uvpin::guard::all_positive(
-        world.get::<Solver>(e).unwrap().0.layout(),
+        world.get::<Finished>(e).unwrap().0.solver.layout(),
         &world.get::<Session>(e).unwrap().0.prepared().filled.mesh.triangles
     ));
 }
@@ -84,8 +85,13 @@ fn a_new_boundary_re_solves_without_refactoring() {
 #[test]
 fn input_errors_become_a_failed_component() {
     let mut world = World::new();
-    // Vertex 1 is on the outer boundary; its target contradicts the boundary map.
-    let e = spawn(&mut world, "(asset: \"m\", constraints: [(vertex: 1, uv: (0.5, 0.5))])");
+    // Vertex 1 is on the outer boundary, which the file puts on the square;
+    // its target contradicts the boundary map (the file's word is law: no
+    // free layout is tried instead).
+    let e = spawn(
+        &mut world,
+        "(asset: \"m\", constraints: [(vertex: 1, uv: (0.5, 0.5))], boundary: Square)",
+    );
     let mut schedule = solve_schedule();
     run_to_convergence(&mut world, &mut schedule, 100);
     let failed = world.get::<Failed>(e).expect("failed");

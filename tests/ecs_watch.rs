@@ -112,7 +112,12 @@ impl Fixture {
     }
 
     fn report(&self) -> uvpin::report::Report {
-        self.world.get::<Exported>(self.entity()).expect("exported").0.clone()
+        self.world
+            .get::<Exported>(self.entity())
+            .expect("exported")
+            .0
+            .report
+            .clone()
     }
 }
 

@@ -334,7 +334,7 @@ fn run_case(dir: &Path, case: &Case) {
     let Ok(mut session) = uvpin::session::ChartSession::open(source, asset.clone(), 0.0) else {
         return;
     };
-    let Ok(solved) = session.solve(&options) else {
+    let Ok(solved) = uvpin::assembly::solve(&mut session, &options) else {
         return;
     };
     let ext = match case.kind {
@@ -345,7 +345,7 @@ fn run_case(dir: &Path, case: &Case) {
     let out = dir.join(format!("out.{ext}"));
     let in_chart = chart_membership(session.prepared(), &asset);
     let outputs = uvpin::Options::from(options).with_output(&out).outputs();
-    let report = session.export(&solved.solver, &solved.report, &outputs);
+    let report = uvpin::assembly::export(&session, &solved, &outputs).report;
     if report.status != uvpin::Status::Error {
         assert_written_fold_free(&out, &asset, &in_chart);
     }

@@ -140,18 +140,23 @@ fn a_long_solve_logs_each_stage_it_enters() {
         .filter(|l| l["event"] == "stage")
         .map(|l| l["stage"].as_str().unwrap_or_default().to_string())
         .collect();
-    // Each stage once, in the solver's order.
-    let order = ["spline_path", "completion", "polish", "finishing"];
-    let rank: Vec<usize> = stages
-        .iter()
-        .map(|s| {
-            order
-                .iter()
-                .position(|o| o == s)
-                .unwrap_or_else(|| panic!("{s}: {stages:?}"))
-        })
-        .collect();
-    assert!(rank.windows(2).all(|w| w[0] < w[1]), "{stages:?}\n{}", d.dump());
+    // Each candidate's solve in the solver's order, the planner choosing
+    // between them, and the end once.
+    let order = ["step_one", "spline_path", "completion", "polish"];
+    for run in stages.split(|s| s == "choosing" || s == "finishing") {
+        let rank: Vec<usize> = run
+            .iter()
+            .map(|s| {
+                order
+                    .iter()
+                    .position(|o| o == s)
+                    .unwrap_or_else(|| panic!("{s}: {stages:?}"))
+            })
+            .collect();
+        assert!(rank.windows(2).all(|w| w[0] < w[1]), "{stages:?}\n{}", d.dump());
+    }
+    assert_eq!(stages.last().map(String::as_str), Some("finishing"), "{stages:?}");
+    assert_eq!(stages.iter().filter(|s| *s == "finishing").count(), 1, "{stages:?}");
     assert!(stages.iter().any(|s| s == "polish"), "{stages:?}\n{}", d.dump());
 }
 
@@ -483,4 +488,41 @@ fn an_asset_outside_the_watched_folders_is_watched_too() {
     write_mesh_glb(&meshes.join("grid.glb"), &mesh);
     d.wait_count("solved", "grid.uvpin.ron", 2);
     assert_output(&dir.path("out/grid.glb"), 0.0);
+}
+
+#[test]
+fn the_daemon_writes_what_the_command_line_writes() {
+    let dir = TempDir::new("watch-same-as-cli");
+    let ron = make_assets(&dir.0);
+    // A landmark on the border with its target inside, and no boundary
+    // named: the planner lays the chart out free (the square would refuse
+    // it). The daemon's schedule must run the same plan as the command line.
+    let marks = [(A, 0.50, 0.45), (1, 0.40, 0.30)];
+    write_constraints(&ron, Path::new("grid.glb"), &marks, "");
+    let cli_out = dir.path("cli.glb");
+    let o = uvpin(&["solve", &ron.to_string_lossy(), "-o", &cli_out.to_string_lossy(), "-q"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d = Daemon::watch(&dir.0, &[]);
+    d.wait_count("solved", "grid.uvpin.ron", 1);
+    let (cli, cli_bad) = python_uvs(&cli_out, 0);
+    let (daemon, daemon_bad) = python_uvs(&dir.path("out").join("grid.glb"), 0);
+    assert_eq!((cli_bad, daemon_bad), (0, 0), "{}", d.dump());
+    assert_eq!(cli.len(), daemon.len());
+    for (v, u, w) in marks {
+        let got = daemon[v as usize];
+        assert!(
+            (got[0] - u).abs() < 1e-6 && (got[1] - w).abs() < 1e-6,
+            "vertex {v}: {got:?}"
+        );
+    }
+    let apart = cli
+        .iter()
+        .zip(&daemon)
+        .map(|(a, b)| (a[0] - b[0]).abs().max((a[1] - b[1]).abs()))
+        .fold(0.0, f64::max);
+    assert!(
+        apart < 1e-4,
+        "the daemon's layout is {apart} from the command line's\n{}",
+        d.dump()
+    );
 }

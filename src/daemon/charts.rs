@@ -9,7 +9,7 @@ use super::log::Logger;
 use super::paths::display;
 use super::registry::{Action, Outcome, RealDisk, Registry, WatchSettings};
 use super::status::{FileState, LastSolve, StatusBoard};
-use crate::ecs::{Candidate, Exported, Failed, Finished, Session, SolveJob, SolveSystems, Solver, solve_schedule};
+use crate::ecs::{Candidate, Exported, Failed, Finished, Planning, Session, SolveJob, SolveSystems, solve_schedule};
 use crate::error::Error;
 use crate::report::Status;
 use crate::session::{ChartSession, Kept};
@@ -223,7 +223,7 @@ fn restart_solve(
     let asset_name = display(&job.asset.path, &settings.cwd);
     world
         .entity_mut(entity)
-        .remove::<(Solver, Candidate, Finished, Exported, Failed, Reported)>()
+        .remove::<(Planning, Candidate, Finished, Exported, Failed, Reported)>()
         .insert(job);
     log_start(world, settings, entity, (n_constraints, kept, superseded), &asset_name);
     Ok(())
@@ -271,7 +271,7 @@ fn log_start(
 }
 
 /// A chart whose solve is running.
-type Running<'a> = (&'a WatchedFile, &'a Solver, &'a mut SolveClock);
+type Running<'a> = (&'a WatchedFile, &'a Planning, &'a mut SolveClock);
 
 /// Logs the stage of every solve running longer than [`LONG_SOLVE`], each
 /// time it enters a new one: a long solve on a build machine shows where it is.
@@ -280,9 +280,9 @@ pub fn log_long_solves(
     settings: Res<Settings>,
     mut charts: Query<Running, (Without<Finished>, Without<Failed>)>,
 ) {
-    for (watched, solver, mut clock) in &mut charts {
+    for (watched, planning, mut clock) in &mut charts {
         let elapsed = clock.started.elapsed();
-        let progress = solver.0.progress();
+        let progress = planning.0.progress();
         if elapsed < long_solve() || clock.logged == Some(progress.stage) {
             continue;
         }
@@ -321,8 +321,8 @@ pub fn report_results(
         let outcome = match (failed, exported) {
             (Some(_), _) => Outcome::Failed,
             (None, Some(e)) => Outcome::Exported {
-                status: e.0.status,
-                output: e.0.output.as_ref().map(PathBuf::from),
+                status: e.0.report.status,
+                output: e.0.report.output.as_ref().map(PathBuf::from),
             },
             (None, None) => continue,
         };
@@ -338,11 +338,15 @@ pub fn report_results(
                 let kept = state.registry.output_of(&watched.path).is_some_and(Path::exists);
                 report_error(&mut log, &name, &err.to_string(), kept);
             }
-            (None, Some(Exported(report))) if report.status == Status::Error => {
-                let message = report.message.clone().unwrap_or_else(|| "the write failed".into());
+            (None, Some(Exported(written))) if written.report.status == Status::Error => {
+                let message = written
+                    .report
+                    .message
+                    .clone()
+                    .unwrap_or_else(|| "the write failed".into());
                 report_error(&mut log, &name, &message, false);
             }
-            (None, Some(Exported(report))) => report_solved(&mut log, &name, report, &settings.0.cwd),
+            (None, Some(Exported(written))) => report_solved(&mut log, &name, &written.report, &settings.0.cwd),
             (None, None) => {}
         }
     }

@@ -4,6 +4,7 @@
 
 use super::Domain;
 use crate::constraints::ConstraintSource;
+use crate::cut::prepare::Form;
 use crate::error::Error;
 use crate::free::{FreeSetup, Obstacles, RegionSource};
 use crate::io::SourceAsset;
@@ -12,6 +13,29 @@ use crate::param::region::{MIN_REGION_SIDE, Region};
 use crate::pins::{BoundaryChoice, ResolvedConstraint};
 use glam::DVec2;
 use std::sync::Arc;
+
+/// Which chart to prepare, and what this solve has laid out around it.
+#[derive(Debug, Clone, Default)]
+pub struct Pick {
+    /// The chart (default: the one holding the most constraints, or the
+    /// largest without any); only its constraints are solved with it.
+    pub chart: Option<u32>,
+    /// Triangles this solve has laid out already (layout coordinates):
+    /// obstacles of a free chart.
+    pub placed: Arc<Vec<[DVec2; 3]>>,
+    /// Charts whose stored UVs this solve replaces: not obstacles.
+    pub replaced: Vec<u32>,
+    /// How the chart is made a disk (`None`: as given when it is one,
+    /// else cut open).
+    pub form: Option<Form>,
+    /// The boundary when the constraint file names none and gives no
+    /// region (`None`: the default, [`decide`]).
+    pub boundary: Option<BoundaryChoice>,
+    /// A piece of chart `chart` holding landmarks, split off another
+    /// solve's chart ([`crate::chart::Opening::pieces`]): solved with its own landmarks
+    /// instead of the whole chart.
+    pub piece: Option<Arc<Chart>>,
+}
 
 /// How far an island's region is grown past a target outside it, relative
 /// to the region's size: a target on the border could not be reached (the
@@ -33,12 +57,12 @@ pub fn decide(
     chart: &Chart,
     constraints: &[ResolvedConstraint],
     (cut, rest_share): (bool, f64),
-    pick: &crate::chart::Pick,
+    pick: &Pick,
 ) -> Result<Domain, Error> {
     let (choice, given) = source.boundary();
     // The solve's own choice stands where the file makes none.
     let choice = choice.or(pick.boundary.filter(|_| given.is_none()));
-    let facing = matches!(pick.form, Some(crate::cut::prepare::Form::Facing { .. }));
+    let facing = matches!(pick.form, Some(Form::Facing { .. }));
     let uvs = welded_uvs(asset, welded);
     let island: Option<Vec<DVec2>> = chart
         .welded_ids
@@ -185,13 +209,7 @@ fn island_region(layout: &[DVec2], constraints: &[ResolvedConstraint]) -> Region
 /// Every other chart's triangles that have UVs (but those `pick` says this
 /// solve replaces), and the triangles it has laid out already, near
 /// `region`.
-fn other_islands(
-    welded: &WeldedMesh,
-    chart: u32,
-    uvs: &[Option<[f32; 2]>],
-    region: Region,
-    pick: &crate::chart::Pick,
-) -> Obstacles {
+fn other_islands(welded: &WeldedMesh, chart: u32, uvs: &[Option<[f32; 2]>], region: Region, pick: &Pick) -> Obstacles {
     let mut stored: Vec<[f32; 2]> = uvs.iter().map(|u| u.unwrap_or([0.0, 0.0])).collect();
     let mut triangles: Vec<[u32; 3]> = welded
         .mesh

@@ -11,35 +11,13 @@
 
 use crate::complete::energy::RestTriangle;
 use crate::complete::newton::NewtonSystem;
+pub use crate::free::StartKind;
 use crate::free::room::Room;
 use crate::guard;
 use crate::injective::bounds;
 use crate::param::bar_net::FilledChart;
 use crate::rbf::stepping::StepProblem;
 use glam::{DVec2, DVec3};
-
-/// Which layout a free chart started from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StartKind {
-    /// The chart's own UVs (its atlas island), unchanged.
-    Island,
-    /// Least-squares conformal with the constrained vertices on their
-    /// targets: one-to-one inside its room, so the targets are met.
-    Through,
-    /// Least-squares conformal, fitted to the targets.
-    Conformal,
-    /// Step 1's square layout, fitted to the targets (the conformal one folded).
-    StepOne,
-    /// The chart's solve on the square, mapped onto the region: it meets
-    /// the targets (the free path from the other starts fell short).
-    Square,
-    /// A coarse level of the chart solved and prolonged (a large chart).
-    Coarse,
-    /// The view of a camera fitted to the targets: the part of the surface
-    /// it sees facing it, as it sees it ([`crate::cut::facing`]).
-    Projection,
-}
 
 /// The start of a free chart's solve.
 #[derive(Debug, Clone)]

@@ -1,13 +1,13 @@
 //! Components of a chart entity (nouns).
 
+use crate::assembly::Solution;
 use crate::constraints::{ConstraintSource, LoadedConstraints};
 use crate::error::Error;
-use crate::export::Outputs;
+use crate::export::{Outputs, Written};
 use crate::io::SourceAsset;
 use crate::options::SolverOptions;
-use crate::report::Report;
+use crate::plan::ChartPlan;
 use crate::session::ChartSession;
-use crate::solver::ChartSolver;
 use bevy_ecs::prelude::*;
 use glam::DVec2;
 use std::path::PathBuf;
@@ -56,23 +56,27 @@ impl SolveJob {
 #[derive(Component, Debug, Clone)]
 pub struct Session(pub ChartSession);
 
-/// The chart's solve from its step-1 layout: the spline path, completion
-/// and polish, and the current (always fold-free) layout; with the
-/// session revision it started from.
+/// The chart's solve ([`ChartPlan`]): its candidates, each a solver from
+/// its start (the spline path, completion and polish, the current layout
+/// always fold-free), then the chosen one finished; with the session
+/// revision it started from.
 #[derive(Component, Debug, Clone)]
-pub struct Solver(pub ChartSolver, pub u64);
+pub struct Planning(pub ChartPlan, pub u64);
 
 /// A proposed layout waiting for the guard.
 #[derive(Component, Debug, Clone)]
 pub struct Candidate(pub Vec<DVec2>);
 
-/// The solve is over; its report (not yet written).
+/// The solve is over (not yet written): the chosen chart's solver, the
+/// other charts holding landmarks, the report; with the session revision
+/// it started from.
 #[derive(Component, Debug, Clone)]
-pub struct Finished(pub Report);
+pub struct Finished(pub Solution, pub u64);
 
-/// The final report after output (status `Error` if the write failed).
+/// The final report after output (status `Error` if the write failed) and
+/// the UVs as written.
 #[derive(Component, Debug, Clone)]
-pub struct Exported(pub Report);
+pub struct Exported(pub Written);
 
 /// An input error found while solving; nothing is written.
 #[derive(Component, Debug, Clone)]

@@ -3,13 +3,16 @@
 //! layout) and its solver; each system is a thin adapter around one session
 //! or solver method. One `Schedule::run` is one tick:
 //!
-//! `map_boundary → factor_bar_net → solve_force_density → start_stepping →
-//! step_constraints → guard_foldovers → complete_constraints → finish_solve →
-//! export_layout`
+//! `map_boundary → factor_bar_net → solve_force_density → start_planning →
+//! step_constraints → guard_foldovers → complete_constraints → advance_plan →
+//! finish_solve → export_layout`
 //!
-//! A tick advances every chart by at most one proposal or Newton step
-//! ([`crate::solver::ChartSolver::tick`]), so the daemon can run the same
-//! schedule forever and a newer edit supersedes a running solve.
+//! A tick advances every chart by at most one proposal or Newton step of
+//! its plan's running solver ([`crate::solver::ChartSolver::tick`]), or one
+//! step of the plan between solves ([`crate::plan::ChartPlan::advance`]):
+//! the same solve sequence as [`crate::assembly::solve`], system by system.
+//! The daemon runs the same schedule forever, and a newer edit supersedes a
+//! running solve.
 
 pub mod components;
 pub mod systems;
@@ -43,7 +46,7 @@ pub fn solve_schedule() -> Schedule {
             systems::map_boundary,
             systems::factor_bar_net,
             systems::solve_force_density,
-            systems::start_stepping,
+            systems::start_planning,
         )
             .chain()
             .in_set(SolveSystems::Unwrap),
@@ -51,6 +54,7 @@ pub fn solve_schedule() -> Schedule {
             systems::step_constraints,
             systems::guard_foldovers,
             systems::complete_constraints,
+            systems::advance_plan,
         )
             .chain()
             .in_set(SolveSystems::Step),

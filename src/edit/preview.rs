@@ -281,9 +281,8 @@ fn solve(
     {
         return Ok(answer);
     }
-    let Some(solved) = session
-        .solve_until(&options, StartFrom::LastLayout, stop)
-        .map_err(|e| e.to_string())?
+    let Some(solved) =
+        crate::assembly::solve_until(session, &options, StartFrom::LastLayout, stop).map_err(|e| e.to_string())?
     else {
         return Ok(None);
     };

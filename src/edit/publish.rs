@@ -11,7 +11,7 @@ use crate::constraints::ConstraintSource;
 use crate::daemon::charts::{DaemonLog, DaemonState, Settings, WatchedFile, report_results, write_status_file};
 use crate::daemon::log::Logger;
 use crate::daemon::paths::display;
-use crate::ecs::{Exported, Session, SolveJob, Solver};
+use crate::ecs::{Exported, Finished, Session, SolveJob};
 use crate::report::Status;
 use bevy_ecs::prelude::*;
 use serde_json::json;
@@ -47,16 +47,11 @@ fn inputs(job: &SolveJob, session: &Session, text_hash: Option<u64>) -> Option<A
 
 /// The written solve of a file: its report, UVs, and the session the
 /// editor's drag previews start from.
-fn solved(job: &SolveJob, session: &Session, solver: &Solver, report: &crate::report::Report) -> Arc<SolvedView> {
-    let uvs = session.0.uvs(solver.0.layout());
-    let written: PrimitiveUvs = session
-        .0
-        .final_uvs(&solver.0, report)
-        .1
-        .map(|corners| corners.into_iter().map(|u| u.corners).collect())
-        .unwrap_or_default();
+fn solved(job: &SolveJob, session: &Session, finished: &Finished, exported: &Exported) -> Arc<SolvedView> {
+    let uvs = session.0.uvs(finished.0.solver.layout());
+    let written: PrimitiveUvs = exported.0.corners.iter().flatten().map(|u| u.corners.clone()).collect();
     Arc::new(SolvedView {
-        report: report.clone(),
+        report: exported.0.report.clone(),
         in_chart: drawn_from_vertices(&job.asset, session.0.prepared(), &uvs, &written),
         uvs,
         written,
@@ -111,7 +106,7 @@ type FileParts<'a> = (
     &'a WatchedFile,
     Option<Ref<'a, SolveJob>>,
     Option<&'a Session>,
-    Option<&'a Solver>,
+    Option<&'a Finished>,
     Option<Ref<'a, Exported>>,
 );
 
@@ -128,7 +123,7 @@ pub fn publish_to_editor(
     }
     let updates = files
         .iter()
-        .filter_map(|(watched, job, session, solver, exported)| {
+        .filter_map(|(watched, job, session, finished, exported)| {
             let name = display(&watched.path, &settings.0.cwd);
             let status = log.status.files.get(&name)?;
             let text_hash = state.registry.files.get(&watched.path).and_then(|r| r.hash);
@@ -136,9 +131,11 @@ pub fn publish_to_editor(
                 (Some(job), Some(session)) if job.is_changed() => inputs(job, session, text_hash),
                 _ => None,
             };
-            let new_solve = match (&job, session, solver, &exported) {
-                (Some(job), Some(session), Some(solver), Some(e)) if e.is_changed() && e.0.status != Status::Error => {
-                    Some(solved(job, session, solver, &e.0))
+            let new_solve = match (&job, session, finished, &exported) {
+                (Some(job), Some(session), Some(finished), Some(e))
+                    if e.is_changed() && e.0.report.status != Status::Error =>
+                {
+                    Some(solved(job, session, finished, e))
                 }
                 _ => None,
             };

@@ -170,7 +170,7 @@ impl FreeSetup {
 
     /// This room with a start made outside the free solve: `layout`, made
     /// `kind`'s way.
-    pub fn starting_from(&self, layout: Vec<DVec2>, kind: crate::domain::start::StartKind) -> FreeSetup {
+    pub fn starting_from(&self, layout: Vec<DVec2>, kind: StartKind) -> FreeSetup {
         FreeSetup {
             given: Some(GivenStart {
                 layout: Arc::new(layout),
@@ -185,7 +185,30 @@ impl FreeSetup {
 #[derive(Debug, Clone)]
 pub struct GivenStart {
     pub layout: Arc<Vec<DVec2>>,
-    pub kind: crate::domain::start::StartKind,
+    pub kind: StartKind,
+}
+
+/// Which layout a free chart started from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StartKind {
+    /// The chart's own UVs (its atlas island), unchanged.
+    Island,
+    /// Least-squares conformal with the constrained vertices on their
+    /// targets: one-to-one inside its room, so the targets are met.
+    Through,
+    /// Least-squares conformal, fitted to the targets.
+    Conformal,
+    /// Step 1's square layout, fitted to the targets (the conformal one folded).
+    StepOne,
+    /// The chart's solve on the square, mapped onto the region: it meets
+    /// the targets (the free path from the other starts fell short).
+    Square,
+    /// A coarse level of the chart solved and prolonged (a large chart).
+    Coarse,
+    /// The view of a camera fitted to the targets: the part of the surface
+    /// it sees facing it, as it sees it ([`crate::cut::facing`]).
+    Projection,
 }
 
 #[cfg(test)]

@@ -13,11 +13,11 @@
 //! each gave, and why the winner won.
 //!
 //! [`ChartPlan`] runs tick by tick, as the chart solver does: the ECS
-//! systems tick its running solver and call [`ChartPlan::advance`] between.
+//! systems tick its running solver and call [`ChartPlan::advance`] between;
+//! [`crate::assembly::solve`] runs the same sequence in a loop.
 
 pub mod attempt;
 pub mod candidates;
-pub mod own;
 pub mod settle;
 
 use crate::cut::prepare::Form;
@@ -28,6 +28,7 @@ use crate::param::uv_to_xy;
 use crate::report::{self, PlanReport, Report, TrialOutcome, TrialReport};
 use crate::session::{ChartSession, StartFrom};
 use crate::solver::multilevel::{Level, coarse_size};
+use crate::solver::own;
 use crate::solver::{ChartSolver, Progress, SolverInputs, Stage};
 use attempt::{Attempt, LevelChart};
 use candidates::{Candidate, Ended};
@@ -103,8 +104,9 @@ impl Trial {
     }
 }
 
-/// A finished solve: the chart as chosen (its session), the solver with
-/// its final layout, and the report, not yet written.
+/// A finished plan: the chart as chosen (its session), the solver with its
+/// final layout, and the report; [`crate::assembly::finish`] adds the other
+/// charts holding landmarks.
 #[derive(Debug, Clone)]
 pub struct Solution {
     pub session: ChartSession,
@@ -130,6 +132,8 @@ enum State {
         attempt: Box<Attempt>,
     },
     Done(Box<Solution>),
+    /// The solution was taken ([`ChartPlan::take_solution`]).
+    Taken,
 }
 
 /// The solve of one landmarked chart, candidate by candidate (see the
@@ -172,14 +176,14 @@ impl ChartPlan {
 
     /// Whether the plan is over.
     pub fn is_done(&self) -> bool {
-        matches!(self.state, State::Done(_))
+        matches!(self.state, State::Done(_) | State::Taken)
     }
 
     /// The solver running now, to tick (none between candidates).
     pub fn solver_mut(&mut self) -> Option<&mut ChartSolver> {
         match &mut self.state {
             State::Trying { attempt, .. } | State::Finishing { attempt, .. } => Some(attempt.solver_mut()),
-            State::Next | State::Done(_) => None,
+            State::Next | State::Done(_) | State::Taken => None,
         }
     }
 
@@ -187,15 +191,16 @@ impl ChartPlan {
     pub fn solver(&self) -> Option<&ChartSolver> {
         match &self.state {
             State::Trying { attempt, .. } | State::Finishing { attempt, .. } => Some(attempt.solver()),
-            State::Next | State::Done(_) => None,
+            State::Next | State::Done(_) | State::Taken => None,
         }
     }
 
     /// Where the solve stands.
     pub fn progress(&self) -> Progress {
         match &self.state {
-            State::Next => Progress::at(Stage::StepOne),
-            State::Done(_) => Progress::at(Stage::Finishing),
+            State::Next if self.trials.is_empty() => Progress::at(Stage::StepOne),
+            State::Next => Progress::at(Stage::Choosing),
+            State::Done(_) | State::Taken => Progress::at(Stage::Finishing),
             _ => self
                 .solver()
                 .map_or(Progress::at(Stage::StepOne), ChartSolver::progress),
@@ -238,6 +243,18 @@ impl ChartPlan {
         }
     }
 
+    /// The finished solve, taken out once the plan is done (`None` before,
+    /// and after it was taken).
+    pub fn take_solution(&mut self) -> Option<Solution> {
+        match std::mem::replace(&mut self.state, State::Taken) {
+            State::Done(solution) => Some(*solution),
+            other => {
+                self.state = other;
+                None
+            }
+        }
+    }
+
     /// The plan's own step while no solver is running: the next candidate
     /// opened, a finished trial judged, the winner prolonged, or the end.
     ///
@@ -275,7 +292,7 @@ impl ChartPlan {
                 }
                 Ok(())
             }
-            done @ State::Done(_) => {
+            done @ (State::Done(_) | State::Taken) => {
                 self.state = done;
                 Ok(())
             }
@@ -497,7 +514,7 @@ impl ChartPlan {
     fn finish(&mut self, mut session: ChartSession, mut solver: ChartSolver) -> Result<(), Error> {
         session.map_boundary()?;
         settle::settle(session.prepared(), session.step_one_layout(), &mut solver);
-        session.keep_layout(&solver);
+        session.keep(&solver);
         let mut times = session.times().with_solver(solver.times());
         times.detour_ms = (times.load_ms + times.topology_ms + self.elapsed_ms() - times.total_ms()).max(0.0);
         let step1 = session.step_one_layout().unwrap_or(solver.start_layout()).to_vec();

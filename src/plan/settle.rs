@@ -23,7 +23,7 @@ pub fn settle(prepared: &PreparedChart, step_one: Option<&[DVec2]>, solver: &mut
     if !short {
         return;
     }
-    let stretch = |l: &[DVec2]| super::own::stretch(prepared, l);
+    let stretch = |l: &[DVec2]| crate::solver::own::stretch(prepared, l);
     let now = stretch(layout);
     let Some((yardstick, candidates)) = own_shape(prepared, step_one, solver) else {
         return;
@@ -59,7 +59,7 @@ fn own_shape(
     let Some(free) = solver.free() else {
         return Some((step_one?.to_vec(), Vec::new()));
     };
-    let base = super::own::free_layout(prepared, solver.options())?;
+    let base = crate::solver::own::free_layout(prepared, solver.options())?;
     let room = &free.domain.room;
     let fits = |layout: &[DVec2]| {
         crate::guard::all_positive_as_stored(layout, &f.mesh.triangles) && room.admits(layout).is_ok()

@@ -127,11 +127,7 @@ fn hint_and_proof(
 
 fn coarse_level(s: &SolveSummary) -> Option<crate::report::CoarseLevel> {
     let r = s.solver.record();
-    r.multilevel.clone().map(crate::report::CoarseLevel::Used).or_else(|| {
-        r.multilevel_missed
-            .as_ref()
-            .map(|m| crate::report::CoarseLevel::Missed(m.to_string()))
-    })
+    r.multilevel.clone().map(crate::report::CoarseLevel::Used)
 }
 
 /// The chart's warnings, and one for a bulged boundary.

@@ -17,13 +17,6 @@ pub(super) fn explain_lines(
     max_residual: f64,
 ) -> Vec<String> {
     let mut lines = vec![step1_line(s, step1)];
-    lines.extend(s.solver.record().cut_fell_short.map(|r| {
-        format!(
-            "seams: none (cut open for its short boundary, the chart ended {r:.1e} short of the targets in {:.0} \
-             ms: solved as it is instead)",
-            s.times.detour_ms
-        )
-    }));
     lines.extend(free_line(s));
     lines.extend(multilevel_line(s));
     lines.extend([
@@ -41,9 +34,6 @@ pub(super) fn explain_lines(
 
 /// A large chart's coarse level.
 fn multilevel_line(s: &SolveSummary) -> Option<String> {
-    if let Some(missed) = &s.solver.record().multilevel_missed {
-        return Some(format!("coarse level: not used ({missed}); solved at its own level"));
-    }
     let m = s.solver.record().multilevel.as_ref()?;
     Some(
         format!(
@@ -79,13 +69,7 @@ fn free_line(s: &SolveSummary) -> Option<String> {
         crate::domain::start::StartKind::StepOne => "step 1 (the conformal layout folded)",
         crate::domain::start::StartKind::Coarse => "a coarse level of the chart, solved and prolonged",
         crate::domain::start::StartKind::Projection => "the view of a camera fitted to the targets",
-        crate::domain::start::StartKind::Square => match s.solver.record().free_fell_short {
-            Some(r) if r.is_finite() => &*format!(
-                "the chart's solve on the square, mapped onto the region (the free path from its own start ended \
-                 {r:.1e} short of the targets)"
-            ),
-            _ => "the chart's solve on the square, mapped onto the region (no start of its own fitted the room)",
-        },
+        crate::domain::start::StartKind::Square => "the chart's solve on the square, mapped onto the region",
     };
     let islands = setup.obstacles.triangles.len();
     Some(format!(

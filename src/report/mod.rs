@@ -275,8 +275,6 @@ impl CompletionStats {
 pub enum CoarseLevel {
     /// Solved and prolonged: the chart started from it.
     Used(crate::solver::multilevel::MultilevelStats),
-    /// Not used, and why: the chart was solved at its own level.
-    Missed(String),
 }
 
 /// What the planner tried for a chart ([`crate::plan`]), and which it kept.

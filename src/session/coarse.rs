@@ -153,7 +153,7 @@ impl CoarseView {
     /// is asked between ticks (`None` when it says so).
     ///
     /// # Errors
-    /// As [`ChartSession::new_solver`] on the level.
+    /// A solver of the level could not be built (a bug: the level fits).
     pub fn solve_until(
         &mut self,
         session: &ChartSession,

@@ -12,6 +12,7 @@
 //! of a tick, in that order.
 
 pub mod multilevel;
+pub mod own;
 pub mod policy;
 pub mod step_one;
 
@@ -83,6 +84,9 @@ pub enum Stage {
     Completion,
     /// The distortion polish.
     Polish,
+    /// The planner between candidates ([`crate::plan`]): one judged, the
+    /// next opened, or the winner taken onto the chart itself.
+    Choosing,
     /// The report, the free chart's fallbacks, the other charts.
     Finishing,
     /// Writing the outputs.
@@ -99,6 +103,7 @@ impl Stage {
             Stage::SplinePath => "spline path",
             Stage::Completion => "completion",
             Stage::Polish => "polish",
+            Stage::Choosing => "choosing a layout",
             Stage::Finishing => "finishing",
             Stage::Writing => "writing",
         }
@@ -149,18 +154,9 @@ pub struct SolveRecord {
     pub settled_from: Option<Stretch>,
     /// A large chart started from its coarse level: what that did.
     pub multilevel: Option<multilevel::MultilevelStats>,
-    /// A large chart whose coarse level was not used: why.
-    pub multilevel_missed: Option<multilevel::Missed>,
-    /// A free chart's path from its own start ended this far from the
-    /// targets (infinite: no start fitted its room); this solve started
-    /// from the chart's solve on the square instead.
-    pub free_fell_short: Option<f64>,
     /// For a partial layout: the stretch of the chart's own shape (its free
     /// layout without landmarks, or step 1's), the yardstick it is held to.
     pub own_stretch: Option<Stretch>,
-    /// A disk cut open only for its short boundary ended this far from the
-    /// targets cut; this solve is of the chart as it is, uncut.
-    pub cut_fell_short: Option<f64>,
 }
 
 /// What came of running a free chart's stalled spline path again with its
@@ -233,8 +229,6 @@ pub struct ChartSolver {
     record: SolveRecord,
     times: SolverTimes,
     elapsed_before_ms: f64,
-    /// The completion's paths this solve may try.
-    paths: PathBudget,
 }
 
 fn ms(since: Instant) -> f64 {
@@ -409,20 +403,7 @@ impl ChartSolver {
                 ..SolverTimes::default()
             },
             elapsed_before_ms: start.elapsed_ms,
-            paths: PathBudget::Every,
         }
-    }
-
-    /// Lets a completion of this solve try its first path only
-    /// ([`PathBudget::First`]): the caller has a cheaper remedy for a stalled
-    /// path, and solves again with every path if that does no better.
-    pub fn first_path_only(&mut self) {
-        self.paths = PathBudget::First;
-    }
-
-    /// Whether the completion left paths untried ([`Self::first_path_only`]).
-    pub fn skipped_paths(&self) -> bool {
-        self.record.soft.as_ref().is_some_and(|s| s.skipped_paths > 0)
     }
 
     /// Replaces a finished solve's layout (the filled chart's, checked by
@@ -448,25 +429,6 @@ impl ChartSolver {
     /// Milliseconds this solve has taken, loading and step 1 included.
     pub fn elapsed_ms(&self) -> f64 {
         self.elapsed_before_ms + self.times.total_ms()
-    }
-
-    /// Notes that this solve replaced a free one that its own path left
-    /// `residual` short of the targets ([`SolveRecord::free_fell_short`]).
-    #[must_use]
-    pub fn fell_short_by(mut self, residual: f64) -> Self {
-        self.record.free_fell_short = Some(residual);
-        self
-    }
-
-    /// Notes that this solve, of the chart uncut, replaced one of it cut
-    /// open that ended `residual` short ([`SolveRecord::cut_fell_short`]).
-    pub fn note_cut_fell_short(&mut self, residual: f64) {
-        self.record.cut_fell_short = Some(residual);
-    }
-
-    /// Notes why this large chart's coarse level was not used.
-    pub fn note_multilevel_missed(&mut self, missed: multilevel::Missed) {
-        self.record.multilevel_missed = Some(missed);
     }
 
     /// Notes the stretch a partial layout is held to (the chart's own shape).
@@ -727,7 +689,7 @@ impl ChartSolver {
                     context,
                     &self.filled,
                     &self.problem,
-                    (&self.layout, self.paths),
+                    (&self.layout, PathBudget::Every),
                     &self.options,
                 );
                 self.record.energy_end = soft.energy();

@@ -1,0 +1,314 @@
+//! The assembly: a landmarked chart's solve ([`crate::plan`]) and what is
+//! written beside it. The other charts and pieces holding landmarks are
+//! solved after it, each clear of those before; a constraint no chart
+//! names is reported unreached; the rest is unwrapped (once per session,
+//! [`ChartSession::rest`]) and packed around them ([`crate::atlas`]); the
+//! layout is checked as stored and written in one commit
+//! ([`crate::export`]).
+//!
+//! ```text
+//! ChartSession (the cache) ─ solve(session, options)
+//!        ▼
+//! ChartPlan: candidates on the coarse level, the winner finished    (crate::plan)
+//!        ▼
+//! finish: the chosen chart kept, secondaries solved, every constraint reported
+//!        ▼
+//! export(session, solution, outputs)                                (one commit)
+//! ```
+
+#![warn(missing_docs)]
+
+use crate::chart::{self, PreparedChart};
+use crate::error::Error;
+use crate::export::{self, Outputs, Secondary, Written};
+use crate::io::corners::CornerUvs;
+use crate::mesh::weld::Chart;
+use crate::options::SolverOptions;
+use crate::pins::ResolvedConstraint;
+use crate::plan::ChartPlan;
+use crate::report::{self, Report};
+use crate::session::{ChartSession, StartFrom};
+use crate::solver::{ChartSolver, Progress, Stage};
+use glam::DVec2;
+use std::sync::Arc;
+
+/// A finished solve, not yet written: the landmarked chart's solver (its
+/// final layout and record), the other charts holding landmarks solved
+/// around it, and the report of them all.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// The landmarked chart's finished solver.
+    pub solver: ChartSolver,
+    /// The other charts and pieces holding landmarks, solved after it.
+    pub secondary: Arc<Vec<Secondary>>,
+    /// What was reached, and how.
+    pub report: Report,
+}
+
+/// The other charts and pieces solved after the landmarked chart, their
+/// reports, and those that could not be solved (with why), to be laid out
+/// with the rest.
+struct Secondaries {
+    solved: Vec<Secondary>,
+    reports: Vec<Report>,
+    unsolved: Vec<(Arc<Chart>, String)>,
+}
+
+/// Solves `session`'s constraints from start to end; the session becomes
+/// the chart as chosen.
+///
+/// # Errors
+/// As [`ChartPlan::advance`]: every candidate failed to open (the first
+/// one's error), or a Newton system could not be built (a bug).
+pub fn solve(session: &mut ChartSession, options: &SolverOptions) -> Result<Solution, Error> {
+    solve_watching(session, options, &mut |_| {})
+}
+
+/// As [`solve`], telling `watch` where it stands: each stage as it begins,
+/// and after every tick.
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_watching(
+    session: &mut ChartSession,
+    options: &SolverOptions,
+    watch: &mut dyn FnMut(Progress),
+) -> Result<Solution, Error> {
+    let solved = run(session, options, StartFrom::StepOne, &|| false, watch)?;
+    solved.ok_or_else(|| Error::Internal("a solve that nothing stops was stopped".into()))
+}
+
+/// As [`solve`], started `from` where asked; `stop` is asked between ticks,
+/// and when it says so the solve is dropped (`None`, the session as it was).
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_until(
+    session: &mut ChartSession,
+    options: &SolverOptions,
+    from: StartFrom,
+    stop: &dyn Fn() -> bool,
+) -> Result<Option<Solution>, Error> {
+    run(session, options, from, stop, &mut |_| {})
+}
+
+/// The one solve sequence: the plan ticked to its end, then [`finish`].
+/// The ECS schedule runs the same plan system by system.
+fn run(
+    session: &mut ChartSession,
+    options: &SolverOptions,
+    from: StartFrom,
+    stop: &dyn Fn() -> bool,
+    watch: &mut dyn FnMut(Progress),
+) -> Result<Option<Solution>, Error> {
+    watch(Progress::at(Stage::StepOne));
+    let mut plan = ChartPlan::new(session.clone(), *options, from);
+    while !plan.is_done() {
+        if stop() {
+            return Ok(None);
+        }
+        plan.tick()?;
+        watch(plan.progress());
+    }
+    watch(Progress::at(Stage::Finishing));
+    Ok(Some(finish(session, plan.into_solution()?)))
+}
+
+/// A finished plan made a solution: its chart becomes `session`, the other
+/// charts and pieces holding landmarks are solved around it, and every
+/// constraint of the file is accounted for.
+pub fn finish(session: &mut ChartSession, planned: crate::plan::Solution) -> Solution {
+    *session = planned.session;
+    let (solver, mut report) = (planned.solver, planned.report);
+    let mut secondary = Vec::new();
+    if !(session.prepared().secondary.is_empty() && session.prepared().opening.pieces.is_empty()) {
+        let Secondaries {
+            solved,
+            reports,
+            unsolved,
+        } = solve_secondary(session, &solver);
+        report.add_charts(reports);
+        secondary = solved;
+        set_aside(session, unsolved, &mut report);
+    }
+    account_for_every_constraint(session, &mut report);
+    Solution {
+        solver,
+        secondary: Arc::new(secondary),
+        report,
+    }
+}
+
+/// The other charts holding constraints, each solved free with its own
+/// constraints, clear of `solver`'s layout and of those solved before it;
+/// their reports, and why any could not be solved.
+fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries {
+    let triangles_of = |p: &PreparedChart, layout: &[DVec2]| -> Vec<[DVec2; 3]> {
+        let f = &p.filled;
+        f.mesh.triangles[..f.n_real_triangles]
+            .iter()
+            .map(|t| t.map(|v| layout[v as usize]))
+            .collect()
+    };
+    let prepared = session.prepared();
+    let mut placed = triangles_of(prepared, solver.layout());
+    let mut replaced = vec![prepared.chart.id];
+    replaced.extend(&prepared.secondary);
+    let (mut solved, mut reports, mut unsolved) = (Vec::new(), Vec::new(), Vec::new());
+    let charts = prepared.secondary.iter().map(|&id| (id, None));
+    let pieces = prepared.opening.pieces.iter().map(|p| (p.id, Some(p.clone())));
+    for (id, piece) in pieces.chain(charts) {
+        let pick = chart::Pick {
+            chart: Some(id),
+            placed: Arc::new(placed.clone()),
+            replaced: replaced.clone(),
+            form: piece.as_ref().and(session.pick().form.clone()),
+            boundary: piece.as_ref().map(|_| crate::pins::BoundaryChoice::Free),
+            piece,
+        };
+        let (source, asset) = (session.source(), session.asset());
+        let outcome = chart::prepare_pick(source, asset, prepared.welded.clone(), &pick).and_then(|p| {
+            let mut other = ChartSession::from_prepared(source.clone(), asset.clone(), p, pick.clone());
+            let solution = solve(&mut other, solver.options())?;
+            Ok((other.prepared().clone(), solution))
+        });
+        match outcome {
+            Ok((prepared, solution)) => {
+                placed.extend(triangles_of(&prepared, solution.solver.layout()));
+                reports.push(solution.report);
+                solved.push(Secondary {
+                    layout: solution.solver.layout().to_vec(),
+                    prepared,
+                });
+            }
+            // A chart or piece that cannot be solved is laid out with the
+            // rest, its landmarks unreached: partial, never an error.
+            Err(e) => match pick.piece {
+                Some(piece) => unsolved.push((piece, e.to_string())),
+                None => unsolved.push((Arc::new(prepared.welded.chart(id)), format!("chart {id}: {e}"))),
+            },
+        }
+    }
+    Secondaries {
+        solved,
+        reports,
+        unsolved,
+    }
+}
+
+/// Pieces holding landmarks that could not be solved are laid out with the
+/// rest, their constraints reported unreached: the result is partial,
+/// never an error that writes nothing.
+fn set_aside(session: &mut ChartSession, unsolved: Vec<(Arc<Chart>, String)>, report: &mut Report) {
+    let Some((_, why)) = unsolved.first() else {
+        return;
+    };
+    let message = format!(
+        "{} piece(s) holding landmarks laid out without them: {why}",
+        unsolved.len()
+    );
+    report_unreached(
+        session,
+        report,
+        |c| unsolved.iter().any(|(piece, _)| piece.local_of(c.welded).is_some()),
+        |_| message,
+    );
+    session.lay_with_rest(unsolved.into_iter().map(|(piece, _)| piece));
+}
+
+/// A constraint of the file that no chart's report names (its vertex set
+/// apart by a repair, say) is reported unreached, its residual measured
+/// where it is written: "k of n" counts every constraint, and exit 0 means
+/// every one is on target.
+fn account_for_every_constraint(session: &ChartSession, report: &mut Report) {
+    // A chart solved after another (its pick replaces charts) reports only
+    // its own constraints; the first one accounts for them all.
+    if !session.pick().replaced.is_empty() {
+        return;
+    }
+    let charts = report.charts.iter().flat_map(|r| &r.constraints);
+    let named: std::collections::HashSet<usize> = report.constraints.iter().chain(charts).map(|c| c.index).collect();
+    report_unreached(
+        session,
+        report,
+        |c| !named.contains(&c.index),
+        |first| {
+            format!(
+                "constraints[{first}] is on a part of the mesh that was laid out without it (set apart by a repair)"
+            )
+        },
+    );
+}
+
+/// The file's constraints that `unreached` picks, reported unreached (their
+/// residuals are measured where they are written); a reached report
+/// becomes partial, with `message` of the first one's index.
+fn report_unreached(
+    session: &ChartSession,
+    report: &mut Report,
+    unreached: impl Fn(&ResolvedConstraint) -> bool,
+    message: impl FnOnce(usize) -> String,
+) {
+    let resolved = session
+        .source()
+        .resolve(&session.asset().primitives, &session.prepared().welded);
+    let missing: Vec<report::ConstraintReport> = resolved
+        .iter()
+        .flat_map(|(all, _)| all)
+        .filter(|c| unreached(c))
+        .map(|c| report::ConstraintReport::of(c, DVec2::NAN, DVec2::NAN, f64::INFINITY, false))
+        .collect();
+    let Some(first) = missing.first().map(|c| c.index) else {
+        return;
+    };
+    report.constraints.extend(missing);
+    report.max_residual = f64::INFINITY;
+    if report.status == report::Status::Reached {
+        report.status = report::Status::Partial;
+        report.message = Some(message(first));
+    }
+}
+
+/// Checks `solution`'s layout as stored and writes what `outputs` names in
+/// one commit ([`export::export`]): the final report, and the UVs as
+/// written unless the layout was refused. Pictures without a background
+/// are drawn over the constraint file's `image:`.
+pub fn export(session: &ChartSession, solution: &Solution, outputs: &Outputs) -> Written {
+    let rest = session.rest(solution.solver.options());
+    let finished = finished(session, solution, &rest);
+    #[cfg(feature = "pictures")]
+    if outputs.pictures.any() && outputs.pictures.background.is_none() {
+        let mut outputs = outputs.clone();
+        outputs.pictures.background = session.source().image_path();
+        return export::export(&finished, &solution.report, &outputs);
+    }
+    export::export(&finished, &solution.report, outputs)
+}
+
+/// The final UVs per face corner of every primitive, as a file would store
+/// them, with the checks and packing of [`export()`]: the final report, and
+/// the UVs unless it refused the layout.
+pub fn final_uvs(session: &ChartSession, solution: &Solution) -> (Report, Option<Vec<CornerUvs>>) {
+    let mut report = solution.report.clone();
+    let rest = session.rest(solution.solver.options());
+    let uvs = export::final_uvs(&finished(session, solution, &rest), &mut report);
+    (report, uvs)
+}
+
+/// `solution` as the export reads it: the chart, its layout, the rest to
+/// pack around it and the secondary charts.
+fn finished<'a>(
+    session: &'a ChartSession,
+    solution: &'a Solution,
+    rest: &'a crate::atlas::Rest,
+) -> export::Finished<'a> {
+    export::Finished {
+        asset: session.asset(),
+        prepared: session.prepared(),
+        outer_loop: session.boundary().map_or(&[], |b| &b.loop_vertices),
+        layout: solution.solver.layout(),
+        guard: solution.solver.options().guard,
+        rest: Some(rest),
+        secondary: &solution.secondary,
+    }
+}
