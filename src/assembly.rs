@@ -18,7 +18,7 @@
 
 #![warn(missing_docs)]
 
-use crate::chart::{self, PreparedChart};
+use crate::chart;
 use crate::error::Error;
 use crate::export::{self, Outputs, Secondary, Written};
 use crate::io::corners::CornerUvs;
@@ -143,38 +143,38 @@ pub fn finish(session: &mut ChartSession, planned: crate::plan::Solution) -> Sol
 /// constraints, clear of `solver`'s layout and of those solved before it;
 /// their reports, and why any could not be solved.
 fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries {
-    let triangles_of = |p: &PreparedChart, layout: &[DVec2]| -> Vec<[DVec2; 3]> {
-        let f = &p.filled;
-        f.mesh.triangles[..f.n_real_triangles]
-            .iter()
-            .map(|t| t.map(|v| layout[v as usize]))
-            .collect()
-    };
     let prepared = session.prepared();
-    let mut placed = triangles_of(prepared, solver.layout());
-    let mut replaced = vec![prepared.chart.id];
-    replaced.extend(&prepared.secondary);
+    let mut placed = prepared.placed(solver.layout());
     let (mut solved, mut reports, mut unsolved) = (Vec::new(), Vec::new(), Vec::new());
     let charts = prepared.secondary.iter().map(|&id| (id, None));
     let pieces = prepared.opening.pieces.iter().map(|p| (p.id, Some(p.clone())));
-    for (id, piece) in pieces.chain(charts) {
-        let pick = chart::Pick {
-            chart: Some(id),
-            placed: Arc::new(placed.clone()),
-            replaced: replaced.clone(),
-            form: piece.as_ref().and(session.pick().form.clone()),
-            boundary: piece.as_ref().map(|_| crate::pins::BoundaryChoice::Free),
-            piece,
-        };
+    for (k, (id, piece)) in pieces.chain(charts).enumerate() {
+        let form = session.pick().form.as_ref();
+        let mut obstacles = placed.clone();
+        obstacles.extend(prepared.reserved_after(form, Some(k)));
+        let pick = prepared.pick_beside(id, piece, form, obstacles);
         let (source, asset) = (session.source(), session.asset());
         let outcome = chart::prepare_pick(source, asset, prepared.welded.clone(), &pick).and_then(|p| {
             let mut other = ChartSession::from_prepared(source.clone(), asset.clone(), p, pick.clone());
             let solution = solve(&mut other, solver.options())?;
             Ok((other.prepared().clone(), solution))
         });
+        // Solved clear of what was laid out before it, as the scaffold
+        // promises; checked as stored all the same.
+        let outcome = outcome.and_then(|(piece, solution)| {
+            let mut parts = vec![prepared.part(solver.layout())];
+            parts.extend(solved.iter().map(|s: &Secondary| s.prepared.part(&s.layout)));
+            parts.push(piece.part(solution.solver.layout()));
+            match chart::overlap_of(&parts) {
+                Some(overlap) => Err(Error::Internal(format!(
+                    "it was laid out over the charts before it ({overlap})"
+                ))),
+                None => Ok((piece, solution)),
+            }
+        });
         match outcome {
             Ok((prepared, solution)) => {
-                placed.extend(triangles_of(&prepared, solution.solver.layout()));
+                placed.extend(prepared.placed(solution.solver.layout()));
                 reports.push(solution.report);
                 solved.push(Secondary {
                     layout: solution.solver.layout().to_vec(),

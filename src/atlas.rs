@@ -213,13 +213,15 @@ fn mesh_scale(chart: &Chart, layout: &[DVec2]) -> f64 {
 }
 
 /// How a chart laid out triangle by triangle shapes each triangle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SoupShape {
     /// Flat at its 3D shape (texel density kept).
     Own,
-    /// Equilateral, as wide as its longest side: for triangles too thin to
-    /// keep an area once packed and stored as f32.
-    Fat,
+    /// Equilateral, of its 3D area, its side at least the one given (mesh
+    /// units, [`least_fat_side`]: a sliver, or a triangle whose corners
+    /// meet): for triangles too thin to keep an area once packed and
+    /// stored as f32. The texel density stays near the 3D one.
+    Fat(f64),
 }
 
 /// `chart` laid out triangle by triangle: every corner its own vertex,
@@ -262,6 +264,32 @@ pub fn soup(chart: &Chart, shape: SoupShape) -> Unwrapped {
     }
 }
 
+/// The side of the equilateral triangle of the same area as `[a, b, c]`.
+fn equal_area_side([a, b, c]: [glam::DVec3; 3]) -> f64 {
+    let area = 0.5 * (b - a).cross(c - a).length();
+    (area * 4.0 / 3.0f64.sqrt()).sqrt()
+}
+
+/// The side a fat triangle of `rest` has at least ([`SoupShape::Fat`]): a
+/// quarter of the median longest side of its triangles (a CAD part's
+/// slivers have little area but long sides), positive ones only (1 when
+/// none is: every corner meets).
+pub fn least_fat_side(rest: &Rest) -> f64 {
+    let sides = rest.charts.iter().flat_map(|u| {
+        let m = &u.chart.mesh;
+        m.triangles.iter().map(|t| {
+            let [a, b, c] = t.map(|v| m.positions[v as usize]);
+            a.distance(b).max(b.distance(c)).max(c.distance(a))
+        })
+    });
+    let mut positive: Vec<f64> = sides.filter(|s| *s > 0.0 && s.is_finite()).collect();
+    if positive.is_empty() {
+        return 1.0;
+    }
+    let middle = positive.len() / 2;
+    0.25 * *positive.select_nth_unstable_by(middle, f64::total_cmp).1
+}
+
 /// A triangle of 3D corners `[a, b, c]` laid flat: `a` at the origin, `b`
 /// along x, `c` above (counter-clockwise), at its own shape or fat.
 fn flat_triangle([a, b, c]: [glam::DVec3; 3], shape: SoupShape) -> [DVec2; 3] {
@@ -273,8 +301,8 @@ fn flat_triangle([a, b, c]: [glam::DVec3; 3], shape: SoupShape) -> [DVec2; 3] {
             let up = (ac - ab * (along / len)).length().max(1e-9 * len);
             [DVec2::ZERO, DVec2::new(len, 0.0), DVec2::new(along, up)]
         }
-        SoupShape::Fat => {
-            let side = len.max(ac.length()).max((c - b).length());
+        SoupShape::Fat(least) => {
+            let side = equal_area_side([a, b, c]).max(least);
             [
                 DVec2::ZERO,
                 DVec2::new(side, 0.0),
@@ -355,7 +383,7 @@ mod tests {
         let mut rng = Rng::new(7);
         for n in [1, 2, 7, 60, 400] {
             let chart = random_soup(&mut rng, n);
-            for shape in [SoupShape::Own, SoupShape::Fat] {
+            for shape in [SoupShape::Own, SoupShape::Fat(0.01)] {
                 let u = soup(&chart, shape);
                 let (points, triangles) = (&u.shape.points, &u.shape.triangles);
                 assert!(crate::guard::all_positive(points, triangles), "{n} {shape:?}");
@@ -366,7 +394,7 @@ mod tests {
                 let (lo, hi) = crate::injective::bounds(points);
                 let size = hi - lo;
                 assert!(n < 60 || size.x < 4.0 * size.y, "{n} {shape:?}: {size}");
-                if shape == SoupShape::Fat {
+                if shape != SoupShape::Own {
                     let thinnest = triangles
                         .iter()
                         .map(|t| {

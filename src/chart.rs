@@ -200,8 +200,27 @@ fn prepare_on(
     warnings.extend(repair_warnings(&opening));
     let cut = opening.seam.is_some() || !opening.separation.is_empty();
     let rest_share = kept_share.unwrap_or_else(|| rest_share(asset, &welded, &chart, &opening));
-    let mut domain =
-        crate::domain::setup::decide(source, asset, &welded, &chart, &constraints, (cut, rest_share), pick)?;
+    // What the camera sees of the other pieces is theirs: the chart keeps
+    // off it (each piece keeps off the ones after it, [`PreparedChart::reserved_after`]).
+    let seen = seen_pieces(pick.form.as_ref(), &opening.pieces);
+    let reserved = (pick.piece.is_none() && !seen.is_empty()).then(|| {
+        let mut placed = (*pick.placed).clone();
+        placed.extend(seen);
+        Pick {
+            placed: Arc::new(placed),
+            ..pick.clone()
+        }
+    });
+    let decided_by = reserved.as_ref().unwrap_or(pick);
+    let mut domain = crate::domain::setup::decide(
+        source,
+        asset,
+        &welded,
+        &chart,
+        &constraints,
+        (cut, rest_share),
+        decided_by,
+    )?;
     if let (Some(Form::Facing { camera, .. }), Domain::Free(setup)) = (&pick.form, &domain)
         && let Some(layout) = crate::domain::start::projection_start(camera, &filled)
     {
@@ -228,6 +247,21 @@ fn prepare_on(
         rest_share,
         whole: source.boundary().1.unwrap_or(Region::TEXTURE),
     })
+}
+
+/// The triangles of `pieces` where the camera of a chart made as it sees
+/// them (`form`) shows them; empty for any other form.
+fn seen_pieces(form: Option<&Form>, pieces: &[Arc<Chart>]) -> Vec<[DVec2; 3]> {
+    let Some(Form::Facing { camera, .. }) = form else {
+        return Vec::new();
+    };
+    pieces
+        .iter()
+        .flat_map(|piece| {
+            let seen = crate::cut::facing::projection(camera, &piece.mesh.positions);
+            piece.mesh.triangles.iter().map(move |t| t.map(|v| seen[v as usize]))
+        })
+        .collect()
 }
 
 impl GeometryKey {
@@ -336,6 +370,13 @@ fn repair_warnings(opening: &Opening) -> Vec<String> {
             r.non_manifold_edges.len(),
             edge[0],
             edge[1]
+        ));
+    }
+    if let Some(t) = r.back_faces.first() {
+        out.push(format!(
+            "{} double-sided faces (e.g. welded triangle {t} is another wound the other way): the back triangle of each \
+             is laid out apart with the other charts (one layout cannot keep both windings)",
+            r.back_faces.len()
         ));
     }
     if let Some((edge, t)) = r.inconsistent_edges.first() {
@@ -624,6 +665,49 @@ pub struct Part<'a> {
     pub duplicates: &'a [(u32, u32)],
 }
 
+/// How laid-out parts fail to be one-to-one together ([`overlap_of`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PartsOverlap {
+    /// Part `k` crosses itself.
+    Crosses(usize),
+    /// Parts `a < b` overlap each other.
+    Overlap(usize, usize),
+}
+
+impl std::fmt::Display for PartsOverlap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PartsOverlap::Crosses(k) => write!(f, "part {k} crosses itself"),
+            PartsOverlap::Overlap(a, b) => write!(f, "parts {a} and {b} overlap"),
+        }
+    }
+}
+
+/// Where `parts` laid out together stop being one-to-one as stored (f32
+/// texture coordinates): a part crossing itself or two parts overlapping
+/// ([`crate::injective::atlas_overlaps`]); `None` when they are one-to-one.
+pub fn overlap_of(parts: &[Part]) -> Option<PartsOverlap> {
+    let (mut points, mut triangles, mut chart_of) = (Vec::new(), Vec::new(), Vec::new());
+    for (k, part) in parts.iter().enumerate() {
+        let base = points.len() as u32;
+        let n = part.chart.mesh.n_vertices();
+        points.extend(part.layout[..n].iter().map(|&p| {
+            let uv = xy_to_uv(p);
+            uv_to_xy(DVec2::new(f64::from(uv.x as f32), f64::from(uv.y as f32)))
+        }));
+        triangles.extend(part.chart.mesh.triangles.iter().map(|t| t.map(|v| v + base)));
+        chart_of.extend(std::iter::repeat_n(k as u32, part.chart.mesh.n_triangles()));
+    }
+    let found = crate::injective::atlas_overlaps(&points, &triangles, &chart_of, parts.len(), 1);
+    if let Some(k) = found.self_crossings.iter().position(|&n| n > 0) {
+        return Some(PartsOverlap::Crosses(k));
+    }
+    found
+        .overlapping
+        .first()
+        .map(|&(a, b)| PartsOverlap::Overlap(a as usize, b as usize))
+}
+
 impl PreparedChart {
     /// The solved chart with `layout` as a [`Part`].
     pub fn part<'a>(&'a self, layout: &'a [DVec2]) -> Part<'a> {
@@ -631,6 +715,47 @@ impl PreparedChart {
             chart: &self.chart,
             layout,
             duplicates: &self.opening.duplicates,
+        }
+    }
+
+    /// The chart's own triangles (not its hole fill) where `layout` puts
+    /// them: obstacles of the charts laid out beside it.
+    pub fn placed(&self, layout: &[DVec2]) -> Vec<[DVec2; 3]> {
+        let f = &self.filled;
+        f.mesh.triangles[..f.n_real_triangles]
+            .iter()
+            .map(|t| t.map(|v| layout[v as usize]))
+            .collect()
+    }
+
+    /// Where a camera's view puts the pieces after the `k`-th (all of them
+    /// for `None`) when the chart is made as the camera sees it (`form`):
+    /// the room they are kept, so that no chart or piece laid out before
+    /// them spreads over it. Empty for any other form.
+    pub fn reserved_after(&self, form: Option<&Form>, k: Option<usize>) -> Vec<[DVec2; 3]> {
+        let later = k.map_or(0, |k| k + 1).min(self.opening.pieces.len());
+        seen_pieces(form, &self.opening.pieces[later..])
+    }
+
+    /// How another chart or piece holding landmarks is picked to be solved
+    /// beside this one (`piece` of chart `id`, or chart `id` itself), free,
+    /// clear of the `placed` triangles; a piece is made as `form` says.
+    pub fn pick_beside(
+        &self,
+        id: u32,
+        piece: Option<Arc<Chart>>,
+        form: Option<&Form>,
+        placed: Vec<[DVec2; 3]>,
+    ) -> Pick {
+        let mut replaced = vec![self.chart.id];
+        replaced.extend(&self.secondary);
+        Pick {
+            chart: Some(id),
+            placed: Arc::new(placed),
+            replaced,
+            form: piece.as_ref().and(form.cloned()),
+            boundary: piece.as_ref().map(|_| crate::pins::BoundaryChoice::Free),
+            piece,
         }
     }
 }

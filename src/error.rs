@@ -27,7 +27,7 @@ pub enum Error {
     #[error(transparent)]
     Config(#[from] crate::config::ConfigError),
     /// The solved chart cannot be made a disk (given seams that do not open
-    /// it, a double-sided face, a chart that falls apart when repaired).
+    /// it, a form that leaves no part holding every landmark).
     #[error("{path}: mesh {mesh}, chart {chart} ({n_vertices} vertices, {n_triangles} triangles): {source}")]
     Topology {
         /// The asset.

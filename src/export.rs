@@ -146,6 +146,16 @@ fn stored(finished: &Finished, report: &mut Report) -> Option<StoredUvs> {
     let placed = checked(finished, report)?;
     let (asset, prepared) = (finished.asset, finished.prepared);
     let parts = every_part(finished, &placed);
+    // The last word before anything is written: every part of the new UV
+    // set (the landmarks' chart, the others holding landmarks, the packed
+    // rest) one-to-one with every other, as stored.
+    if let Some(overlap) = chart::overlap_of(&parts) {
+        refuse(
+            report,
+            format!("internal error: the new UV set is not one-to-one ({overlap}); nothing written"),
+        );
+        return None;
+    }
     let uvs = StoredUvs {
         gltf: chart::assemble_corner_uvs(asset, &prepared.welded, &parts),
         obj_vt: (asset.format == crate::io::AssetFormat::Obj)
@@ -343,35 +353,7 @@ fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::
         occupied.extend(o.triangles.iter().map(|t| t.map(|v| o.layout[v as usize])));
     }
     let mut rest = rest.clone();
-    let mut placed = pack_rest(&rest, &occupied, prepared.whole)?;
-    // A chart whose triangles lose their area once packed and stored as f32
-    // (slivers, a soup packed small) is laid out again triangle by triangle,
-    // each triangle fat, and the rest packed again: a chart without
-    // landmarks never makes the solve fail.
-    let thin = thin_charts(&placed);
-    if !thin.is_empty() {
-        for &k in &thin {
-            let u = &rest.charts[k];
-            let duplicates = u.duplicates.clone();
-            rest.charts[k] = crate::atlas::soup(&u.chart, crate::atlas::SoupShape::Fat);
-            rest.charts[k].duplicates = duplicates;
-        }
-        placed = pack_rest(&rest, &occupied, prepared.whole)?;
-        let still = thin_charts(&placed);
-        if !still.is_empty() {
-            return Err(format!(
-                "{} of {} charts without landmarks do not fit the texture at a size that keeps their triangles once \
-                 stored as f32, even laid out triangle by triangle; nothing written",
-                still.len(),
-                rest.charts.len(),
-            ));
-        }
-    }
-    if let Some(pair) = rest_overlap(&placed) {
-        return Err(format!(
-            "internal error: two packed charts without landmarks overlap ({pair}); nothing written"
-        ));
-    }
+    let placed = pack_fattening_thin(&mut rest, &occupied, prepared.whole)?;
     report.rest = Some(crate::report::RestReport {
         charts: rest.charts.len(),
         triangles: rest.charts.iter().map(|u| u.chart.mesh.n_triangles()).sum(),
@@ -386,6 +368,51 @@ fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::
     Ok(placed)
 }
 
+/// Rounds of [`pack_fattening_thin`] at most: each packs again at a smaller
+/// scale, which can make other charts thin.
+const FATTEN_ROUNDS: usize = 4;
+
+/// The rest packed around `occupied` in `whole`. A chart whose triangles
+/// lose their area once packed and stored as f32 (slivers, a soup packed
+/// small) is laid out again triangle by triangle, each triangle fat
+/// ([`crate::atlas::SoupShape::Fat`]), and the rest packed again, until
+/// none is thin: a chart without landmarks never makes the solve fail.
+///
+/// # Errors
+/// No room, or a chart still thin once every thin one is fat.
+fn pack_fattening_thin(
+    rest: &mut crate::atlas::Rest,
+    occupied: &[[DVec2; 3]],
+    whole: crate::param::region::Region,
+) -> Result<crate::atlas::PlacedRest, String> {
+    let least = crate::atlas::least_fat_side(rest);
+    let mut fat = vec![false; rest.charts.len()];
+    let mut placed = pack_rest(rest, occupied, whole)?;
+    for _ in 0..FATTEN_ROUNDS {
+        let thin: Vec<usize> = thin_charts(&placed).into_iter().filter(|&k| !fat[k]).collect();
+        if thin.is_empty() {
+            break;
+        }
+        for k in thin {
+            let duplicates = rest.charts[k].duplicates.clone();
+            rest.charts[k] = crate::atlas::soup(&rest.charts[k].chart, crate::atlas::SoupShape::Fat(least));
+            rest.charts[k].duplicates = duplicates;
+            fat[k] = true;
+        }
+        placed = pack_rest(rest, occupied, whole)?;
+    }
+    let still = thin_charts(&placed);
+    if !still.is_empty() {
+        return Err(format!(
+            "{} of {} charts without landmarks do not fit the texture at a size that keeps their triangles once \
+             stored as f32, even laid out triangle by triangle; nothing written",
+            still.len(),
+            rest.charts.len(),
+        ));
+    }
+    Ok(placed)
+}
+
 /// The rest packed around `occupied` in `whole`.
 fn pack_rest(
     rest: &crate::atlas::Rest,
@@ -394,25 +421,6 @@ fn pack_rest(
 ) -> Result<crate::atlas::PlacedRest, String> {
     crate::atlas::place(rest, occupied, whole, &crate::pack::PackRules::DEFAULT)
         .map_err(|e| format!("{e}; nothing written"))
-}
-
-/// Whether the placed charts cross themselves or each other (the packer
-/// keeps shapes apart, each shape's own layout must be one-to-one).
-fn rest_overlap(placed: &crate::atlas::PlacedRest) -> Option<String> {
-    let (mut points, mut triangles, mut chart_of) = (Vec::new(), Vec::new(), Vec::new());
-    for (c, (chart, _, layout)) in placed.charts.iter().enumerate() {
-        let base = points.len() as u32;
-        points.extend(layout);
-        triangles.extend(chart.mesh.triangles.iter().map(|t| t.map(|v| v + base)));
-        chart_of.extend(std::iter::repeat_n(c as u32, chart.mesh.n_triangles()));
-    }
-    let found = crate::injective::atlas_overlaps(&points, &triangles, &chart_of, placed.charts.len(), 1);
-    let crossing = found.self_crossings.iter().position(|&n| n > 0);
-    match (crossing, found.overlapping.first()) {
-        (Some(c), _) => Some(format!("chart {c} of them crosses itself")),
-        (None, Some((a, b))) => Some(format!("charts {a} and {b} of them")),
-        (None, None) => None,
-    }
 }
 
 /// The placed charts with a triangle flipped or flat once stored as f32.

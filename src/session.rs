@@ -152,7 +152,8 @@ impl ChartSession {
     }
 
     /// The same asset and constraints with the chart made as `pick` says
-    /// (another form, or another boundary where the file names none), on
+    /// (another form, or another boundary where the file names none; `None`
+    /// keeps this session's pick's, such as a piece's free boundary), on
     /// this session's weld: a candidate of [`crate::plan`].
     ///
     /// # Errors
@@ -165,7 +166,7 @@ impl ChartSession {
         let t0 = Instant::now();
         let pick = chart::Pick {
             form: Some(form.clone()),
-            boundary,
+            boundary: boundary.or(self.pick.boundary),
             ..self.pick.clone()
         };
         let prepared = chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick)?;

@@ -430,6 +430,40 @@ pub fn photo_landmarks_on(
     k: usize,
     span: f64,
 ) -> Vec<(u32, f64, f64)> {
+    photo_landmarks_where(mesh, allowed, (view, up), (k, span), Seen::NearHalf)
+}
+
+/// Which of the vertices a photograph shows may be landmarks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Seen {
+    /// Those on the near half of the mesh.
+    NearHalf,
+    /// Any: the far side too, where it shows (through a ring's hole).
+    Anywhere,
+}
+
+/// As [`photo_landmarks_on`] among all vertices, the far side too where
+/// the photograph shows it ([`Seen::Anywhere`]).
+///
+/// # Panics
+/// Fewer than `k` such vertices.
+pub fn photo_landmarks_anywhere(mesh: &TriMesh, view: DVec3, up: DVec3, k: usize, span: f64) -> Vec<(u32, f64, f64)> {
+    photo_landmarks_where(
+        mesh,
+        &vec![true; mesh.n_vertices()],
+        (view, up),
+        (k, span),
+        Seen::Anywhere,
+    )
+}
+
+fn photo_landmarks_where(
+    mesh: &TriMesh,
+    allowed: &[bool],
+    (view, up): (DVec3, DVec3),
+    (k, span): (usize, f64),
+    seen: Seen,
+) -> Vec<(u32, f64, f64)> {
     let normals = crate::cut::cost::vertex_normals(mesh);
     let right = view.cross(up).normalize();
     let up = right.cross(view).normalize();
@@ -444,7 +478,10 @@ pub fn photo_landmarks_on(
     let radius = 0.03 * scale;
     let hidden = occluded(mesh, (right, up, view), radius, 0.05 * scale);
     let visible: Vec<usize> = (0..mesh.n_vertices())
-        .filter(|&v| allowed[v] && normals[v].dot(-view) > 0.55 && mesh.positions[v].dot(view) < middle && !hidden[v])
+        .filter(|&v| {
+            let near = seen == Seen::Anywhere || mesh.positions[v].dot(view) < middle;
+            allowed[v] && normals[v].dot(-view) > 0.55 && near && !hidden[v]
+        })
         .collect();
     assert!(visible.len() >= k, "only {} visible vertices", visible.len());
     let mut chosen = vec![visible[visible.len() / 2]];

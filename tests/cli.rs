@@ -795,3 +795,35 @@ fn a_one_triangle_piece_holding_a_landmark_makes_the_solve_partial_not_an_error(
         );
     }
 }
+
+#[test]
+fn a_double_sided_face_has_its_back_laid_out_apart_with_a_warning() {
+    let tmp = TempDir::new("double-sided");
+    let mut grid = grid_mesh(10, 10);
+    // Three faces given again wound the other way (a double-sided patch):
+    // one layout cannot keep both windings.
+    for k in [30, 31, 64] {
+        let [a, b, c] = grid.triangles[k];
+        grid.triangles.push([a, c, b]);
+    }
+    std::fs::write(tmp.path("two.obj"), obj_text(&grid)).unwrap();
+    for (name, extra) in [("out.glb", ""), ("out.obj", "    boundary: Free,\n")] {
+        let ron = tmp.path("two.uvpin.ron");
+        write_constraints(
+            &ron,
+            std::path::Path::new("two.obj"),
+            &[(44, 0.45, 0.5), (56, 0.6, 0.62)],
+            extra,
+        );
+        let out = tmp.path(name);
+        let (o, report) = solve_json(&ron, &out);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let warned = report["warnings"].as_array().unwrap().iter().any(|w| {
+            let w = w.as_str().unwrap_or_default();
+            w.contains("3 double-sided faces") && w.contains("laid out apart")
+        });
+        assert!(warned, "{}", report["warnings"]);
+        let o = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stdout(&o));
+    }
+}

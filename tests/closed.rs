@@ -14,7 +14,7 @@ use serde_json::{Value, json};
 use std::path::Path;
 use uvpin::mesh::TriMesh;
 
-use uvpin::testing::{photo_landmarks, photo_landmarks_on};
+use uvpin::testing::{photo_landmarks, photo_landmarks_anywhere, photo_landmarks_on};
 
 /// Appends `data` as a new view (optionally strided) and accessor; its index.
 fn push(doc: &mut Value, blob: &mut Vec<u8>, data: &[u8], accessor: Value, stride: Option<usize>) -> usize {
@@ -256,6 +256,55 @@ fn a_torus_and_a_double_torus_have_their_handles_cut() {
     }
 }
 
+/// A chain link seen from its side, a little above, shows parts of it
+/// apart: its near bar, and past it the inside of its far bar's ends. A
+/// photo's landmarks on them are each laid out where the photo shows them:
+/// every target reached, the landmarks' chart hardly stretched (cut open
+/// whole instead, it was stretched 4×), the whole UV set one-to-one.
+fn a_ring_seen_through_its_hole_has_both_parts_it_shows_reached() {
+    let mut mesh = uvpin::testing::torus(96, 24, 1.0, 0.35);
+    for p in &mut mesh.positions {
+        p.x *= 2.5;
+    }
+    let view = DVec3::new(0.0, 1.0, -0.2).normalize();
+    let landmarks = photo_landmarks_anywhere(&mesh, view, DVec3::Z, 12, 0.7);
+    let far = landmarks
+        .iter()
+        .filter(|(v, ..)| mesh.positions[*v as usize].dot(view) > 0.0)
+        .count();
+    assert!(
+        (2..=10).contains(&far),
+        "landmarks on both sides: {far} of 12 on the far one"
+    );
+    let tmp = TempDir::new("closed-ring");
+    std::fs::write(tmp.path("ring.obj"), obj_text(&mesh)).unwrap();
+    let ron = tmp.path("ring.uvpin.ron");
+    write_constraints(&ron, Path::new("ring.obj"), &landmarks, "");
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stderr(&o), report["explain"]);
+    assert_eq!(report["status"], "reached");
+    let explain = report["explain"].to_string();
+    assert!(explain.contains("more part(s) holding landmarks"), "{explain}");
+    let l2 = report["stretch_final"]["l2"].as_f64().unwrap();
+    assert!(l2 < 1.5, "stretch L2 {l2}: {explain}");
+    for prim in python_uv_orientation(&out, 0).as_array().unwrap() {
+        assert_eq!(
+            (prim["positive"].as_u64(), prim["zero"].as_u64()),
+            (Some(0), Some(0)),
+            "{prim}"
+        );
+    }
+    let inj = python_injectivity(&out, 0);
+    assert_eq!(
+        (inj["crossings"].as_u64(), inj["overlapping_pairs"].as_u64()),
+        (Some(0), Some(0)),
+        "{inj}"
+    );
+    let check = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
+    assert_eq!(check.status.code(), Some(0), "{}", stderr(&check));
+}
+
 fn a_head_is_cut_at_the_back_and_its_face_lands_on_the_photo() {
     let (head, _) = uvpin::testing::blob_head(40, 60);
     let report = solve_closed("head", &head, 32, 0.7);
@@ -415,6 +464,11 @@ fn main() -> std::process::ExitCode {
             "a_torus_and_a_double_torus_have_their_handles_cut",
             &[],
             a_torus_and_a_double_torus_have_their_handles_cut,
+        ),
+        (
+            "a_ring_seen_through_its_hole_has_both_parts_it_shows_reached",
+            &[],
+            a_ring_seen_through_its_hole_has_both_parts_it_shows_reached,
         ),
         (
             "a_head_is_cut_at_the_back_and_its_face_lands_on_the_photo",

@@ -251,13 +251,19 @@ fn visible(mesh: &TriMesh, projected: &[DVec2], depth: &[f64]) -> Vec<bool> {
         nearest[k] = nearest[k].max((da + db + dc) / 3.0);
     }
     let tolerance = HIDDEN_DEPTH * edge / n_t as f64;
+    let seen_at = |p: DVec2, d: f64| {
+        let (x, y) = cell_of(p);
+        d >= nearest[y * nx + x] - tolerance
+    };
+    // Its centre and its corners: a triangle half behind another part
+    // (where a far part comes out from behind a near one) is hidden, so
+    // the parts seen do not overlap where the camera shows them.
     mesh.triangles
         .iter()
         .map(|t| {
             let centre = t.iter().map(|&v| projected[v as usize]).sum::<DVec2>() / 3.0;
             let d = t.iter().map(|&v| depth[v as usize]).sum::<f64>() / 3.0;
-            let (x, y) = cell_of(centre);
-            d >= nearest[y * nx + x] - tolerance
+            seen_at(centre, d) && t.iter().all(|&v| seen_at(projected[v as usize], depth[v as usize]))
         })
         .collect()
 }

@@ -49,17 +49,10 @@ pub enum SolvableError {
     Topology(#[from] TopologyError),
     #[error("{0}")]
     Cut(#[from] CutError),
-    #[error(
-        "triangles {t0} and {t1} are the same triangle wound both ways (a double-sided face): one UV layout cannot keep both \
-         orientations; remove one of them"
-    )]
-    DoubleSided { t0: u32, t1: u32 },
     #[error("{0}")]
     NotADisk(TopologyError),
     #[error("no part {form} holds every landmark")]
     NoPart { form: &'static str },
-    #[error("{form} leaves the landmarks on {parts} parts apart")]
-    Scattered { form: &'static str, parts: usize },
 }
 
 /// How a landmarked chart is made a disk: the candidates a solve weighs
@@ -100,9 +93,8 @@ impl Form {
 /// separating form split off.
 ///
 /// # Errors
-/// A double-sided face, landmarks on several pieces, bad given seams, a
-/// form that leaves the chart no disk, or one that finds no part holding
-/// every landmark.
+/// Bad given seams, a form that leaves the chart no disk, or one that
+/// finds no part holding every landmark.
 pub fn make_solvable(
     chart: &Chart,
     form: &Form,
@@ -111,10 +103,15 @@ pub fn make_solvable(
     unseamable: &[[u32; 2]],
     rules: &SeamRules,
 ) -> Result<Solvable, SolvableError> {
-    let (single, duplicates) = without_duplicates(chart)?;
-    let repaired = split_wedges(&single.mesh, &|_| false);
+    let (single, repeated) = without_duplicates(chart);
+    let mut repaired = split_wedges(&single.mesh, &|_| false);
     let whole = single.opened(&repaired);
     let (mut main, mut pieces, mut rest) = main_piece(&whole, landmarks);
+    let duplicates = repeated.duplicates;
+    if let Some((back, ids)) = repeated.back {
+        rest.push(back);
+        repaired.repairs.back_faces = ids;
+    }
     let mut separation = Vec::new();
     let local_landmarks = |c: &Chart| -> Vec<u32> { landmarks.iter().filter_map(|w| c.local_of(*w)).collect() };
     let split = match form {
@@ -135,14 +132,9 @@ pub fn make_solvable(
         }
     };
     if let Some(split) = split {
-        // A form judged on its main piece alone must hold every landmark
-        // of the chart it splits: the parts apart would go unjudged.
-        if !split.others.is_empty() {
-            return Err(SolvableError::Scattered {
-                form: form.name(),
-                parts: split.others.len() + 1,
-            });
-        }
+        // Other parts holding landmarks (what a camera sees of a ring, on
+        // both sides of its hole) are pieces of their own, solved beside
+        // the main one; the planner judges a form with them all.
         separation = split
             .edges
             .iter()
@@ -170,7 +162,7 @@ pub fn make_solvable(
                 .collect::<Result<_, _>>()?,
         ),
     };
-    let (repairs, duplicates) = (repaired.repairs, duplicates);
+    let repairs = repaired.repairs;
     let topology = Topology::build(&main.mesh);
     let cut = match (form, &spec, &topology) {
         (Form::AsGiven, SeamSpec::Auto, Err(e)) => return Err(SolvableError::NotADisk(e.clone())),
@@ -247,12 +239,21 @@ fn main_piece(whole: &Chart, landmarks: &[u32]) -> (Chart, Vec<Chart>, Vec<Chart
     super::sorted_pieces(whole, &piece_of, &held, main)
 }
 
-/// The chart without triangles that repeat an earlier one's vertices in
-/// the same winding, and which triangle each dropped one copies.
-///
-/// # Errors
-/// A triangle that repeats another's vertices in the other winding.
-fn without_duplicates(chart: &Chart) -> Result<(Chart, Vec<(u32, u32)>), SolvableError> {
+/// What [`without_duplicates`] leaves out of a chart.
+struct Repeated {
+    /// Triangles repeating an earlier one in the same winding: (welded
+    /// triangle left out, chart triangle whose UVs it takes).
+    duplicates: Vec<(u32, u32)>,
+    /// Back faces: triangles repeating an earlier one in the other
+    /// winding (one layout cannot keep both windings), as a chart of their
+    /// own to lay out apart; with their welded triangle ids.
+    back: Option<(Chart, Vec<u32>)>,
+}
+
+/// The chart without triangles that repeat an earlier one's vertices:
+/// those in the same winding copy it, those in the other (the back of a
+/// double-sided face) are laid out apart.
+fn without_duplicates(chart: &Chart) -> (Chart, Repeated) {
     let tris = &chart.mesh.triangles;
     let mut keyed: Vec<([u32; 3], u32)> = tris
         .iter()
@@ -265,6 +266,7 @@ fn without_duplicates(chart: &Chart) -> Result<(Chart, Vec<(u32, u32)>), Solvabl
         .collect();
     keyed.sort_unstable();
     let mut keep = vec![true; tris.len()];
+    let mut back = vec![false; tris.len()];
     let mut copies: Vec<(u32, u32)> = Vec::new();
     for pair in keyed.windows(2) {
         let ((ka, a), (kb, b)) = (pair[0], pair[1]);
@@ -273,18 +275,28 @@ fn without_duplicates(chart: &Chart) -> Result<(Chart, Vec<(u32, u32)>), Solvabl
         }
         // `a` is the first of its kind (or a copy of it): `b` repeats it.
         let first = copies.iter().find(|(c, _)| *c == a).map_or(a, |(_, f)| *f);
+        keep[b as usize] = false;
         if rotation_of(tris[first as usize], tris[b as usize]) {
-            keep[b as usize] = false;
             copies.push((b, first));
         } else {
-            return Err(SolvableError::DoubleSided {
-                t0: chart.triangle_ids[first as usize],
-                t1: chart.triangle_ids[b as usize],
-            });
+            back[b as usize] = true;
         }
     }
-    if copies.is_empty() {
-        return Ok((chart.clone(), Vec::new()));
+    let back = back.iter().any(|&b| b).then(|| {
+        let ids = (0..tris.len())
+            .filter(|&k| back[k])
+            .map(|k| chart.triangle_ids[k])
+            .collect();
+        (chart.piece(&back), ids)
+    });
+    if copies.is_empty() && back.is_none() {
+        return (
+            chart.clone(),
+            Repeated {
+                duplicates: Vec::new(),
+                back: None,
+            },
+        );
     }
     let single = chart.with_triangles(&keep);
     // Kept triangles are renumbered in order: where each one went.
@@ -300,7 +312,7 @@ fn without_duplicates(chart: &Chart) -> Result<(Chart, Vec<(u32, u32)>), Solvabl
         .into_iter()
         .map(|(dup, first)| (chart.triangle_ids[dup as usize], new_index[first as usize]))
         .collect();
-    Ok((single, duplicates))
+    (single, Repeated { duplicates, back })
 }
 
 /// Whether `b` lists `a`'s vertices in the same cyclic order.

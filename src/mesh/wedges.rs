@@ -35,12 +35,18 @@ pub struct Repairs {
     /// Vertices (of the input) split into several fans with no seam or
     /// repaired edge through them: pinches.
     pub pinches: Vec<u32>,
+    /// Back faces of double-sided faces (welded triangles repeating an
+    /// earlier one's vertices in the other winding): laid out apart.
+    pub back_faces: Vec<u32>,
 }
 
 impl Repairs {
     /// Nothing was repaired.
     pub fn is_empty(&self) -> bool {
-        self.non_manifold_edges.is_empty() && self.inconsistent_edges.is_empty() && self.pinches.is_empty()
+        self.non_manifold_edges.is_empty()
+            && self.inconsistent_edges.is_empty()
+            && self.pinches.is_empty()
+            && self.back_faces.is_empty()
     }
 }
 

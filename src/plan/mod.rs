@@ -395,19 +395,28 @@ impl ChartPlan {
         fine_level(session, warm)
     }
 
-    /// Records a finished attempt and what it gave.
+    /// Records a finished attempt and what it gave: a form that leaves
+    /// landmarks on other parts is judged with them, each solved beside it.
     fn judge(&mut self, key: Candidate, session: ChartSession, attempt: Attempt, t0: Instant) {
         let (chart, solver) = attempt.into_parts();
         let tolerance = self.options.tolerance;
-        let residual = solver.max_residual();
+        let mut residual = solver.max_residual();
+        let pieces = session.prepared().opening.pieces.len();
+        if pieces > 0 && residual <= tolerance {
+            residual = residual.max(self.pieces_residual(&session, chart.prepared.placed(solver.layout())));
+        }
         let reached = residual <= tolerance;
         let stretch = own::stretch(&chart.prepared, solver.layout());
         let own = reached
             .then(|| own::own_stretch(&chart.prepared, &self.options))
             .flatten();
+        let mut candidate = key.describe(&chart.prepared.domain);
+        if pieces > 0 {
+            candidate += &format!(" (and {pieces} more part(s) holding landmarks)");
+        }
         self.trials.push(Trial {
             report: TrialReport {
-                candidate: key.describe(&chart.prepared.domain),
+                candidate,
                 outcome: TrialOutcome::Solved {
                     reached,
                     residual,
@@ -420,6 +429,34 @@ impl ChartPlan {
             key,
             tried: Some(Tried { session, chart, solver }),
         });
+    }
+
+    /// The farthest a landmark on `session`'s other pieces ends from its
+    /// target, each piece solved free beside the `placed` triangles and
+    /// those before it (as [`crate::assembly`] solves them); infinite when
+    /// one cannot be solved.
+    fn pieces_residual(&self, session: &ChartSession, mut placed: Vec<[DVec2; 3]>) -> f64 {
+        let prepared = session.prepared();
+        let mut worst = 0.0f64;
+        let form = session.pick().form.as_ref();
+        for (k, piece) in prepared.opening.pieces.iter().enumerate() {
+            let mut obstacles = placed.clone();
+            obstacles.extend(prepared.reserved_after(form, Some(k)));
+            let pick = prepared.pick_beside(piece.id, Some(piece.clone()), form, obstacles);
+            let (source, asset) = (session.source(), session.asset());
+            let solved = crate::chart::prepare_pick(source, asset, prepared.welded.clone(), &pick).and_then(|p| {
+                solve(
+                    ChartSession::from_prepared(source.clone(), asset.clone(), p, pick),
+                    &self.options,
+                )
+            });
+            let Ok(solved) = solved else {
+                return f64::INFINITY;
+            };
+            worst = worst.max(solved.solver.max_residual());
+            placed.extend(solved.session.prepared().placed(solved.solver.layout()));
+        }
+        worst
     }
 
     /// Keeps the best candidate tried: the simplest that reached unless a
@@ -618,7 +655,10 @@ fn boundary_word(b: Option<crate::pins::BoundaryChoice>) -> &'static str {
 /// What the planner knows of `base`'s chart before trying anything.
 fn describe(base: &ChartSession) -> candidates::Chart {
     let p = base.prepared();
-    let (boundary, region) = base.source().boundary();
+    // A chart or piece solved beside another is free whatever the file
+    // says: its pick's boundary is law too.
+    let (named, region) = base.source().boundary();
+    let boundary = named.or(base.pick().boundary);
     let law = candidates::Law::of(p, boundary, region);
     let landmarks = p
         .constraints

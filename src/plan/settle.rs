@@ -1,8 +1,10 @@
 //! A finished solve short of its targets keeps a usable layout: when its
 //! stretch is more than [`crate::solver::SETTLE_FACTOR`] times the
 //! yardstick (the chart's own free layout without landmarks, or step 1's
-//! on the square), that shape is placed for the targets (fitted to them,
-//! or failing that centred in the region) and written instead.
+//! on the square), or it would not keep every triangle once stored as f32
+//! (squeezed too thin to be written), that shape is placed for the targets
+//! (fitted to them, or failing that centred in the region) and written
+//! instead.
 
 use crate::chart::PreparedChart;
 use crate::domain::start::{Fit, Shape, StartKind, fit_into_room};
@@ -31,7 +33,8 @@ pub fn settle(prepared: &PreparedChart, step_one: Option<&[DVec2]>, solver: &mut
     let own = stretch(&yardstick);
     solver.note_own_stretch(own);
     let bound = crate::solver::SETTLE_FACTOR * own.l2;
-    if now.l2 <= bound {
+    let storable = |l: &[DVec2]| crate::guard::all_positive_as_stored(l, &prepared.filled.mesh.triangles);
+    if now.l2 <= bound && storable(solver.layout()) {
         return;
     }
     let best = candidates
@@ -39,7 +42,7 @@ pub fn settle(prepared: &PreparedChart, step_one: Option<&[DVec2]>, solver: &mut
         .map(|c| (stretch(&c).l2, c))
         .filter(|(l2, _)| l2.is_finite())
         .find(|(l2, _)| *l2 <= bound)
-        .or_else(|| Some((stretch(&yardstick).l2, yardstick)).filter(|(l2, _)| l2.is_finite()));
+        .or_else(|| Some((stretch(&yardstick).l2, yardstick)).filter(|(l2, y)| l2.is_finite() && storable(y)));
     if let Some((_, layout)) = best {
         solver.settle_for(layout, now);
     }
