@@ -253,3 +253,129 @@ fn random_closed_meshes_and_random_landmarks_never_write_a_fold_or_an_overlap() 
         "most random cases give a layout"
     );
 }
+
+/// Photo-style landmark sets: an orthographic view of the visible vertices
+/// from a random direction, 8 to 24 landmarks, targets spanning 30 to 90 %
+/// of the texture.
+fn photo_set(mesh: &uvpin::mesh::TriMesh, rng: &mut Rng) -> Option<Vec<(u32, DVec2)>> {
+    let view = glam::DVec3::new(rng.f64() - 0.5, rng.f64() - 0.5, rng.f64() - 0.5).normalize();
+    let up = if view.z.abs() > 0.9 {
+        glam::DVec3::X
+    } else {
+        glam::DVec3::Z
+    };
+    let (k, span) = (8 + rng.below(17), rng.range(0.3, 0.9));
+    let quiet = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let found = std::panic::catch_unwind(|| uvpin::testing::photo_landmarks(mesh, view, up, k, span));
+    std::panic::set_hook(quiet);
+    Some(found.ok()?.into_iter().map(|(v, u, w)| (v, DVec2::new(u, w))).collect())
+}
+
+/// Reached, or proven unreachable (the completion found an obstruction):
+/// never short for want of trying the right candidate.
+fn reached_or_proven(report: &uvpin::Report) -> bool {
+    report.status == Status::Reached || report.completion.as_ref().is_some_and(|c| c.proven_unreachable)
+}
+
+/// Every candidate the planner weighs (as given, cut, as the camera sees
+/// it, the landmarks' surroundings; free or on the square) on closed,
+/// holed and handled meshes with photo-style landmarks: each set reached or
+/// proven unreachable, in both modes, and free never loses a set the
+/// square (the default) reaches.
+#[test]
+fn photo_sets_on_closed_and_handled_meshes_are_reached_and_free_never_loses_one() {
+    use uvpin::testing::{blob_head, holed_plate, torus, uv_sphere};
+    let meshes = [
+        ("sphere", uv_sphere(24, 48)),
+        ("torus", torus(48, 24, 1.0, 0.35)),
+        ("two-hole plate", holed_plate(16, 2)),
+        ("three-hole plate", holed_plate(16, 3)),
+        ("head", blob_head(40, 60).0),
+    ];
+    let cases: usize = std::env::var("UVPIN_PLAN_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(4);
+    let mut rng = Rng::new(11);
+    let (mut n, mut reached) = (0, 0);
+    for (name, mesh) in &meshes {
+        for case in 0..cases {
+            let Some(targets) = photo_set(mesh, &mut rng) else {
+                continue;
+            };
+            let solve = |boundary| {
+                let mut pins = uvpin::Pins::new(&targets);
+                pins.boundary = boundary;
+                uvpin::solve_mesh(mesh, &pins, &uvpin::Options::default()).expect("solved")
+            };
+            let default = solve(None);
+            let free = solve(Some(uvpin::pins::BoundaryChoice::Free));
+            for (mode, s) in [("default", &default), ("free", &free)] {
+                assert!(
+                    reached_or_proven(&s.report),
+                    "{name} case {case} ({mode}, {} landmarks): {:?}\n{}",
+                    targets.len(),
+                    s.report.status,
+                    s.report.explain.join("\n")
+                );
+                n += 1;
+                reached += usize::from(s.report.status == Status::Reached);
+            }
+            assert!(
+                default.report.status != Status::Reached || free.report.status == Status::Reached,
+                "{name} case {case}: the square reached, free did not\n{}",
+                free.report.explain.join("\n")
+            );
+        }
+    }
+    eprintln!("photo sets: {reached} of {n} reached");
+    assert!(n >= 10 * cases, "too few photo sets could be made: {n}");
+}
+
+/// Square-witness sets (targets from a fold-free square layout pushed
+/// through a warp that keeps the square's border): reached on the square,
+/// and free reaches them too without the square's hint; the last two on
+/// charts large enough to be tried on their coarse level first.
+#[test]
+fn free_reaches_every_square_witnessed_set() {
+    let mut rng = Rng::new(23);
+    let mut n = 0;
+    for seed in 0..8u64 {
+        let size = if seed < 6 {
+            12 + rng.below(20)
+        } else {
+            80 + rng.below(10)
+        };
+        let holes = rng.below(3);
+        let mesh = random_disk(&mut rng, size, holes);
+        let Some((targets, _)) = uvpin::testing::witnessed_square_case(&mesh, 4 + rng.below(12), seed) else {
+            continue;
+        };
+        let solve = |boundary| {
+            let pins = uvpin::Pins::new(&targets).with_boundary(boundary);
+            uvpin::solve_mesh(&mesh, &pins, &uvpin::Options::default()).expect("solved")
+        };
+        let square = solve(uvpin::pins::BoundaryChoice::Square);
+        let free = solve(uvpin::pins::BoundaryChoice::Free);
+        assert_eq!(
+            square.report.status,
+            Status::Reached,
+            "seed {seed}: {}",
+            square.report.explain.join("\n")
+        );
+        assert_eq!(
+            free.report.status,
+            Status::Reached,
+            "seed {seed}: {}",
+            free.report.explain.join("\n")
+        );
+        eprintln!(
+            "witnessed seed {seed}: {} vertices, {} landmarks",
+            mesh.n_vertices(),
+            targets.len()
+        );
+        n += 1;
+    }
+    assert!(n >= 4, "too few witnessed sets: {n}");
+}

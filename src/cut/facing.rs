@@ -118,7 +118,7 @@ pub fn facing_region(
     let towards = camera.towards();
     let projected: Vec<DVec2> = mesh.positions.iter().map(|&p| camera.project(p)).collect();
     let depth: Vec<f64> = mesh.positions.iter().map(|p| p.dot(towards)).collect();
-    let mut seen = visible(mesh, &projected, &depth);
+    let (visible, strict) = visible(mesh, &projected, &depth);
     let margin = (room.1 - room.0) * ROOM_MARGIN;
     let (lo, hi) = (room.0 + margin, room.1 - margin);
     let graph = EdgeGraph::new(mesh);
@@ -133,9 +133,19 @@ pub fn facing_region(
             })
         })
         .collect();
-    let visible = seen.clone();
-    for t in 0..seen.len() {
-        seen[t] &= facing[t] && within[t];
+    let mut seen: Vec<bool> = (0..strict.len()).map(|t| strict[t] && facing[t] && within[t]).collect();
+    // A landmark the photo shows is seen: where every triangle around it
+    // passes behind another part at a corner, those seen at their centre
+    // take it in.
+    let mut is_landmark = vec![false; mesh.n_vertices()];
+    landmarks.iter().for_each(|&l| is_landmark[l as usize] = true);
+    let mut held = vec![false; mesh.n_vertices()];
+    for (tri, _) in mesh.triangles.iter().zip(&seen).filter(|(_, s)| **s) {
+        tri.iter().for_each(|&v| held[v as usize] = true);
+    }
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let lone = tri.iter().any(|&v| is_landmark[v as usize] && !held[v as usize]);
+        seen[t] |= lone && visible[t] && facing[t] && within[t];
     }
     let unseen: Vec<bool> = (0..seen.len()).map(|t| visible[t] && within[t]).collect();
     fill_pockets(&graph, &mut seen, &unseen);
@@ -193,11 +203,12 @@ fn fill_pockets(graph: &EdgeGraph, chosen: &mut [bool], seen: &[bool]) {
 
 /// Whether each triangle is the nearest surface where it is seen: a depth
 /// buffer over the projection, a cell about a triangle's size, holding the
-/// nearest depth of every triangle covering it.
-fn visible(mesh: &TriMesh, projected: &[DVec2], depth: &[f64]) -> Vec<bool> {
+/// nearest depth of every triangle covering it. Seen at its centre, and
+/// seen at its centre and corners (strictly).
+fn visible(mesh: &TriMesh, projected: &[DVec2], depth: &[f64]) -> (Vec<bool>, Vec<bool>) {
     let n_t = mesh.triangles.len();
     if n_t == 0 {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     }
     let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
     let (mut area, mut edge) = (0.0, 0.0);
@@ -255,7 +266,7 @@ fn visible(mesh: &TriMesh, projected: &[DVec2], depth: &[f64]) -> Vec<bool> {
         let (x, y) = cell_of(p);
         d >= nearest[y * nx + x] - tolerance
     };
-    // Its centre and its corners: a triangle half behind another part
+    // Strictly, its corners too: a triangle half behind another part
     // (where a far part comes out from behind a near one) is hidden, so
     // the parts seen do not overlap where the camera shows them.
     mesh.triangles
@@ -263,9 +274,11 @@ fn visible(mesh: &TriMesh, projected: &[DVec2], depth: &[f64]) -> Vec<bool> {
         .map(|t| {
             let centre = t.iter().map(|&v| projected[v as usize]).sum::<DVec2>() / 3.0;
             let d = t.iter().map(|&v| depth[v as usize]).sum::<f64>() / 3.0;
-            seen_at(centre, d) && t.iter().all(|&v| seen_at(projected[v as usize], depth[v as usize]))
+            let at_centre = seen_at(centre, d);
+            let strictly = at_centre && t.iter().all(|&v| seen_at(projected[v as usize], depth[v as usize]));
+            (at_centre, strictly)
         })
-        .collect()
+        .unzip()
 }
 
 /// Leaves out every chosen triangle across an unseamable edge from one

@@ -505,8 +505,11 @@ impl ChartPlan {
     }
 
     /// Finishes trial `i` on the chart itself: its layout as it is when it
-    /// was solved there, else its coarse layout prolonged (or, when that
-    /// cannot be put back, the candidate solved on the chart itself).
+    /// was solved there; else, when it reached its targets on its coarse
+    /// level, that layout prolonged; else (short there, or it cannot be put
+    /// back) the candidate solved on the chart itself from its own start: a
+    /// coarse level can crush what the chart has room for, and a set a
+    /// fold-free layout of the chart witnesses is not lost to it.
     fn choose(&mut self, i: usize, why: &'static str) -> Result<(), Error> {
         self.chosen = Some((i, why));
         let Some(Tried {
@@ -522,17 +525,13 @@ impl ChartPlan {
             return self.finish(session, solver);
         };
         let elapsed = self.elapsed_ms();
-        // A candidate short of its targets on its level is put back as it
-        // is: no search on the chart itself, whose cost the level spares.
-        let options = if self.trials[i].ended() == Ended::Reached {
-            self.options
-        } else {
-            SolverOptions {
-                completion: crate::options::Completion::Never,
-                ..self.options
-            }
+        let options = self.options;
+        let reached = self.trials[i].ended() == Ended::Reached;
+        let put_back = match reached {
+            true => prolonged(&mut session, level, &solver, &options, elapsed)?,
+            false => None,
         };
-        let attempt = match prolonged(&mut session, level, &solver, &options, elapsed)? {
+        let attempt = match put_back {
             Some(attempt) => attempt,
             None => {
                 let chart = fine_level(&mut session, None)?;
