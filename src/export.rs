@@ -320,8 +320,29 @@ fn checked(finished: &Finished, report: &mut Report) -> Option<crate::atlas::Pla
         return None;
     }
     place_rest(finished, report)
-        .map_err(|message| refuse(report, message))
+        .map_err(|e| refuse(report, e.to_string()))
         .ok()
+}
+
+/// Why the charts without landmarks could not be packed around the solved
+/// ones.
+#[derive(Debug, thiserror::Error)]
+pub enum RestError {
+    /// No room left for them.
+    #[error("{0}; nothing written")]
+    NoRoom(#[from] crate::pack::PackError),
+    /// Charts still losing a triangle's area once stored as f32, laid out
+    /// triangle by triangle, fat.
+    #[error(
+        "{thin} of {total} charts without landmarks do not fit the texture at a size that keeps their triangles once \
+         stored as f32, even laid out triangle by triangle; nothing written"
+    )]
+    Thin {
+        /// The charts still thin.
+        thin: usize,
+        /// The charts without landmarks.
+        total: usize,
+    },
 }
 
 /// The other charts packed around the solved one (layout coordinates),
@@ -330,7 +351,7 @@ fn checked(finished: &Finished, report: &mut Report) -> Option<crate::atlas::Pla
 /// # Errors
 /// No room for them, or a chart too small to keep its triangles once
 /// stored as f32.
-fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::PlacedRest, String> {
+fn place_rest(finished: &Finished, report: &mut Report) -> Result<crate::atlas::PlacedRest, RestError> {
     let Some(rest) = finished.rest.filter(|r| !r.charts.is_empty()) else {
         return Ok(crate::atlas::PlacedRest::default());
     };
@@ -384,7 +405,7 @@ fn pack_fattening_thin(
     rest: &mut crate::atlas::Rest,
     occupied: &[[DVec2; 3]],
     whole: crate::param::region::Region,
-) -> Result<crate::atlas::PlacedRest, String> {
+) -> Result<crate::atlas::PlacedRest, RestError> {
     let least = crate::atlas::least_fat_side(rest);
     let mut fat = vec![false; rest.charts.len()];
     let mut placed = pack_rest(rest, occupied, whole)?;
@@ -403,12 +424,10 @@ fn pack_fattening_thin(
     }
     let still = thin_charts(&placed);
     if !still.is_empty() {
-        return Err(format!(
-            "{} of {} charts without landmarks do not fit the texture at a size that keeps their triangles once \
-             stored as f32, even laid out triangle by triangle; nothing written",
-            still.len(),
-            rest.charts.len(),
-        ));
+        return Err(RestError::Thin {
+            thin: still.len(),
+            total: rest.charts.len(),
+        });
     }
     Ok(placed)
 }
@@ -418,9 +437,13 @@ fn pack_rest(
     rest: &crate::atlas::Rest,
     occupied: &[[DVec2; 3]],
     whole: crate::param::region::Region,
-) -> Result<crate::atlas::PlacedRest, String> {
-    crate::atlas::place(rest, occupied, whole, &crate::pack::PackRules::DEFAULT)
-        .map_err(|e| format!("{e}; nothing written"))
+) -> Result<crate::atlas::PlacedRest, RestError> {
+    Ok(crate::atlas::place(
+        rest,
+        occupied,
+        whole,
+        &crate::pack::PackRules::DEFAULT,
+    )?)
 }
 
 /// The placed charts with a triangle flipped or flat once stored as f32.

@@ -531,7 +531,7 @@ impl ChartPlan {
             true => prolonged(&mut session, level, &solver, &options, elapsed)?,
             false => None,
         };
-        let attempt = match put_back {
+        let mut attempt = match put_back {
             Some(attempt) => attempt,
             None => {
                 let chart = fine_level(&mut session, None)?;
@@ -539,6 +539,11 @@ impl ChartPlan {
                 Attempt::new(chart, start, session.source(), &options, elapsed)?
             }
         };
+        // Held to its own free layout as its level measured it: polished
+        // above that, whatever its size.
+        if let TrialOutcome::Solved { own: Some(own), .. } = &self.trials[i].report.outcome {
+            attempt.solver_mut().hold_stretch_to(own::ACCEPT * own.l2);
+        }
         self.state = State::Finishing {
             session,
             attempt: Box::new(attempt),

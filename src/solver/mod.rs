@@ -32,7 +32,7 @@ use crate::param::bar_net::{BarNet, FilledChart};
 use crate::param::boundary::BoundaryMap;
 use crate::rbf::stepping::{FullStep, StepProblem, SteppingPhase, SteppingState, apply_step, fit_spline, full_step};
 use glam::DVec2;
-use policy::{AfterSpline, Policy, PolishOutcome, SplineEnd};
+use policy::{AfterSpline, Policy, PolishOutcome, PolishRule, SplineEnd};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -218,6 +218,9 @@ pub struct ChartSolver {
     /// Whether the layout is fold-free as stored (f32) on the spline path;
     /// carried from step to step instead of recounted.
     spline_storable: bool,
+    /// A reached layout more stretched than this (Sander L2) is polished
+    /// whatever the chart's size ([`Self::hold_stretch_to`]).
+    stretch_bound: Option<f64>,
     /// The spline path's last layout when it stalled: kept if the
     /// completion ends further from the targets.
     spline_layout: Option<Vec<DVec2>>,
@@ -390,6 +393,7 @@ impl ChartSolver {
             domain: started.domain,
             spline,
             spline_storable: started.storable,
+            stretch_bound: None,
             spline_layout: None,
             held_loop_run: None,
             phase: Phase::SplineStepping { full_step: None },
@@ -635,6 +639,20 @@ impl ChartSolver {
             .finish(&mut self.layout[..n], &self.filled.mesh.triangles, &self.problem);
     }
 
+    /// Polishes a reached layout more stretched than `l2` (Sander L2)
+    /// whatever the chart's size: the planner holds a large chart to its own
+    /// free layout as measured on its coarse level, so no vertex-count
+    /// cut-off leaves a reached layout that stretched.
+    pub fn hold_stretch_to(&mut self, l2: f64) {
+        self.stretch_bound = Some(l2).filter(|b| b.is_finite());
+    }
+
+    /// Whether the current layout is more stretched than the bound it is
+    /// held to.
+    fn above_bound(&self) -> bool {
+        self.stretch_bound.is_some_and(|b| self.stretch().l2 > b)
+    }
+
     /// The Sander stretch of the current layout (real triangles).
     fn stretch(&self) -> Stretch {
         let f = &self.filled;
@@ -669,6 +687,7 @@ impl ChartSolver {
             movable: !self.problem.movable.is_empty(),
             storable,
             loop_can_be_freed: self.can_free_the_loop(),
+            too_stretched: reached && self.policy.polish == PolishRule::IfSnapDistorts && self.above_bound(),
         };
         match self.policy.after_spline(end) {
             AfterSpline::Done(outcome) => {
@@ -788,7 +807,8 @@ impl ChartSolver {
             return;
         }
         self.record.stretch_before_polish = Some(self.stretch());
-        match self.policy.after_snap(soft.snap_distorted(), soft.is_storable()) {
+        let distorted = soft.snap_distorted() || self.above_bound();
+        match self.policy.after_snap(distorted, soft.is_storable()) {
             Ok(goal) => self.start_polish(soft.into_newton(), goal),
             Err(outcome) => self.record.polish_outcome = Some(outcome),
         }

@@ -16,7 +16,9 @@ pub enum PolishRule {
     Always,
     /// Larger charts, where the polish is not cheap: only after a completion
     /// whose snap left the layout more distorted than its start (in all, or
-    /// in its worst triangle), so it is never left squeezed against the barrier.
+    /// in its worst triangle), so it is never left squeezed against the
+    /// barrier, or when the layout is more stretched than the chart's own
+    /// free layout allows ([`crate::solver::ChartSolver::hold_stretch_to`]).
     IfSnapDistorts,
 }
 
@@ -70,6 +72,8 @@ pub struct SplineEnd {
     /// A free chart's path stalled holding a sample of its outer loop and
     /// can run again without it.
     pub loop_can_be_freed: bool,
+    /// It reached, more stretched than the bound the chart is held to.
+    pub too_stretched: bool,
 }
 
 /// The solve's rules for one chart, fixed by the options and the chart's size.
@@ -140,6 +144,7 @@ impl Policy {
         }
         match (self.polish, end.storable) {
             (PolishRule::Always, _) => AfterSpline::Polish(PolishGoal::Distortion),
+            (PolishRule::IfSnapDistorts, _) if end.too_stretched => AfterSpline::Polish(PolishGoal::Distortion),
             (_, false) => AfterSpline::Polish(PolishGoal::Storable),
             (PolishRule::IfSnapDistorts, true) => AfterSpline::Done(PolishOutcome::AboveLimit {
                 after: Reached::SplinePath,
@@ -192,6 +197,7 @@ mod tests {
             movable,
             storable,
             loop_can_be_freed,
+            too_stretched: false,
         }
     }
 
@@ -233,6 +239,12 @@ mod tests {
             large.after_spline(end(true, true, true, false)),
             Done(PolishOutcome::AboveLimit { after })
         );
+        // ...unless it is more stretched than its own free layout allows.
+        let stretched = SplineEnd {
+            too_stretched: true,
+            ..end(true, true, true, false)
+        };
+        assert_eq!(large.after_spline(stretched), Polish(PolishGoal::Distortion));
         // A layout f32 cannot store is always spread, whatever the rule...
         assert_eq!(
             large.after_spline(end(true, true, false, false)),
