@@ -86,20 +86,26 @@ impl Grid {
         (a.x as usize, a.y as usize, b.x as usize, b.y as usize)
     }
 
-    /// Marks every cell within `grow` cells of a triangle's bounding box.
-    fn mark(&mut self, triangle: [DVec2; 3], grow: usize) {
+    /// Marks every cell within `grow` cells of a triangle's bounding box;
+    /// the cells marked, `(x0, y0, x1, y1)` inclusive.
+    fn mark(&mut self, triangle: [DVec2; 3], grow: usize) -> Option<(usize, usize, usize, usize)> {
         let lo = triangle[0].min(triangle[1]).min(triangle[2]);
         let hi = triangle[0].max(triangle[1]).max(triangle[2]);
         if !(lo.is_finite() && hi.is_finite()) {
-            return;
+            return None;
         }
         let (x0, y0, x1, y1) = self.cells_of(lo, hi);
         let n = self.n;
-        for y in y0.saturating_sub(grow)..=(y1 + grow).min(n - 1) {
-            for x in x0.saturating_sub(grow)..=(x1 + grow).min(n - 1) {
-                self.occupied[y * n + x] = true;
-            }
+        let (x0, y0, x1, y1) = (
+            x0.saturating_sub(grow),
+            y0.saturating_sub(grow),
+            (x1 + grow).min(n - 1),
+            (y1 + grow).min(n - 1),
+        );
+        for y in y0..=y1 {
+            self.occupied[y * n + x0..=y * n + x1].fill(true);
         }
+        Some((x0, y0, x1, y1))
     }
 
     /// Summed-area table of the occupied cells, `(n + 1)²`.
@@ -114,6 +120,48 @@ impl Grid {
             }
         }
         s
+    }
+}
+
+/// Placements between rebuilds of [`Occupancy`]'s summed-area table.
+const REBUILD_EVERY: usize = 8;
+
+/// What a placement asks of the grid: whether a box is free. A summed-area
+/// table answers for the cells as they were at its last rebuild; the boxes
+/// marked since are looked at cell by cell. Rebuilding the table after every
+/// chart cost a full pass over the grid per chart (a rest of 1,400 pieces
+/// took a minute to pack).
+struct Occupancy {
+    summed: Vec<u32>,
+    recent: Vec<(usize, usize, usize, usize)>,
+}
+
+impl Occupancy {
+    fn new(grid: &Grid) -> Self {
+        Occupancy {
+            summed: grid.summed(),
+            recent: Vec::new(),
+        }
+    }
+
+    /// Whether no cell of the `w × h` box at `(x, y)` is occupied.
+    fn is_free(&self, grid: &Grid, (x, y): (usize, usize), (w, h): (usize, usize)) -> bool {
+        let n = grid.n;
+        occupied_in(&self.summed, n, (x, y), (w, h)) == 0
+            && self.recent.iter().all(|&(x0, y0, x1, y1)| {
+                let (ax, bx) = (x.max(x0), (x + w).min(x1 + 1));
+                let (ay, by) = (y.max(y0), (y + h).min(y1 + 1));
+                ax >= bx || ay >= by || (ay..by).all(|r| !grid.occupied[r * n + ax..r * n + bx].contains(&true))
+            })
+    }
+
+    /// `cells` were marked in `grid`.
+    fn marked(&mut self, grid: &Grid, cells: (usize, usize, usize, usize)) {
+        self.recent.push(cells);
+        if self.recent.len() >= REBUILD_EVERY {
+            self.summed = grid.summed();
+            self.recent.clear();
+        }
     }
 }
 
@@ -240,6 +288,7 @@ fn try_pack(
     pad: usize,
 ) -> Option<Vec<Placement>> {
     let mut grid = base.clone();
+    let mut occupancy = Occupancy::new(&grid);
     let mut placed = vec![None; shapes.len()];
     for &i in order {
         let (rotation, box_lo, size) = turns[i];
@@ -250,17 +299,16 @@ fn try_pack(
             return None;
         }
         let spans = row_spans(&shapes[i], rotation, box_lo, scale, grid.cell, (w, h));
-        let summed = grid.summed();
         let n = grid.n;
         // Where the whole box is free, or else where every row of the
         // shape's own cells (grown a cell each way) is.
         let fits = |(x, y): (usize, usize)| {
-            occupied_in(&summed, n, (x, y), (w, h)) == 0
+            occupancy.is_free(&grid, (x, y), (w, h))
                 || spans.iter().enumerate().all(|(r, span)| {
                     span.is_none_or(|(a, b)| {
                         let (a, b) = (a.saturating_sub(1), (b + 1).min(w - 1));
                         let (r0, r1) = (r.saturating_sub(1), (r + 1).min(h - 1));
-                        occupied_in(&summed, n, (x + a, y + r0), (b - a + 1, r1 - r0 + 1)) == 0
+                        occupancy.is_free(&grid, (x + a, y + r0), (b - a + 1, r1 - r0 + 1))
                     })
                 })
         };
@@ -273,8 +321,16 @@ fn try_pack(
             scale,
             offset: corner - scale * box_lo,
         };
+        let mut cells: Option<(usize, usize, usize, usize)> = None;
         for t in &shapes[i].triangles {
-            grid.mark(t.map(|v| placement.apply(shapes[i].points[v as usize])), pad);
+            let marked = grid.mark(t.map(|v| placement.apply(shapes[i].points[v as usize])), pad);
+            cells = match (cells, marked) {
+                (Some(a), Some(b)) => Some((a.0.min(b.0), a.1.min(b.1), a.2.max(b.2), a.3.max(b.3))),
+                (a, b) => a.or(b),
+            };
+        }
+        if let Some(cells) = cells {
+            occupancy.marked(&grid, cells);
         }
         placed[i] = Some(placement);
     }
