@@ -211,6 +211,14 @@ pub fn pack(
         .ok_or(PackError::NoRoom { n_charts: shapes.len() })
 }
 
+/// The scale, relative to the largest the free area allows, at which a
+/// raster is first asked whether the charts fit at all: the search's own
+/// floor (24 halvings).
+const SMALLEST: f64 = 1.0 / (1u32 << 23) as f64;
+
+/// The search for the largest scale stops within this share of it.
+const PRECISION: f64 = 0.03;
+
 /// [`pack`] on an `n × n` raster with `pad` cells around every chart.
 fn pack_on(
     occupied: &[[DVec2; 3]],
@@ -233,6 +241,9 @@ fn pack_on(
     let free = base.occupied.iter().filter(|&&o| !o).count() as f64 * base.cell.x * base.cell.y;
     let total: f64 = turns.iter().map(|t| t.2.x * t.2.y).sum::<f64>().max(1e-300);
     let (mut low, mut high) = (0.0, (free / total).sqrt());
+    // Charts too many for this raster's cells fit at no scale: a finer
+    // raster is tried at once, not after a search down to nothing.
+    let smallest = try_pack(&base, shapes, &turns, &order, SMALLEST * high, pad)?;
     let mut best: Option<Vec<Placement>> = None;
     for k in 0..24 {
         let scale = if k == 0 { high } else { 0.5 * (low + high) };
@@ -243,11 +254,11 @@ fn pack_on(
             }
             None => high = scale,
         }
-        if best.is_some() && high - low < 0.01 * high {
+        if best.is_some() && high - low < PRECISION * high {
             break;
         }
     }
-    best
+    best.or(Some(smallest))
 }
 
 /// The cells a shape covers once placed with its box's corner at the
@@ -289,6 +300,7 @@ fn try_pack(
 ) -> Option<Vec<Placement>> {
     let mut grid = base.clone();
     let mut occupancy = Occupancy::new(&grid);
+    let mut first_row = 0;
     let mut placed = vec![None; shapes.len()];
     for &i in order {
         let (rotation, box_lo, size) = turns[i];
@@ -312,7 +324,11 @@ fn try_pack(
                     })
                 })
         };
-        let spot = (0..=n - h)
+        // Rows filled from end to end hold no box: the search starts below them.
+        while first_row < n && !grid.occupied[first_row * n..(first_row + 1) * n].contains(&false) {
+            first_row += 1;
+        }
+        let spot = (first_row..=n.checked_sub(h)?)
             .flat_map(|y| (0..=n - w).map(move |x| (x, y)))
             .find(|&at| fits(at))?;
         let corner = grid.lo + DVec2::new((spot.0 + 1) as f64 * grid.cell.x, (spot.1 + 1) as f64 * grid.cell.y);
