@@ -446,11 +446,18 @@ fn pack_rest(
     )?)
 }
 
-/// The placed charts with a triangle flipped or flat once stored as f32.
+/// The placed charts that lose a triangle's area or cross themselves once
+/// stored as f32 (a chart packed small: its close boundary edges meet).
 fn thin_charts(placed: &crate::atlas::PlacedRest) -> Vec<usize> {
     let thin = |(chart, _, layout): &crate::atlas::PlacedChart| {
         let stored: Vec<[f32; 2]> = layout.iter().map(|&p| crate::guard::stored_uv(p)).collect();
+        let part = chart::Part {
+            chart,
+            layout,
+            duplicates: &[],
+        };
         !crate::guard::count_stored_orientations(&stored, &chart.mesh.triangles, crate::guard::VAxis::Down).is_clean()
+            || chart::overlap_of(&[part]).is_some()
     };
     placed
         .charts
