@@ -370,19 +370,7 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
     let copies_reached = o.status.code() == Some(0) && report["constraints"][0]["reached"] == true;
     let honest = o.status.code() == Some(2) && report["status"] == "partial";
     assert!(copies_reached || honest, "{} {report}", stderr(&o));
-    for prim in python_uv_orientation(&out, 0).as_array().unwrap() {
-        assert_eq!(
-            (prim["positive"].as_u64(), prim["zero"].as_u64()),
-            (Some(0), Some(0)),
-            "{prim}"
-        );
-    }
-    let inj = python_injectivity(&out, 0);
-    assert_eq!(
-        (inj["crossings"].as_u64(), inj["overlapping_pairs"].as_u64()),
-        (Some(0), Some(0)),
-        "{inj}"
-    );
+    assert_read_back_one_to_one(&out, 0, "the written set");
 }
 
 #[test]

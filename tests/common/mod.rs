@@ -239,6 +239,25 @@ pub fn python_injectivity(path: &Path, uv_set: u32) -> serde_json::Value {
     python_reader(path, &[&uv_set.to_string(), "injectivity"])
 }
 
+/// UV set `uv_set` of `path`, read back by the independent reader: no
+/// triangle flipped or flat, no island crossing itself or another; `what`
+/// names the case in a failure.
+pub fn assert_read_back_one_to_one(path: &Path, uv_set: u32, what: &str) {
+    for prim in python_uv_orientation(path, uv_set).as_array().unwrap() {
+        assert_eq!(
+            (prim["positive"].as_u64(), prim["zero"].as_u64()),
+            (Some(0), Some(0)),
+            "{what}: {prim}"
+        );
+    }
+    let inj = python_injectivity(path, uv_set);
+    assert_eq!(
+        (inj["crossings"].as_u64(), inj["overlapping_pairs"].as_u64()),
+        (Some(0), Some(0)),
+        "{what}: {inj}"
+    );
+}
+
 /// Every vertex attribute (and morph target attribute, `target<t>:<name>`)
 /// of every primitive, per triangle corner, read back by the independent
 /// Python reader: what a renderer sees at each corner.
