@@ -40,6 +40,10 @@ use std::time::Instant;
 /// stretch is below this share of it: measurably better.
 const BETTER: f64 = 0.9;
 
+/// A candidate short on its coarse level is searched on the chart itself
+/// for at most this many times what every candidate took on its level.
+const FINE_SEARCH: f64 = 4.0;
+
 /// A tried candidate: what it gave, and while it may be chosen, its
 /// chart and solve.
 #[derive(Debug, Clone)]
@@ -525,8 +529,22 @@ impl ChartPlan {
             return self.finish(session, solver);
         };
         let elapsed = self.elapsed_ms();
-        let options = self.options;
         let reached = self.trials[i].ended() == Ended::Reached;
+        let options = match reached {
+            true => self.options,
+            // Short on its level: the chart itself is searched for at most
+            // a few times what the candidates took together on their levels,
+            // so a set its level crushed is reached, and one it cannot reach
+            // costs no unbounded search.
+            false => {
+                let tried: f64 = self.trials.iter().map(|t| t.report.ms).sum();
+                let cap = elapsed + FINE_SEARCH * tried;
+                SolverOptions {
+                    time_budget_ms: Some(self.options.time_budget_ms.map_or(cap, |b| b.min(cap))),
+                    ..self.options
+                }
+            }
+        };
         let put_back = match reached {
             true => prolonged(&mut session, level, &solver, &options, elapsed)?,
             false => None,
