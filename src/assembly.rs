@@ -149,13 +149,7 @@ fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries 
     let charts = prepared.secondary.iter().map(|&id| (id, None));
     let pieces = prepared.opening.pieces.iter().map(|p| (p.id, Some(p.clone())));
     for (k, (id, piece)) in pieces.chain(charts).enumerate() {
-        let form = session.pick().form.as_ref();
-        let mut obstacles = placed.clone();
-        obstacles.extend(prepared.reserved_after(form, Some(k)));
-        let pick = prepared.pick_beside(id, piece, form, obstacles);
-        let (source, asset) = (session.source(), session.asset());
-        let outcome = chart::prepare_pick(source, asset, prepared.welded.clone(), &pick).and_then(|p| {
-            let mut other = ChartSession::from_prepared(source.clone(), asset.clone(), p, pick.clone());
+        let outcome = session.beside(k, (id, piece.clone()), &placed).and_then(|mut other| {
             let solution = solve(&mut other, solver.options())?;
             Ok((other.prepared().clone(), solution))
         });
@@ -183,7 +177,7 @@ fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries 
             }
             // A chart or piece that cannot be solved is laid out with the
             // rest, its landmarks unreached: partial, never an error.
-            Err(e) => match pick.piece {
+            Err(e) => match piece {
                 Some(piece) => unsolved.push((piece, e.to_string())),
                 None => unsolved.push((Arc::new(prepared.welded.chart(id)), format!("chart {id}: {e}"))),
             },

@@ -728,12 +728,12 @@ impl PreparedChart {
             .collect()
     }
 
-    /// Where a camera's view puts the pieces after the `k`-th (all of them
-    /// for `None`) when the chart is made as the camera sees it (`form`):
-    /// the room they are kept, so that no chart or piece laid out before
-    /// them spreads over it. Empty for any other form.
-    pub fn reserved_after(&self, form: Option<&Form>, k: Option<usize>) -> Vec<[DVec2; 3]> {
-        let later = k.map_or(0, |k| k + 1).min(self.opening.pieces.len());
+    /// Where a camera's view puts the pieces after the `k`-th when the
+    /// chart is made as the camera sees it (`form`): the room they are
+    /// kept, so that no chart or piece laid out before them spreads over
+    /// it. Empty for any other form.
+    pub fn reserved_after(&self, form: Option<&Form>, k: usize) -> Vec<[DVec2; 3]> {
+        let later = (k + 1).min(self.opening.pieces.len());
         seen_pieces(form, &self.opening.pieces[later..])
     }
 

@@ -241,9 +241,6 @@ fn pack_on(
     let free = base.occupied.iter().filter(|&&o| !o).count() as f64 * base.cell.x * base.cell.y;
     let total: f64 = turns.iter().map(|t| t.2.x * t.2.y).sum::<f64>().max(1e-300);
     let (mut low, mut high) = (0.0, (free / total).sqrt());
-    // Charts too many for this raster's cells fit at no scale: a finer
-    // raster is tried at once, not after a search down to nothing.
-    let smallest = try_pack(&base, shapes, &turns, &order, SMALLEST * high, pad)?;
     let mut best: Option<Vec<Placement>> = None;
     for k in 0..24 {
         let scale = if k == 0 { high } else { 0.5 * (low + high) };
@@ -252,13 +249,20 @@ fn pack_on(
                 best = Some(placed);
                 low = scale;
             }
+            // Charts too many for this raster's cells fit at no scale: a
+            // finer raster is tried at once, not after a search down to
+            // nothing.
+            None if k == 0 => {
+                best = Some(try_pack(&base, shapes, &turns, &order, SMALLEST * high, pad)?);
+                (low, high) = (SMALLEST * high, scale);
+            }
             None => high = scale,
         }
         if best.is_some() && high - low < PRECISION * high {
             break;
         }
     }
-    best.or(Some(smallest))
+    best
 }
 
 /// The cells a shape covers once placed with its box's corner at the

@@ -312,6 +312,32 @@ impl ChartSession {
         self.rest = Arc::default();
     }
 
+    /// The session of the `k`-th other chart or piece holding landmarks,
+    /// solved after this chart (chart `id`, or `piece` of it): free, clear
+    /// of the `placed` triangles and of where the camera shows the pieces
+    /// after it ([`PreparedChart::reserved_after`]).
+    ///
+    /// # Errors
+    /// As [`ChartSession::open`].
+    pub fn beside(
+        &self,
+        k: usize,
+        (id, piece): (u32, Option<Arc<crate::mesh::weld::Chart>>),
+        placed: &[[DVec2; 3]],
+    ) -> Result<ChartSession, Error> {
+        let form = self.pick.form.as_ref();
+        let mut obstacles = placed.to_vec();
+        obstacles.extend(self.prepared.reserved_after(form, k));
+        let pick = self.prepared.pick_beside(id, piece, form, obstacles);
+        let prepared = chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick)?;
+        Ok(ChartSession::from_prepared(
+            self.source.clone(),
+            self.asset.clone(),
+            prepared,
+            pick,
+        ))
+    }
+
     /// How the chart was picked and made.
     pub fn pick(&self) -> &chart::Pick {
         &self.pick

@@ -440,20 +440,11 @@ impl ChartPlan {
     /// those before it (as [`crate::assembly`] solves them); infinite when
     /// one cannot be solved.
     fn pieces_residual(&self, session: &ChartSession, mut placed: Vec<[DVec2; 3]>) -> f64 {
-        let prepared = session.prepared();
         let mut worst = 0.0f64;
-        let form = session.pick().form.as_ref();
-        for (k, piece) in prepared.opening.pieces.iter().enumerate() {
-            let mut obstacles = placed.clone();
-            obstacles.extend(prepared.reserved_after(form, Some(k)));
-            let pick = prepared.pick_beside(piece.id, Some(piece.clone()), form, obstacles);
-            let (source, asset) = (session.source(), session.asset());
-            let solved = crate::chart::prepare_pick(source, asset, prepared.welded.clone(), &pick).and_then(|p| {
-                solve(
-                    ChartSession::from_prepared(source.clone(), asset.clone(), p, pick),
-                    &self.options,
-                )
-            });
+        for (k, piece) in session.prepared().opening.pieces.iter().enumerate() {
+            let solved = session
+                .beside(k, (piece.id, Some(piece.clone())), &placed)
+                .and_then(|other| solve(other, &self.options));
             let Ok(solved) = solved else {
                 return f64::INFINITY;
             };

@@ -806,8 +806,9 @@ impl ChartSolver {
             self.keep_closest();
             return;
         }
-        self.record.stretch_before_polish = Some(self.stretch());
-        let distorted = soft.snap_distorted() || self.above_bound();
+        let before = self.stretch();
+        self.record.stretch_before_polish = Some(before);
+        let distorted = soft.snap_distorted() || self.stretch_bound.is_some_and(|b| before.l2 > b);
         match self.policy.after_snap(distorted, soft.is_storable()) {
             Ok(goal) => self.start_polish(soft.into_newton(), goal),
             Err(outcome) => self.record.polish_outcome = Some(outcome),
