@@ -116,7 +116,7 @@ impl Pins {
         let mut out: Vec<ResolvedConstraint> = Vec::new();
         for (index, &(vertex, target)) in self.targets.iter().enumerate() {
             let fail = |message: String| PinError::Constraint { index, message };
-            check_target(target).map_err(fail)?;
+            check_target(index, target)?;
             if vertex as usize >= n {
                 return Err(fail(format!(
                     "vertex {vertex} is out of range: the mesh has vertices 0..{n}"
@@ -159,14 +159,14 @@ impl Pins {
 /// A target must be a finite point (where its chart may be laid out is
 /// the boundary's matter: the unit square, a region, an atlas island
 /// outside it).
-fn check_target(t: DVec2) -> Result<(), String> {
+fn check_target(index: usize, t: DVec2) -> Result<(), PinError> {
     if t.is_finite() {
         Ok(())
     } else {
-        Err(format!(
-            "target ({}, {}) in texture coordinates is not a finite point",
-            t.x, t.y
-        ))
+        Err(PinError::Constraint {
+            index,
+            message: format!("target ({}, {}) in texture coordinates is not a finite point", t.x, t.y),
+        })
     }
 }
 

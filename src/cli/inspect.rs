@@ -10,7 +10,7 @@ use std::path::Path;
 ///
 /// # Errors
 /// Not three finite numbers.
-pub fn parse_point(s: &str) -> Result<DVec3, String> {
+pub fn parse_point(s: &str) -> Result<DVec3, PointError> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     let numbers: Vec<f64> = parts
         .iter()
@@ -19,8 +19,15 @@ pub fn parse_point(s: &str) -> Result<DVec3, String> {
         .collect();
     match numbers[..] {
         [x, y, z] if parts.len() == 3 => Ok(DVec3::new(x, y, z)),
-        _ => Err(format!("expected X,Y,Z (three numbers), got `{}`", s.escape_debug())),
+        _ => Err(PointError { given: s.to_string() }),
     }
+}
+
+/// A `--near` that is not three finite numbers.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("expected X,Y,Z (three numbers), got `{}`", given.escape_debug())]
+pub struct PointError {
+    pub given: String,
 }
 
 /// Runs `uvpin inspect`; the exit code.

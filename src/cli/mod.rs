@@ -423,13 +423,19 @@ struct Printing {
 }
 
 /// `--preview-size` must be a size a picture can be drawn at.
-fn check_picture_size(size: u32) -> Result<(), String> {
-    let max = crate::preview::MAX_SIZE;
-    if (16..=max).contains(&size) {
+fn check_picture_size(size: u32) -> Result<(), PictureSizeError> {
+    if (16..=crate::preview::MAX_SIZE).contains(&size) {
         Ok(())
     } else {
-        Err(format!("--preview-size {size}: must be between 16 and {max} pixels"))
+        Err(PictureSizeError { size })
     }
+}
+
+/// A `--preview-size` no picture is drawn at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("--preview-size {size}: must be between 16 and {} pixels", crate::preview::MAX_SIZE)]
+struct PictureSizeError {
+    size: u32,
 }
 
 fn solve(

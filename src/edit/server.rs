@@ -386,7 +386,9 @@ fn texture(context: &Context, view: &FileView) -> Reply {
         return png_reply(&t.png);
     }
     let image = match image_path(inputs) {
-        Some(path) => crate::preview::texture::load_image(&path, &context.input).map(Arc::new),
+        Some(path) => crate::preview::texture::load_image(&path, &context.input)
+            .map(Arc::new)
+            .map_err(|e| e.to_string()),
         None => crate::preview::texture::base_colour_texture(&inputs.asset)
             .ok_or_else(|| "the asset's material has no base-colour texture".to_string()),
     };
@@ -479,7 +481,7 @@ fn save(context: &Context, view: &FileView, body: &serde_json::Value) -> Reply {
         );
     }
     if let Err(e) = check_against_asset(&new_text, inputs) {
-        return Reply::error(400, e);
+        return Reply::error(400, e.to_string());
     }
     if let Err(e) = crate::io::atomic::write_atomically(&view.path, new_text.as_bytes()) {
         return Reply::error(500, format!("cannot write {}: {}", view.name, e.message));
@@ -492,14 +494,11 @@ fn save(context: &Context, view: &FileView, body: &serde_json::Value) -> Reply {
 
 /// The new text must give constraints the asset can take (vertices that
 /// exist, in one chart, targets apart), or nothing is written.
-fn check_against_asset(text: &str, inputs: &super::hub::EditInputs) -> Result<(), String> {
+fn check_against_asset(text: &str, inputs: &super::hub::EditInputs) -> Result<(), crate::Error> {
     let defaults = inputs.loaded.solver;
-    let loaded = crate::constraints::LoadedConstraints::parse_with_defaults(&inputs.loaded.path, text, &defaults)
-        .map_err(|e| e.to_string())?;
+    let loaded = crate::constraints::LoadedConstraints::parse_with_defaults(&inputs.loaded.path, text, &defaults)?;
     let source = crate::constraints::ConstraintSource::File(Arc::new(loaded));
-    crate::chart::prepare(&source, &inputs.asset)
-        .map(|_| ())
-        .map_err(|e| e.to_string())
+    crate::chart::prepare(&source, &inputs.asset).map(|_| ())
 }
 
 /// A server-sent event stream: the file list whenever the hub's version moves.

@@ -9,6 +9,7 @@
 use super::MeshSelector;
 use super::atomic::{self, Staged};
 use super::corners::CornerUvs;
+use super::gltf_split::DataError;
 use super::{AssetError, AssetFormat, Container, SourceAsset, glb};
 use crate::mesh::weld::PrimitiveGeometry;
 use base64::Engine;
@@ -267,7 +268,7 @@ fn load_buffers(
             None => bin
                 .ok_or_else(|| err("refers to the GLB BIN chunk, but there is none".into()))?
                 .to_vec(),
-            Some(uri) => read_uri(base, uri, rules).map_err(err)?,
+            Some(uri) => read_uri(base, uri, rules).map_err(|e| err(e.to_string()))?,
         };
         if data.len() < declared {
             return Err(err(format!("has {} bytes, but byteLength is {declared}", data.len())));
@@ -281,16 +282,13 @@ fn load_buffers(
 ///
 /// # Errors
 /// An absolute path or a URI with a scheme (glTF asks for relative URIs).
-pub fn uri_path(base: &Path, uri: &str) -> Result<PathBuf, String> {
+pub fn uri_path(base: &Path, uri: &str) -> Result<PathBuf, DataError> {
     let decoded = percent_decode(uri);
     let has_scheme = uri.split_once(':').is_some_and(|(scheme, _)| {
         scheme.len() > 1 && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
     });
     if has_scheme || Path::new(&decoded).is_absolute() {
-        return Err(format!(
-            "URI {} is not a relative path (only relative paths and data URIs are read)",
-            crate::ron_file::snippet(uri)
-        ));
+        return Err(DataError::NotRelative { uri: uri.to_string() });
     }
     Ok(base.join(decoded))
 }
@@ -300,16 +298,14 @@ pub fn uri_path(base: &Path, uri: &str) -> Result<PathBuf, String> {
 ///
 /// # Errors
 /// A malformed data URI; a file that cannot be read under `rules`.
-pub fn read_uri(base: &Path, uri: &str, rules: &super::InputRules) -> Result<Vec<u8>, String> {
+pub fn read_uri(base: &Path, uri: &str, rules: &super::InputRules) -> Result<Vec<u8>, DataError> {
     if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, data) = rest.split_once(";base64,").ok_or("data URI without ;base64,")?;
-        return base64::engine::general_purpose::STANDARD
-            .decode(data)
-            .map_err(|e| format!("bad base64: {e}"));
+        let (_, data) = rest.split_once(";base64,").ok_or(DataError::DataUriWithoutBase64)?;
+        return Ok(base64::engine::general_purpose::STANDARD.decode(data)?);
     }
     let file = uri_path(base, uri)?;
     super::read::read_regular(&file, rules.limits.max_file_bytes, &rules.scope)
-        .map_err(|e| format!("cannot read {}: {e}", file.display()))
+        .map_err(|reason| DataError::Read { file, reason })
 }
 
 pub(crate) fn percent_decode(s: &str) -> String {
@@ -474,7 +470,7 @@ fn append_uvs(
     uvs: &[CornerUvs],
     buffer: usize,
     blob: &mut Vec<u8>,
-) -> Result<(), String> {
+) -> Result<(), DataError> {
     let mut buffers: Option<Vec<Vec<u8>>> = None;
     let skip = format!("TEXCOORD_{}", asset.uv_set);
     for (prim, corners) in asset.primitives.iter().zip(uvs) {
@@ -485,7 +481,10 @@ fn append_uvs(
                     Container::Gltf { bin, .. } => bin.as_deref(),
                     Container::Obj { .. } => None,
                 };
-                buffers = Some(load_buffers(&asset.path, original, bin, &asset.rules).map_err(|e| e.to_string())?);
+                buffers = Some(
+                    load_buffers(&asset.path, original, bin, &asset.rules)
+                        .map_err(|e| DataError::Asset(Box::new(e)))?,
+                );
             }
             let data = buffers.as_deref().expect("loaded");
             let at = (asset.mesh_index, prim.index);
@@ -504,7 +503,7 @@ fn append_uvs(
 /// Moves every external file buffer of a GLB's JSON into its BIN chunk
 /// `blob` (buffer 0), so the output is complete wherever it is written:
 /// their views are re-pointed and re-offset, the buffers list renumbered.
-fn embed_external_buffers(asset: &SourceAsset, json: &mut Value, blob: &mut Vec<u8>) -> Result<(), String> {
+fn embed_external_buffers(asset: &SourceAsset, json: &mut Value, blob: &mut Vec<u8>) -> Result<(), DataError> {
     let base = asset.path.parent().unwrap_or(Path::new("."));
     let buffers = array(json, "buffers").clone();
     // Per old buffer index: its new index, or the offset it landed at in BIN.
@@ -580,10 +579,10 @@ fn stage_glb(
     } else {
         Vec::new()
     };
-    embed_external_buffers(asset, &mut json, &mut blob).map_err(werr)?;
+    embed_external_buffers(asset, &mut json, &mut blob).map_err(|e| werr(e.to_string()))?;
     let (in_dir, out_dir) = (absolute_dir(&asset.path), absolute_dir(out));
     rebase_uris(&mut json, &in_dir, &out_dir);
-    append_uvs(&mut json, &original, asset, uvs, 0, &mut blob).map_err(werr)?;
+    append_uvs(&mut json, &original, asset, uvs, 0, &mut blob).map_err(|e| werr(e.to_string()))?;
     json["buffers"][0]["byteLength"] = json!(blob.len());
     let text = serde_json::to_vec(&json).map_err(|e| werr(e.to_string()))?;
     let others = match &asset.container {
@@ -648,7 +647,7 @@ fn stage_gltf(asset: &SourceAsset, mut json: Value, uvs: &[CornerUvs], out: &Pat
         .unwrap_or_else(|| "out".into());
     let mut blob = Vec::new();
     let buffer = array(&mut json, "buffers").len();
-    append_uvs(&mut json, &original, asset, uvs, buffer, &mut blob).map_err(werr)?;
+    append_uvs(&mut json, &original, asset, uvs, buffer, &mut blob).map_err(|e| werr(e.to_string()))?;
     let bin_name = format!("{stem}.uvpin-{}.bin", content_tag(&blob));
     array(&mut json, "buffers").push(json!({ "uri": percent_encode_path(&bin_name), "byteLength": blob.len() }));
     let text = serde_json::to_vec_pretty(&json).map_err(|e| werr(e.to_string()))?;
@@ -816,11 +815,10 @@ pub fn stage_asset(asset: &SourceAsset, uvs: &StoredUvs, out: &Path) -> Result<S
     let mut staged = Staged::new();
     match (&asset.container, AssetFormat::of(out), &uvs.obj_vt) {
         (Container::Obj { bytes, faces }, Some(AssetFormat::Obj), Some(vt)) => {
-            let written =
-                super::obj::with_tex_coords(bytes, faces, &vt.corners).map_err(|message| AssetError::Write {
-                    path: out.to_path_buf(),
-                    message,
-                })?;
+            let written = super::obj::with_tex_coords(bytes, faces, &vt.corners).map_err(|e| AssetError::Write {
+                path: out.to_path_buf(),
+                message: e.to_string(),
+            })?;
             staged.add(out, written);
         }
         (Container::Obj { .. }, Some(AssetFormat::Glb | AssetFormat::Gltf), _) => {

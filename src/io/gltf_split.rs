@@ -8,6 +8,53 @@
 use super::corners::VertexSplit;
 use serde_json::{Value, json};
 
+/// What keeps a glTF's data from being read or carried into the output.
+#[derive(Debug, thiserror::Error)]
+pub enum DataError {
+    #[error("buffer view {view} does not exist")]
+    ViewMissing { view: usize },
+    #[error("buffer view {view} names no buffer")]
+    ViewWithoutBuffer { view: usize },
+    #[error("buffer {buffer} does not exist")]
+    BufferMissing { buffer: usize },
+    #[error("buffer view {view} is shorter than its accessor")]
+    ViewShort { view: usize },
+    #[error("accessor {index} does not exist")]
+    AccessorMissing { index: usize },
+    #[error("accessor {index}: component type {component}")]
+    ComponentType { index: usize, component: u64 },
+    #[error("accessor {index}: type")]
+    AccessorType { index: usize },
+    #[error("accessor {index} has no count")]
+    NoCount { index: usize },
+    #[error("accessor {index}: sparse index type")]
+    SparseIndexType { index: usize },
+    #[error("accessor {index}: sparse index {i}")]
+    SparseIndex { index: usize, i: usize },
+    #[error("accessor {index}: sparse indices without a view")]
+    SparseIndicesWithoutView { index: usize },
+    #[error("accessor {index}: sparse values without a view")]
+    SparseValuesWithoutView { index: usize },
+    #[error("accessor {index} has {n} elements, fewer than the primitive's vertices")]
+    FewerElements { index: usize, n: usize },
+    #[error("data URI without ;base64,")]
+    DataUriWithoutBase64,
+    #[error("bad base64: {0}")]
+    Base64(#[from] base64::DecodeError),
+    #[error(
+        "URI {} is not a relative path (only relative paths and data URIs are read)",
+        crate::ron_file::snippet(uri)
+    )]
+    NotRelative { uri: String },
+    #[error("cannot read {}: {reason}", file.display())]
+    Read {
+        file: std::path::PathBuf,
+        reason: super::read::ReadError,
+    },
+    #[error(transparent)]
+    Asset(Box<super::AssetError>),
+}
+
 /// Bytes of one component of a glTF `componentType`.
 fn component_size(component: u64) -> Option<usize> {
     match component {
@@ -44,20 +91,16 @@ fn view_elements(
     offset: usize,
     count: usize,
     size: usize,
-) -> Result<Vec<u8>, String> {
-    let v = json["bufferViews"]
-        .get(view)
-        .ok_or(format!("buffer view {view} does not exist"))?;
-    let buffer = int(v, "buffer").ok_or(format!("buffer view {view} names no buffer"))?;
-    let data = buffers.get(buffer).ok_or(format!("buffer {buffer} does not exist"))?;
+) -> Result<Vec<u8>, DataError> {
+    let v = json["bufferViews"].get(view).ok_or(DataError::ViewMissing { view })?;
+    let buffer = int(v, "buffer").ok_or(DataError::ViewWithoutBuffer { view })?;
+    let data = buffers.get(buffer).ok_or(DataError::BufferMissing { buffer })?;
     let start = int(v, "byteOffset").unwrap_or(0) + offset;
     let stride = int(v, "byteStride").unwrap_or(size).max(size);
     let mut out = Vec::with_capacity(count * size);
     for i in 0..count {
         let at = start + i * stride;
-        let bytes = data
-            .get(at..at + size)
-            .ok_or(format!("buffer view {view} is shorter than its accessor"))?;
+        let bytes = data.get(at..at + size).ok_or(DataError::ViewShort { view })?;
         out.extend_from_slice(bytes);
     }
     Ok(out)
@@ -65,17 +108,17 @@ fn view_elements(
 
 /// Accessor `index`'s elements, tightly packed (sparse values applied),
 /// and the size of one element.
-fn accessor_elements(json: &Value, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8>, usize), String> {
+fn accessor_elements(json: &Value, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8>, usize), DataError> {
     let a = json["accessors"]
         .get(index)
-        .ok_or(format!("accessor {index} does not exist"))?;
+        .ok_or(DataError::AccessorMissing { index })?;
     let component = a.get("componentType").and_then(Value::as_u64).unwrap_or(0);
-    let size = component_size(component).ok_or(format!("accessor {index}: component type {component}"))?
+    let size = component_size(component).ok_or(DataError::ComponentType { index, component })?
         * a.get("type")
             .and_then(Value::as_str)
             .and_then(components)
-            .ok_or(format!("accessor {index}: type"))?;
-    let count = int(a, "count").ok_or(format!("accessor {index} has no count"))?;
+            .ok_or(DataError::AccessorType { index })?;
+    let count = int(a, "count").ok_or(DataError::NoCount { index })?;
     let mut data = match int(a, "bufferView") {
         Some(view) => view_elements(json, buffers, view, int(a, "byteOffset").unwrap_or(0), count, size)?,
         None => vec![0u8; count * size],
@@ -84,13 +127,13 @@ fn accessor_elements(json: &Value, buffers: &[Vec<u8>], index: usize) -> Result<
         let n = int(sparse, "count").unwrap_or(0);
         let idx = &sparse["indices"];
         let isize = component_size(idx.get("componentType").and_then(Value::as_u64).unwrap_or(0))
-            .ok_or(format!("accessor {index}: sparse index type"))?;
+            .ok_or(DataError::SparseIndexType { index })?;
         let at = |s: &Value| (int(s, "bufferView"), int(s, "byteOffset").unwrap_or(0));
         let (Some(iv), io) = at(idx) else {
-            return Err(format!("accessor {index}: sparse indices without a view"));
+            return Err(DataError::SparseIndicesWithoutView { index });
         };
         let (Some(vv), vo) = at(&sparse["values"]) else {
-            return Err(format!("accessor {index}: sparse values without a view"));
+            return Err(DataError::SparseValuesWithoutView { index });
         };
         let indices = view_elements(json, buffers, iv, io, n, isize)?;
         let values = view_elements(json, buffers, vv, vo, n, size)?;
@@ -101,7 +144,7 @@ fn accessor_elements(json: &Value, buffers: &[Vec<u8>], index: usize) -> Result<
                 .fold(0usize, |acc, &b| acc << 8 | b as usize);
             let target = data
                 .get_mut(i * size..(i + 1) * size)
-                .ok_or(format!("accessor {index}: sparse index {i}"))?;
+                .ok_or(DataError::SparseIndex { index, i })?;
             target.copy_from_slice(&values[k * size..(k + 1) * size]);
         }
     }
@@ -153,15 +196,13 @@ fn extended(
     split: &VertexSplit,
     buffer: usize,
     blob: &mut Vec<u8>,
-) -> Result<usize, String> {
+) -> Result<usize, DataError> {
     let (mut data, size) = accessor_elements(original, buffers, index)?;
     let n = data.len() / size;
     for &c in &split.copies {
         let c = c as usize;
         if c >= n {
-            return Err(format!(
-                "accessor {index} has {n} elements, fewer than the primitive's vertices"
-            ));
+            return Err(DataError::FewerElements { index, n });
         }
         data.extend_from_within(c * size..(c + 1) * size);
     }
@@ -186,7 +227,7 @@ pub fn split_primitive(
     split: &VertexSplit,
     buffer: usize,
     blob: &mut Vec<u8>,
-) -> Result<(), String> {
+) -> Result<(), DataError> {
     let source = &original["meshes"][mesh]["primitives"][prim];
     let attributes: Vec<(String, usize)> = source["attributes"]
         .as_object()

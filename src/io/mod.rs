@@ -74,11 +74,11 @@ pub enum AssetError {
         vertex: usize,
         position: [f32; 3],
     },
-    #[error("{path}:{line}: {message}")]
+    #[error("{path}:{line}: {error}")]
     Obj {
         path: PathBuf,
         line: usize,
-        message: String,
+        error: obj::ObjLineError,
     },
     #[error("{path}: cannot write: {message}")]
     Write { path: PathBuf, message: String },

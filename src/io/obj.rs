@@ -52,26 +52,56 @@ pub struct ObjMesh {
     pub tex_coords: Option<TexCoords>,
 }
 
+/// What is wrong with one line of an OBJ file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ObjLineError {
+    #[error("bad face index {text:?}: {reason}")]
+    BadIndex {
+        text: String,
+        reason: std::num::ParseIntError,
+    },
+    #[error("face index {index} out of range (1..={n})")]
+    IndexOutOfRange { index: i64, n: usize },
+    #[error("bad {what}: {reason}")]
+    BadNumber {
+        what: &'static str,
+        reason: std::num::ParseFloatError,
+    },
+    #[error("a {what} needs {n} numbers")]
+    TooFewNumbers { what: &'static str, n: usize },
+    #[error("a {what} has a non-finite coordinate")]
+    NonFinite { what: &'static str },
+    #[error("face with {n} corners: a face needs at least 3")]
+    TooFewCorners { n: usize },
+    #[error("face names vertex {vertex} twice")]
+    RepeatedVertex { vertex: u32 },
+    #[error("no faces")]
+    NoFaces,
+}
+
 /// A 1-based (or negative, relative) OBJ index into a list of `n` as 0-based.
-fn resolve_index(text: &str, n: usize) -> Result<u32, String> {
-    let v: i64 = text.parse().map_err(|e| format!("bad face index {text:?}: {e}"))?;
+fn resolve_index(text: &str, n: usize) -> Result<u32, ObjLineError> {
+    let v: i64 = text.parse().map_err(|reason| ObjLineError::BadIndex {
+        text: text.to_string(),
+        reason,
+    })?;
     let idx = if v > 0 { v - 1 } else { n as i64 + v };
     if idx < 0 || idx as usize >= n || v == 0 {
-        return Err(format!("face index {v} out of range (1..={n})"));
+        return Err(ObjLineError::IndexOutOfRange { index: v, n });
     }
     Ok(idx as u32)
 }
 
 /// `count` finite numbers from `parts`.
-fn numbers<const N: usize>(parts: std::str::SplitWhitespace, what: &str) -> Result<[f32; N], String> {
+fn numbers<const N: usize>(parts: std::str::SplitWhitespace, what: &'static str) -> Result<[f32; N], ObjLineError> {
     let xs: Vec<f32> = parts
         .take(N)
         .map(str::parse::<f32>)
         .collect::<Result<_, _>>()
-        .map_err(|e| format!("bad {what}: {e}"))?;
-    let xs: [f32; N] = xs.try_into().map_err(|_| format!("a {what} needs {N} numbers"))?;
+        .map_err(|reason| ObjLineError::BadNumber { what, reason })?;
+    let xs: [f32; N] = xs.try_into().map_err(|_| ObjLineError::TooFewNumbers { what, n: N })?;
     if xs.iter().any(|x| !x.is_finite()) {
-        return Err(format!("a {what} has a non-finite coordinate"));
+        return Err(ObjLineError::NonFinite { what });
     }
     Ok(xs)
 }
@@ -83,10 +113,10 @@ fn read(path: &Path, text: &str, limits: &InputLimits) -> Result<ObjData, AssetE
         tex_coords: Vec::new(),
         faces: Vec::new(),
     };
-    let err = |line: usize, message: String| AssetError::Obj {
+    let err = |line: usize, error: ObjLineError| AssetError::Obj {
         path: path.to_path_buf(),
         line,
-        message,
+        error,
     };
     let mut n_triangles = 0usize;
     // A byte-order mark is not part of the first line's keyword.
@@ -119,16 +149,16 @@ fn read(path: &Path, text: &str, limits: &InputLimits) -> Result<ObjData, AssetE
         }
     }
     if data.faces.is_empty() {
-        return Err(err(0, "no faces".into()));
+        return Err(err(0, ObjLineError::NoFaces));
     }
     Ok(data)
 }
 
 /// One `f` line's corners (three or more).
-fn face(data: &ObjData, parts: std::str::SplitWhitespace) -> Result<Vec<Corner>, String> {
+fn face(data: &ObjData, parts: std::str::SplitWhitespace) -> Result<Vec<Corner>, ObjLineError> {
     let fields: Vec<&str> = parts.collect();
     if fields.len() < 3 {
-        return Err(format!("face with {} corners: a face needs at least 3", fields.len()));
+        return Err(ObjLineError::TooFewCorners { n: fields.len() });
     }
     let mut corners = Vec::with_capacity(fields.len());
     for c in fields {
@@ -139,7 +169,7 @@ fn face(data: &ObjData, parts: std::str::SplitWhitespace) -> Result<Vec<Corner>,
             None => None,
         };
         if corners.iter().any(|&(w, _)| w == v) {
-            return Err(format!("face names vertex {} twice", v + 1));
+            return Err(ObjLineError::RepeatedVertex { vertex: v + 1 });
         }
         corners.push((v, vt));
     }
@@ -238,7 +268,7 @@ pub fn vt_as_stored(x: f64, y: f64) -> [f32; 2] {
 /// # Errors
 /// A face corner whose triangles disagree (a seam would run inside the
 /// polygon).
-fn face_corner_vt(faces: &ObjFaces, corner_vt: &[[f32; 2]]) -> Result<Vec<[f32; 2]>, String> {
+fn face_corner_vt(faces: &ObjFaces, corner_vt: &[[f32; 2]]) -> Result<Vec<[f32; 2]>, SeamInPolygon> {
     let mut out: Vec<Option<[f32; 2]>> = vec![None; faces.n_face_corners];
     for (&fc, &uv) in faces.face_corner.iter().zip(corner_vt) {
         let slot = &mut out[fc as usize];
@@ -246,13 +276,19 @@ fn face_corner_vt(faces: &ObjFaces, corner_vt: &[[f32; 2]]) -> Result<Vec<[f32; 
             None => *slot = Some(uv),
             Some(seen) if seen.map(f32::to_bits) == uv.map(f32::to_bits) => {}
             Some(_) => {
-                return Err(format!(
-                    "face corner {fc} would need two texture coordinates: a seam runs inside its polygon"
-                ));
+                return Err(SeamInPolygon { face_corner: fc });
             }
         }
     }
     Ok(out.into_iter().map(|uv| uv.unwrap_or([0.0, 0.0])).collect())
+}
+
+/// A face corner whose triangles were laid out apart: an OBJ face corner
+/// has one texture coordinate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("face corner {face_corner} would need two texture coordinates: a seam runs inside its polygon")]
+pub struct SeamInPolygon {
+    pub face_corner: u32,
 }
 
 /// The OBJ file with texture coordinates per face corner: the old `vt`
@@ -265,7 +301,7 @@ fn face_corner_vt(faces: &ObjFaces, corner_vt: &[[f32; 2]]) -> Result<Vec<[f32; 
 ///
 /// # Errors
 /// A face corner whose triangles were laid out apart (a seam inside its polygon).
-pub fn with_tex_coords(bytes: &[u8], faces: &ObjFaces, corner_vt: &[[f32; 2]]) -> Result<Vec<u8>, String> {
+pub fn with_tex_coords(bytes: &[u8], faces: &ObjFaces, corner_vt: &[[f32; 2]]) -> Result<Vec<u8>, SeamInPolygon> {
     let fc_uv = face_corner_vt(faces, corner_vt)?;
     let plan = VtPlan::new(bytes, &fc_uv);
     let mut out = Vec::with_capacity(bytes.len() + plan.n_vt * 24);

@@ -70,7 +70,7 @@ pub struct Marker {
 /// final layout (layout coordinates) and the report's constraints.
 ///
 /// # Errors
-/// A picture that cannot be encoded (message).
+/// A picture that cannot be encoded.
 pub fn render_chart(
     asset: &crate::io::SourceAsset,
     prepared: &crate::chart::PreparedChart,
@@ -79,7 +79,7 @@ pub fn render_chart(
     report: &crate::report::Report,
     pictures: &Pictures,
     written: &[[DVec2; 3]],
-) -> Result<Vec<(PathBuf, Vec<u8>)>, String> {
+) -> Result<Vec<(PathBuf, Vec<u8>)>, PictureError> {
     let mut out = Vec::new();
     if !pictures.any() {
         return Ok(out);
@@ -127,7 +127,10 @@ pub fn render_chart(
                 .filter(|d| d.is_finite() && *d > 0.0),
         };
         let image = layout::draw_captioned(&scene, size, &caption);
-        let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
+        let png = render::encode_png(&image).map_err(|reason| PictureError::Encode {
+            path: path.clone(),
+            reason,
+        })?;
         out.push((path.clone(), png));
     }
     if let Some(path) = &pictures.render {
@@ -153,7 +156,10 @@ pub fn render_chart(
             up: None,
         };
         let image = render::render_captioned(&scene, size, &caption);
-        let png = render::encode_png(&image).map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
+        let png = render::encode_png(&image).map_err(|reason| PictureError::Encode {
+            path: path.clone(),
+            reason,
+        })?;
         out.push((path.clone(), png));
     }
     Ok(out)
@@ -238,7 +244,7 @@ fn background(
 /// as `writing` allows.
 ///
 /// # Errors
-/// A picture that cannot be encoded or written (message).
+/// A picture that cannot be encoded or written.
 pub fn draw_chart(
     asset: &crate::io::SourceAsset,
     prepared: &crate::chart::PreparedChart,
@@ -247,12 +253,21 @@ pub fn draw_chart(
     report: &crate::report::Report,
     pictures: &Pictures,
     writing: &crate::io::atomic::Writing,
-) -> Result<(), String> {
+) -> Result<(), PictureError> {
     let mut staged = crate::io::atomic::Staged::new().writing(writing.clone());
     for (path, png) in render_chart(asset, prepared, outer_loop, layout, report, pictures, &[])? {
         staged.add(path, png);
     }
-    staged.commit().map_err(|e| e.to_string())
+    Ok(staged.commit()?)
+}
+
+/// Why a picture was not drawn or written.
+#[derive(Debug, thiserror::Error)]
+pub enum PictureError {
+    #[error("cannot encode {}: {reason}", path.display())]
+    Encode { path: PathBuf, reason: image::ImageError },
+    #[error(transparent)]
+    Write(#[from] crate::io::atomic::WriteError),
 }
 
 /// The largest picture drawn, in pixels a side.

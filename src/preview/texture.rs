@@ -80,11 +80,28 @@ fn uri_bytes(uri: &str, asset: &SourceAsset) -> Option<Vec<u8>> {
 /// # Errors
 /// Unreadable (not a regular file, too large, outside the read scope) or
 /// not a decodable image.
-pub fn load_image(path: &std::path::Path, rules: &crate::io::InputRules) -> Result<image::RgbaImage, String> {
-    let bytes = crate::io::read::read_regular(path, rules.limits.max_file_bytes, &rules.scope)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    decode_within(&bytes, rules.limits.max_image_pixels)
-        .ok_or_else(|| format!("{}: not an image that can be decoded (PNG or JPEG)", path.display()))
+pub fn load_image(path: &std::path::Path, rules: &crate::io::InputRules) -> Result<image::RgbaImage, ImageError> {
+    let bytes = crate::io::read::read_regular(path, rules.limits.max_file_bytes, &rules.scope).map_err(|reason| {
+        ImageError::Read {
+            path: path.to_path_buf(),
+            reason,
+        }
+    })?;
+    decode_within(&bytes, rules.limits.max_image_pixels).ok_or_else(|| ImageError::Undecodable {
+        path: path.to_path_buf(),
+    })
+}
+
+/// Why an `image:` was not read.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("{}: {reason}", path.display())]
+    Read {
+        path: std::path::PathBuf,
+        reason: crate::io::read::ReadError,
+    },
+    #[error("{}: not an image that can be decoded (PNG or JPEG)", path.display())]
+    Undecodable { path: std::path::PathBuf },
 }
 
 /// `image` as PNG bytes.

@@ -106,6 +106,19 @@ pub const MAX_RUNS: usize = 100_000;
 /// Pixels of the contact sheet at most (its runs × thumbnail area).
 pub const MAX_SHEET_PIXELS: u64 = 64_000_000;
 
+/// Which of a sweep's sizes is past its bound.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SizeError {
+    #[error("{field}: {n} is more than {MAX_AXIS}")]
+    Axis { field: &'static str, n: usize },
+    #[error("thumbnail_size: {size} is outside 16..={MAX_THUMBNAIL}")]
+    Thumbnail { size: u32 },
+    #[error("{runs} runs, more than {MAX_RUNS}")]
+    Runs { runs: usize },
+    #[error("{runs} thumbnails of {size} px make a contact sheet of {pixels} pixels, more than {MAX_SHEET_PIXELS}")]
+    Sheet { runs: usize, size: u32, pixels: u64 },
+}
+
 impl SweepFile {
     /// Reads a sweep file.
     ///
@@ -120,9 +133,9 @@ impl SweepFile {
             }
         })?;
         let sweep: SweepFile = crate::ron_file::parse_ron(path, &String::from_utf8_lossy(&bytes))?;
-        sweep.check_sizes().map_err(|message| super::SweepError::TooLarge {
+        sweep.check_sizes().map_err(|size| super::SweepError::TooLarge {
             path: path.to_path_buf(),
-            message,
+            size,
         })?;
         for setting in &sweep.settings {
             if let Some(Err(source)) = setting.solver.as_ref().map(SolverOptions::check) {
@@ -138,25 +151,19 @@ impl SweepFile {
 
     /// The grid's sizes are bounded: blends and jitter samples at most
     /// [`MAX_AXIS`] each, thumbnails 16 to [`MAX_THUMBNAIL`] pixels.
-    fn check_sizes(&self) -> Result<(), String> {
-        if let Some(b) = self.blend
-            && b.steps as usize > MAX_AXIS
-        {
-            return Err(format!("blend.steps: {} is more than {MAX_AXIS}", b.steps));
-        }
-        if let Some(j) = self.jitter
-            && j.samples as usize > MAX_AXIS
-        {
-            return Err(format!("jitter.samples: {} is more than {MAX_AXIS}", j.samples));
-        }
-        if self.settings.len() > MAX_AXIS {
-            return Err(format!("settings: {} is more than {MAX_AXIS}", self.settings.len()));
+    fn check_sizes(&self) -> Result<(), SizeError> {
+        let axes = [
+            ("blend.steps", self.blend.map_or(0, |b| b.steps as usize)),
+            ("jitter.samples", self.jitter.map_or(0, |j| j.samples as usize)),
+            ("settings", self.settings.len()),
+        ];
+        if let Some(&(field, n)) = axes.iter().find(|(_, n)| *n > MAX_AXIS) {
+            return Err(SizeError::Axis { field, n });
         }
         if !(16..=MAX_THUMBNAIL).contains(&self.thumbnail_size) {
-            return Err(format!(
-                "thumbnail_size: {} is outside 16..={MAX_THUMBNAIL}",
-                self.thumbnail_size
-            ));
+            return Err(SizeError::Thumbnail {
+                size: self.thumbnail_size,
+            });
         }
         Ok(())
     }

@@ -29,8 +29,8 @@ pub enum SweepError {
         path: PathBuf,
         source: crate::io::ReadError,
     },
-    #[error("{path}: the sweep is too large: {message}")]
-    TooLarge { path: PathBuf, message: String },
+    #[error("{path}: the sweep is too large: {size}")]
+    TooLarge { path: PathBuf, size: file::SizeError },
     #[error("{path}: setting {setting:?}: {source}")]
     Option {
         path: PathBuf,
@@ -43,10 +43,10 @@ pub enum SweepError {
     NoFiles { sweep: PathBuf, pattern: String },
     #[error("{path}: cannot write: {message}")]
     Write { path: PathBuf, message: String },
-    #[error("--shard {given:?}: {message}")]
-    Shard { given: String, message: String },
-    #[error("{path}: cannot merge the shards: {message}")]
-    Merge { path: PathBuf, message: String },
+    #[error("--shard {given:?}: {error}")]
+    Shard { given: String, error: shard::ShardError },
+    #[error("{path}: cannot merge the shards: {error}")]
+    Merge { path: PathBuf, error: shard::MergeError },
     #[error("cannot start {jobs} worker threads: {message}")]
     Threads { jobs: usize, message: String },
 }

@@ -63,21 +63,20 @@ impl SweepPlan {
 /// The grid and its contact sheet stay within [`file::MAX_RUNS`] and
 /// [`file::MAX_SHEET_PIXELS`].
 fn check_grid(runs: &[Run], sweep: &SweepFile, sweep_path: &Path) -> Result<(), SweepError> {
-    let too_large = |message: String| SweepError::TooLarge {
+    let too_large = |size: file::SizeError| SweepError::TooLarge {
         path: sweep_path.to_path_buf(),
-        message,
+        size,
     };
     if runs.len() > file::MAX_RUNS {
-        return Err(too_large(format!("{} runs, more than {}", runs.len(), file::MAX_RUNS)));
+        return Err(too_large(file::SizeError::Runs { runs: runs.len() }));
     }
     let pixels = runs.len() as u64 * u64::from(sweep.thumbnail_size).pow(2);
     if sweep.thumbnails && pixels > file::MAX_SHEET_PIXELS {
-        return Err(too_large(format!(
-            "{} thumbnails of {} px make a contact sheet of {pixels} pixels, more than {}",
-            runs.len(),
-            sweep.thumbnail_size,
-            file::MAX_SHEET_PIXELS
-        )));
+        return Err(too_large(file::SizeError::Sheet {
+            runs: runs.len(),
+            size: sweep.thumbnail_size,
+            pixels,
+        }));
     }
     Ok(())
 }

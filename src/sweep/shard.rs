@@ -38,18 +38,47 @@ impl Shard {
         Shard::new(i.parse().ok()?, n.parse().ok()?).ok()
     }
 
-    fn new(index: usize, count: usize) -> Result<Shard, String> {
+    fn new(index: usize, count: usize) -> Result<Shard, ShardError> {
         if !(1..=Self::MAX_COUNT).contains(&count) {
-            return Err(format!("the count must be between 1 and {}", Self::MAX_COUNT));
+            return Err(ShardError::Count { max: Self::MAX_COUNT });
         }
         if index >= count {
-            return Err(format!(
-                "shards are numbered 0 to {} (as job arrays number their tasks)",
-                count - 1
-            ));
+            return Err(ShardError::Index { last: count - 1 });
         }
         Ok(Shard { index, count })
     }
+}
+
+/// What is wrong with a `--shard I/N`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ShardError {
+    #[error("expected I/N, e.g. 0/4")]
+    Form,
+    #[error("{0:?} is not a whole number")]
+    NotANumber(String),
+    #[error("the count must be between 1 and {max}")]
+    Count { max: usize },
+    #[error("shards are numbered 0 to {last} (as job arrays number their tasks)")]
+    Index { last: usize },
+}
+
+/// Why the shards' folders cannot be merged.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MergeError {
+    #[error("{message}: run `uvpin sweep FILE --shard I/N` for every I first")]
+    NoFolder { message: String },
+    #[error("cannot copy the thumbnail: {message}")]
+    Thumbnail { message: String },
+    #[error("no shard folders (I-of-N) in it")]
+    NoShards,
+    #[error("shards of different counts ({counts:?}): remove the folders of the old split")]
+    MixedCounts { counts: Vec<usize> },
+    #[error("{}; run those shards again (`uvpin sweep {sweep} --shard I/{count}` resumes)", short.join("; "))]
+    Short {
+        short: Vec<String>,
+        sweep: String,
+        count: usize,
+    },
 }
 
 impl std::fmt::Display for Shard {
@@ -63,17 +92,15 @@ impl std::str::FromStr for Shard {
 
     /// `I/N`, e.g. `0/4`.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let error = |message: String| SweepError::Shard {
+        let error = |error: ShardError| SweepError::Shard {
             given: s.to_string(),
-            message,
+            error,
         };
-        let (i, n) = s
-            .split_once('/')
-            .ok_or_else(|| error("expected I/N, e.g. 0/4".into()))?;
+        let (i, n) = s.split_once('/').ok_or_else(|| error(ShardError::Form))?;
         let number = |t: &str| {
             t.trim()
                 .parse::<usize>()
-                .map_err(|_| error(format!("{t:?} is not a whole number")))
+                .map_err(|_| error(ShardError::NotANumber(t.to_string())))
         };
         Shard::new(number(i)?, number(n)?).map_err(error)
     }
@@ -89,9 +116,9 @@ impl std::str::FromStr for Shard {
 pub fn merge(sweep_path: &Path) -> Result<SweepOutcome, SweepError> {
     let plan = SweepPlan::open(sweep_path)?;
     let shards_dir = plan.output.join("shards");
-    let error = |message: String| SweepError::Merge {
+    let error = |error: MergeError| SweepError::Merge {
         path: shards_dir.clone(),
-        message,
+        error,
     };
     let count = shard_count(&shards_dir).map_err(error)?;
     let mut rows: HashMap<String, Row> = HashMap::new();
@@ -117,11 +144,11 @@ pub fn merge(sweep_path: &Path) -> Result<SweepOutcome, SweepError> {
         }
     }
     if !short.is_empty() {
-        return Err(error(format!(
-            "{}; run those shards again (`uvpin sweep {} --shard I/{count}` resumes)",
-            short.join("; "),
-            sweep_path.display()
-        )));
+        return Err(error(MergeError::Short {
+            short,
+            sweep: sweep_path.display().to_string(),
+            count,
+        }));
     }
     let rows: Vec<Row> = plan.runs.iter().filter_map(|r| rows.remove(&r.id)).collect();
     let thumbs = plan.thumbs_in(&plan.output);
@@ -144,9 +171,8 @@ pub fn merge(sweep_path: &Path) -> Result<SweepOutcome, SweepError> {
 }
 
 /// The one shard count of the folders in `shards_dir`.
-fn shard_count(shards_dir: &Path) -> Result<usize, String> {
-    let entries = std::fs::read_dir(shards_dir)
-        .map_err(|e| format!("{e}: run `uvpin sweep FILE --shard I/N` for every I first"))?;
+fn shard_count(shards_dir: &Path) -> Result<usize, MergeError> {
+    let entries = std::fs::read_dir(shards_dir).map_err(|e| MergeError::NoFolder { message: e.to_string() })?;
     let mut counts: Vec<usize> = entries
         .filter_map(Result::ok)
         .filter(|e| e.path().is_dir())
@@ -156,11 +182,9 @@ fn shard_count(shards_dir: &Path) -> Result<usize, String> {
     counts.sort_unstable();
     counts.dedup();
     match counts[..] {
-        [] => Err("no shard folders (I-of-N) in it".into()),
+        [] => Err(MergeError::NoShards),
         [n] => Ok(n),
-        _ => Err(format!(
-            "shards of different counts ({counts:?}): remove the folders of the old split"
-        )),
+        _ => Err(MergeError::MixedCounts { counts }),
     }
 }
 
@@ -179,7 +203,7 @@ fn gather_thumbnails(plan: &SweepPlan, rows: &[Row], count: usize, dir: &Path) -
         let from = shard.folder(&plan.output).join("thumbs").join(name);
         std::fs::copy(&from, dir.join(name)).map_err(|e| SweepError::Merge {
             path: from.clone(),
-            message: format!("cannot copy the thumbnail: {e}"),
+            error: MergeError::Thumbnail { message: e.to_string() },
         })?;
     }
     Ok(())
