@@ -135,8 +135,9 @@ pub fn facing_region(
         .collect();
     let mut seen: Vec<bool> = (0..strict.len()).map(|t| strict[t] && facing[t] && within[t]).collect();
     // A landmark the photo shows is seen: where every triangle around it
-    // passes behind another part at a corner, those seen at their centre
-    // take it in.
+    // passes behind another part at a corner, leans past the room (a CAD
+    // part's long facet) or faces the camera only by its own normal, those
+    // seen at their centre and turned towards the camera take it in.
     let mut is_landmark = vec![false; mesh.n_vertices()];
     landmarks.iter().for_each(|&l| is_landmark[l as usize] = true);
     let mut held = vec![false; mesh.n_vertices()];
@@ -145,7 +146,9 @@ pub fn facing_region(
     }
     for (t, tri) in mesh.triangles.iter().enumerate() {
         let lone = tri.iter().any(|&v| is_landmark[v as usize] && !held[v as usize]);
-        seen[t] |= lone && visible[t] && facing[t] && within[t];
+        let [a, b, c] = tri.map(|v| projected[v as usize]);
+        let turned = facing[t] || (b - a).perp_dot(c - a) > 0.0;
+        seen[t] |= lone && visible[t] && turned;
     }
     let unseen: Vec<bool> = (0..seen.len()).map(|t| visible[t] && within[t]).collect();
     fill_pockets(&graph, &mut seen, &unseen);

@@ -163,7 +163,11 @@ pub fn make_solvable(
         ),
     };
     let repairs = repaired.repairs;
-    let topology = Topology::build(&main.mesh);
+    let topology = Topology::build(&main.mesh).map(|t| match form {
+        // The camera's view is the layout: its outline is the outer loop.
+        Form::Facing { camera, .. } => t.outermost_in(&super::facing::projection(camera, &main.mesh.positions)),
+        _ => t,
+    });
     let cut = match (form, &spec, &topology) {
         (Form::AsGiven, SeamSpec::Auto, Err(e)) => return Err(SolvableError::NotADisk(e.clone())),
         // As given, or split apart around the landmarks: a disk is solved as

@@ -144,7 +144,10 @@ fn through_targets(
 /// The filled chart as `camera` sees it: its real vertices projected, each
 /// hole's virtual vertex where its fan keeps every triangle positive (the
 /// loop's mean, its area centroid, or a point between the mean and a loop
-/// vertex); `None` when a hole has no such point or a triangle folds.
+/// vertex). A hole seen at a slant (a bore's rim and the part of its wall
+/// the camera sees) need not be star-shaped about any point: its fan and
+/// the loop are then untangled with the rest. `None` when a triangle still
+/// folds.
 pub fn projection_start(camera: &crate::cut::facing::Camera, filled: &FilledChart) -> Option<Vec<DVec2>> {
     let n = filled.n_real_vertices;
     let mut layout = crate::cut::facing::projection(camera, &filled.mesh.positions[..n]);
@@ -167,11 +170,14 @@ pub fn projection_start(camera: &crate::cut::facing::Camera, filled: &FilledChar
                 guard::orientation(a, b, c) > 0.0
             })
         };
-        let at = [mean, centroid]
+        layout[centre as usize] = [mean, centroid]
             .into_iter()
             .chain(between)
-            .find(|&p| positive(p, &layout))?;
-        layout[centre as usize] = at;
+            .find(|&p| positive(p, &layout))
+            .unwrap_or(centroid);
+    }
+    if !guard::all_positive(&layout, &filled.mesh.triangles) {
+        untangle(&mut layout, &filled.mesh.triangles);
     }
     guard::all_positive(&layout, &filled.mesh.triangles).then_some(layout)
 }
@@ -355,6 +361,18 @@ pub fn fit_into_room(
             anchors.push((0.5 * (blo + bhi), at));
         }
     }
+    if kind == StartKind::Projection
+        && let Some(layout) = drawn_in(&placed, (lo, hi))
+        && room.admits(&layout).is_ok()
+        && guard::all_positive_as_stored(&layout, triangles)
+    {
+        return Some(ChosenStart {
+            layout,
+            kind,
+            rest_area,
+            shrink: 1.0,
+        });
+    }
     if fit != Fit::InPlace
         && let Some(start) = gathered(room, &placed, problem, triangles)
     {
@@ -393,6 +411,40 @@ pub fn fit_into_room(
         }
     }
     None
+}
+
+/// A camera's view that reaches past its region (a CAD part's long facet
+/// from a landmark out to the silhouette) drawn in by a map that leaves
+/// the region's inner part as it is and squeezes each axis monotonically
+/// into the margin: landmarks away from the border stay on their targets;
+/// a triangle may still turn over where the squeeze flattens it (the
+/// caller checks). `None` when nothing reaches out.
+fn drawn_in(layout: &[DVec2], (lo, hi): (DVec2, DVec2)) -> Option<Vec<DVec2>> {
+    let margin = (hi - lo) * INSIDE_MARGIN * 4.0;
+    let (ilo, ihi) = (lo + margin, hi - margin);
+    if layout.iter().all(|p| p.cmpgt(ilo).all() && p.cmplt(ihi).all()) {
+        return None;
+    }
+    let squeeze = |x: f64, a: f64, b: f64, m: f64| {
+        if x > b {
+            b + m * (1.0 - (-(x - b) / m).exp()) * 0.5
+        } else if x < a {
+            a - m * (1.0 - (-(a - x) / m).exp()) * 0.5
+        } else {
+            x
+        }
+    };
+    Some(
+        layout
+            .iter()
+            .map(|p| {
+                DVec2::new(
+                    squeeze(p.x, ilo.x, ihi.x, margin.x),
+                    squeeze(p.y, ilo.y, ihi.y, margin.y),
+                )
+            })
+            .collect(),
+    )
 }
 
 /// Step 1's square drawn in to [`FIRST_FILL`] of the region about its
@@ -606,5 +658,33 @@ pub fn fill_region(room: &Room, layout: &mut [DVec2], triangles: &[[u32; 3]], pi
     }
     if let Some(b) = best {
         layout.copy_from_slice(&b);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::grid_mesh;
+
+    #[test]
+    fn a_view_past_the_texture_is_drawn_in_near_the_border_only() {
+        let mesh = grid_mesh(12, 9);
+        // The grid spread over -0.3..1.4: past the texture on every side.
+        let layout: Vec<DVec2> = mesh
+            .positions
+            .iter()
+            .map(|p| DVec2::new(-0.3 + 1.7 * p.x, -0.3 + 1.7 * p.y))
+            .collect();
+        assert!(guard::all_positive(&layout, &mesh.triangles));
+        let room = (DVec2::ZERO, DVec2::ONE);
+        let drawn = drawn_in(&layout, room).expect("it reaches out");
+        assert!(drawn.iter().all(|p| p.cmpgt(room.0).all() && p.cmplt(room.1).all()));
+        assert!(guard::all_positive(&drawn, &mesh.triangles), "no triangle turns over");
+        let inner = |p: &DVec2| p.cmpgt(DVec2::splat(0.1)).all() && p.cmplt(DVec2::splat(0.9)).all();
+        for (a, b) in layout.iter().zip(&drawn).filter(|(a, _)| inner(a)) {
+            assert_eq!(a, b, "the inner part stays where the camera put it");
+        }
+        let inside: Vec<DVec2> = layout.iter().map(|p| 0.5 + (*p - 0.5) * 0.5).collect();
+        assert_eq!(drawn_in(&inside, room), None, "a view inside is left alone");
     }
 }

@@ -47,7 +47,8 @@ pub enum TopologyError {
 pub struct Topology {
     /// Boundary loops, each following the faces' winding (the face lies to the
     /// left of each boundary edge `loop[i] → loop[i+1]`). `loops[outer]` is the
-    /// longest loop in 3D; the others are holes.
+    /// longest loop in 3D (or the outermost in a camera's view,
+    /// [`Topology::outermost_in`]); the others are holes.
     pub loops: Vec<Vec<u32>>,
     /// Index into `loops` of the outer loop.
     pub outer: usize,
@@ -100,9 +101,26 @@ impl Topology {
         })
     }
 
-    /// The outer boundary loop (longest in 3D).
+    /// The outer boundary loop.
     pub fn outer_loop(&self) -> &[u32] {
         &self.loops[self.outer]
+    }
+
+    /// Takes as the outer loop the one that encloses the most area where
+    /// `layout` puts the vertices (a chart seen by a camera, whose longest
+    /// loop in 3D may be a bore's rim inside its outline), when that loop
+    /// has at least 4 vertices.
+    pub fn outermost_in(mut self, layout: &[glam::DVec2]) -> Self {
+        let area = |l: &[u32]| {
+            (0..l.len())
+                .map(|i| layout[l[i] as usize].perp_dot(layout[l[(i + 1) % l.len()] as usize]))
+                .sum::<f64>()
+        };
+        let widest = (0..self.loops.len()).max_by(|&a, &b| area(&self.loops[a]).total_cmp(&area(&self.loops[b])));
+        if let Some(k) = widest.filter(|&k| self.loops[k].len() >= 4) {
+            self.outer = k;
+        }
+        self
     }
 
     /// The inner loops (holes), in loop order.
@@ -384,6 +402,33 @@ mod tests {
         assert_eq!(topo.loops.len(), 1);
         assert_eq!(topo.outer_loop().len(), 2 * (5 - 1) + 2 * (4 - 1));
         assert!((topo.loop_lengths[0] - 2.0 * (1.0 + 1.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_outer_loop_in_a_view_is_the_one_around_the_others() {
+        // A flat ring whose inner loop zigzags in depth: longer in 3D than
+        // the outer loop, but inside it where a camera along z sees it.
+        let n = 24;
+        let mut positions = Vec::new();
+        for i in 0..n {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            positions.push(DVec3::new(a.cos(), a.sin(), 0.0));
+            let depth = if i % 2 == 0 { 3.0 } else { -3.0 };
+            positions.push(DVec3::new(0.5 * a.cos(), 0.5 * a.sin(), depth));
+        }
+        let triangles = (0..n as u32)
+            .flat_map(|i| {
+                let j = (i + 1) % n as u32;
+                [[2 * i, 2 * j, 2 * j + 1], [2 * i, 2 * j + 1, 2 * i + 1]]
+            })
+            .collect();
+        let mesh = TriMesh { positions, triangles };
+        let topo = Topology::build(&mesh).unwrap();
+        assert!(topo.outer_loop()[0] % 2 == 1, "the zigzag loop is the longest in 3D");
+        let view: Vec<glam::DVec2> = mesh.positions.iter().map(|p| p.truncate()).collect();
+        let seen = topo.outermost_in(&view);
+        assert!(seen.outer_loop().iter().all(|v| v % 2 == 0), "the loop around the ring");
+        assert_eq!(seen.holes().count(), 1);
     }
 
     #[test]
