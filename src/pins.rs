@@ -116,7 +116,15 @@ impl Pins {
         let mut out: Vec<ResolvedConstraint> = Vec::new();
         for (index, &(vertex, target)) in self.targets.iter().enumerate() {
             let fail = |message: String| PinError::Constraint { index, message };
-            check_target(index, target)?;
+            // A target must be a finite point (where its chart may be laid
+            // out is the boundary's matter: the unit square, a region, an
+            // atlas island outside it).
+            if !target.is_finite() {
+                return Err(fail(format!(
+                    "target ({}, {}) in texture coordinates is not a finite point",
+                    target.x, target.y
+                )));
+            }
             if vertex as usize >= n {
                 return Err(fail(format!(
                     "vertex {vertex} is out of range: the mesh has vertices 0..{n}"
@@ -153,20 +161,6 @@ impl Pins {
         }
         let corners = self.corners.map(|c| resolve_corners(c, welded, n)).transpose()?;
         Ok((out, corners))
-    }
-}
-
-/// A target must be a finite point (where its chart may be laid out is
-/// the boundary's matter: the unit square, a region, an atlas island
-/// outside it).
-fn check_target(index: usize, t: DVec2) -> Result<(), PinError> {
-    if t.is_finite() {
-        Ok(())
-    } else {
-        Err(PinError::Constraint {
-            index,
-            message: format!("target ({}, {}) in texture coordinates is not a finite point", t.x, t.y),
-        })
     }
 }
 

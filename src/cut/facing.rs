@@ -147,7 +147,7 @@ pub fn facing_region(
     for (t, tri) in mesh.triangles.iter().enumerate() {
         let lone = tri.iter().any(|&v| is_landmark[v as usize] && !held[v as usize]);
         let [a, b, c] = tri.map(|v| projected[v as usize]);
-        let turned = facing[t] || (b - a).perp_dot(c - a) > 0.0;
+        let turned = facing[t] || crate::guard::orientation(a, b, c) > 0.0;
         seen[t] |= lone && visible[t] && turned;
     }
     let unseen: Vec<bool> = (0..seen.len()).map(|t| visible[t] && within[t]).collect();

@@ -176,10 +176,7 @@ pub fn projection_start(camera: &crate::cut::facing::Camera, filled: &FilledChar
             .find(|&p| positive(p, &layout))
             .unwrap_or(centroid);
     }
-    if !guard::all_positive(&layout, &filled.mesh.triangles) {
-        untangle(&mut layout, &filled.mesh.triangles);
-    }
-    guard::all_positive(&layout, &filled.mesh.triangles).then_some(layout)
+    untangle(&mut layout, &filled.mesh.triangles).then_some(layout)
 }
 
 /// Rounds of [`untangle`] at most.
@@ -189,7 +186,8 @@ const UNTANGLE_ROUNDS: usize = 64;
 /// (a sliver of the mesh seen edge-on, flat or just turned over) to the
 /// mean of their neighbours, round by round, until none is left or the
 /// rounds run out: the few vertices of a projection that slivers flatten.
-fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]]) {
+/// Whether every triangle is positive at the end.
+fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]]) -> bool {
     let bad = |layout: &[DVec2]| -> Vec<u32> {
         let mut out: Vec<u32> = triangles
             .iter()
@@ -203,7 +201,7 @@ fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]]) {
     };
     let mut vertices = bad(layout);
     if vertices.is_empty() {
-        return;
+        return true;
     }
     let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); layout.len()];
     for t in triangles {
@@ -221,9 +219,10 @@ fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]]) {
         }
         vertices = bad(layout);
         if vertices.is_empty() {
-            return;
+            return true;
         }
     }
+    false
 }
 
 /// The area centroid of a simple polygon (`None` for no area).
