@@ -728,6 +728,37 @@ impl PreparedChart {
             .collect()
     }
 
+    /// How far a landmark's copy ends from its target when a seam or a
+    /// separation runs through the landmark (its copies cannot all sit on
+    /// the target): `None` when none does; infinite when a copy lies in a
+    /// part laid out apart (the rest, packed elsewhere) or is not in
+    /// `layout` (a coarse level that dropped it: `fine` holds the copies).
+    pub fn landmark_copies_off(&self, layout: &[DVec2], fine: &PreparedChart) -> Option<f64> {
+        let targets: std::collections::HashMap<u32, (u32, DVec2)> = self
+            .constraints
+            .iter()
+            .zip(&self.constraint_vertices)
+            .map(|(c, &v)| (self.chart.welded_ids[v as usize], (v, c.target_uv)))
+            .collect();
+        let mut off: Option<f64> = None;
+        let mut worse = |d: f64| off = Some(off.map_or(d, |o| o.max(d)));
+        for (u, w) in self.chart.welded_ids.iter().enumerate() {
+            if let Some(&(v, target)) = targets.get(w)
+                && v != u as u32
+            {
+                worse(layout.get(u).map_or(f64::INFINITY, |p| p.distance(target)));
+            }
+        }
+        let copies = |chart: &Chart, w: u32| chart.welded_ids.iter().filter(|&&x| x == w).count();
+        for &w in targets.keys() {
+            let apart = fine.opening.rest.iter().any(|r| r.local_of(w).is_some());
+            if apart || (copies(&fine.chart, w) > 1 && copies(&self.chart, w) == 1) {
+                worse(f64::INFINITY);
+            }
+        }
+        off
+    }
+
     /// Where a camera's view puts the pieces after the `k`-th when the
     /// chart is made as the camera sees it (`form`): the room they are
     /// kept, so that no chart or piece laid out before them spreads over
@@ -913,5 +944,40 @@ pub fn written_orientation(prepared: &PreparedChart, layout: &[DVec2]) -> Orient
         a
     } else {
         b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_landmark_a_seam_runs_through_has_a_copy_off_its_target() {
+        let asset = SourceAsset::from_mesh(&crate::testing::uv_sphere(12, 18));
+        let pins = crate::pins::Pins::new(&[(40, DVec2::new(0.5, 0.5))]);
+        let mut prepared = prepare(&ConstraintSource::Memory(Arc::new(pins)), &asset).expect("the sphere, cut open");
+        let ids = prepared.chart.welded_ids.clone();
+        let split = (0..ids.len())
+            .find(|&u| ids[u + 1..].contains(&ids[u]))
+            .expect("a vertex the seam split");
+        let copy = ids.iter().rposition(|&w| w == ids[split]).expect("its copy");
+        let mut layout: Vec<DVec2> = (0..prepared.filled.mesh.n_vertices())
+            .map(|k| DVec2::new(k as f64, (k * k) as f64) * 1e-3)
+            .collect();
+        assert_eq!(
+            prepared.landmark_copies_off(&layout, &prepared),
+            None,
+            "the seam keeps clear of the landmark"
+        );
+        prepared.constraint_vertices[0] = split as u32;
+        prepared.constraints[0].target_uv = layout[split];
+        let off = prepared.landmark_copies_off(&layout, &prepared);
+        assert_eq!(off, Some(layout[split].distance(layout[copy])));
+        layout[copy] = layout[split];
+        assert_eq!(
+            prepared.landmark_copies_off(&layout, &prepared),
+            Some(0.0),
+            "copies on the target"
+        );
     }
 }

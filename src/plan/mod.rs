@@ -409,6 +409,11 @@ impl ChartPlan {
         if pieces > 0 && residual <= tolerance {
             residual = residual.max(self.pieces_residual(&session, chart.prepared.placed(solver.layout())));
         }
+        // A seam or separation through a landmark leaves a copy of it off
+        // its target, however the chart is laid out.
+        if let Some(off) = chart.prepared.landmark_copies_off(solver.layout(), session.prepared()) {
+            residual = residual.max(off);
+        }
         let reached = residual <= tolerance;
         let stretch = own::stretch(&chart.prepared, solver.layout());
         let own = reached
