@@ -61,22 +61,40 @@ fn relative_to(target: &Path, base: &Path) -> PathBuf {
     out
 }
 
+/// Why `uvpin edit` cannot set up its constraint file.
+#[derive(Debug, thiserror::Error)]
+enum SetupError {
+    #[error("{}: a constraint file's name must end with {suffix}", file.display())]
+    Suffix { file: PathBuf, suffix: String },
+    #[error("{} does not exist: give --asset MESH to create it", file.display())]
+    NoAsset { file: PathBuf },
+    #[error("--asset {}: not a file", asset.display())]
+    NotAFile { asset: PathBuf },
+    #[error("{}: {source}", path.display())]
+    Path { path: PathBuf, source: std::io::Error },
+    #[error("{}", .0.message)]
+    Write(crate::io::atomic::WriteError),
+}
+
 /// Creates the constraint file for `asset` if it does not exist; the
 /// folders of the asset and the image it names (read by the daemon besides
 /// its own: the file names them).
-fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Result<Vec<PathBuf>, String> {
+fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Result<Vec<PathBuf>, SetupError> {
     let name = constraints
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     if !name.ends_with(suffix) {
-        return Err(format!(
-            "{}: a constraint file's name must end with {suffix}",
-            constraints.display()
-        ));
+        return Err(SetupError::Suffix {
+            file: constraints.to_path_buf(),
+            suffix: suffix.to_string(),
+        });
     }
-    let absolute = |p: &Path| std::path::absolute(p).map_err(|e| format!("{}: {e}", p.display()));
-    let file = absolute(constraints)?;
+    let at = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| SetupError::Path { path, source }
+    };
+    let file = std::path::absolute(constraints).map_err(at(constraints))?;
     let folder = file.parent().unwrap_or(Path::new("/")).to_path_buf();
     if file.exists() {
         if asset.is_some() {
@@ -95,20 +113,21 @@ fn prepare_file(constraints: &Path, asset: Option<&Path>, suffix: &str) -> Resul
         return Ok(folders.collect());
     }
     let Some(asset) = asset else {
-        return Err(format!(
-            "{} does not exist: give --asset MESH to create it",
-            constraints.display()
-        ));
+        return Err(SetupError::NoAsset {
+            file: constraints.to_path_buf(),
+        });
     };
     if !asset.is_file() {
-        return Err(format!("--asset {}: not a file", asset.display()));
+        return Err(SetupError::NotAFile {
+            asset: asset.to_path_buf(),
+        });
     }
     // Both without `..` or links, so the relative path climbs out right.
-    let canonical = |p: &Path| p.canonicalize().map_err(|e| format!("{}: {e}", p.display()));
-    let (asset, folder) = (canonical(asset)?, canonical(&folder)?);
+    let asset = asset.canonicalize().map_err(at(asset))?;
+    let folder = folder.canonicalize().map_err(at(&folder))?;
     let named = relative_to(&asset, &folder);
     let text = crate::edit::text::new_file(&named.to_string_lossy());
-    crate::io::atomic::write_atomically(&file, text.as_bytes()).map_err(|e| e.message)?;
+    crate::io::atomic::write_atomically(&file, text.as_bytes()).map_err(SetupError::Write)?;
     eprintln!("created {} for {}", constraints.display(), named.display());
     Ok(asset.parent().map(Path::to_path_buf).into_iter().collect())
 }

@@ -142,23 +142,37 @@ pub fn preview(p: &Preview, seq: Value, held: Option<&str>) -> Value {
     out
 }
 
+/// Constraints a page may send at most.
+const MAX_WANTED: usize = 10_000;
+
+/// Why the page's constraint list cannot be read.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PayloadError {
+    #[error("expected `constraints: [...]`")]
+    NoList,
+    #[error("too many constraints ({count}; at most {MAX_WANTED})")]
+    TooMany { count: usize },
+    #[error("constraints[{index}]: expected {{vertex, uv: [u, v], primitive?, label?}}")]
+    Malformed { index: usize },
+}
+
 /// The page's constraint list: `[{primitive, vertex, uv: [u, v], label}]`;
 /// the file's default primitive is left implicit.
 ///
 /// # Errors
-/// A malformed list, in words.
-pub fn wanted(body: &Value, default_primitive: usize) -> Result<Vec<WantedConstraint>, String> {
+/// A malformed list, with the offending constraint's index.
+pub fn wanted(body: &Value, default_primitive: usize) -> Result<Vec<WantedConstraint>, PayloadError> {
     let list = body
         .get("constraints")
         .and_then(Value::as_array)
-        .ok_or("expected `constraints: [...]`")?;
-    if list.len() > 10_000 {
-        return Err("too many constraints".into());
+        .ok_or(PayloadError::NoList)?;
+    if list.len() > MAX_WANTED {
+        return Err(PayloadError::TooMany { count: list.len() });
     }
     list.iter()
         .enumerate()
         .map(|(k, c)| {
-            let bad = || format!("constraints[{k}]: expected {{vertex, uv: [u, v], primitive?, label?}}");
+            let bad = || PayloadError::Malformed { index: k };
             let vertex = c
                 .get("vertex")
                 .and_then(Value::as_u64)
@@ -208,6 +222,11 @@ mod tests {
         ] {
             assert!(wanted(&bad, 0).is_err(), "{bad}");
         }
+        let one = json!({ "vertex": 1, "uv": [0, 0] });
+        let many = json!({ "constraints": vec![one; MAX_WANTED + 1] });
+        assert_eq!(wanted(&many, 0), Err(PayloadError::TooMany { count: MAX_WANTED + 1 }));
+        let second = json!({ "constraints": [{ "vertex": 1, "uv": [0, 0] }, { "vertex": 2 }] });
+        assert_eq!(wanted(&second, 0), Err(PayloadError::Malformed { index: 1 }));
         assert_eq!(hash_text(255), "00000000000000ff");
     }
 }

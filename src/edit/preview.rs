@@ -209,7 +209,7 @@ fn work(shared: &Shared, coarse_above: usize) {
             );
             (session, level, solved)
         }))
-        .unwrap_or_else(|_| (None, None, Err("internal error while solving the preview".into())));
+        .unwrap_or_else(|_| (None, None, Err(PreviewError::Panicked)));
         let (session, level, solved) = outcome;
         let reply = match solved {
             Ok(Some((report, shown))) => PreviewReply::Solved(Box::new(Preview {
@@ -218,7 +218,7 @@ fn work(shared: &Shared, coarse_above: usize) {
                 ms: job.at.elapsed().as_secs_f64() * 1e3,
             })),
             Ok(None) => PreviewReply::Superseded,
-            Err(message) => PreviewReply::Invalid(message),
+            Err(e) => PreviewReply::Invalid(e.to_string()),
         };
         last = session.map(|session| Held {
             inputs: job.inputs.clone(),
@@ -247,6 +247,20 @@ fn with_targets(loaded: &LoadedConstraints, wanted: &[WantedConstraint]) -> Load
     out
 }
 
+/// Why a preview is not shown: the page's list or the solve refused, or
+/// (a bug) the solve folded or panicked.
+#[derive(Debug, thiserror::Error)]
+enum PreviewError {
+    #[error(transparent)]
+    Wanted(#[from] super::text::EditError),
+    #[error(transparent)]
+    Solve(#[from] crate::Error),
+    #[error("the solve ended with a folded layout; nothing is shown")]
+    Folded,
+    #[error("internal error while solving the preview")]
+    Panicked,
+}
+
 /// Solves `wanted` in `session` (retargeted; opened when `None`), on its
 /// coarse `level` (made anew when it no longer fits) when the chart has
 /// more than `coarse_above` vertices, else from its last layout; `None`
@@ -257,8 +271,8 @@ fn solve(
     (session, level): (&mut Option<ChartSession>, &mut Option<Level>),
     coarse_above: usize,
     stop: &dyn Fn() -> bool,
-) -> Result<Option<(Report, Shown)>, String> {
-    super::text::check_wanted(wanted).map_err(|e| e.to_string())?;
+) -> Result<Option<(Report, Shown)>, PreviewError> {
+    super::text::check_wanted(wanted)?;
     let loaded = with_targets(&inputs.loaded, wanted);
     // While a target is dragged the layout is shown without the distortion
     // polish (a Newton solve per step, most of a small chart's time); the
@@ -270,10 +284,10 @@ fn solve(
     let source = ConstraintSource::File(Arc::new(loaded));
     let session = match session {
         Some(s) => {
-            s.retarget(source, 0.0).map_err(|e| e.to_string())?;
+            s.retarget(source, 0.0)?;
             s
         }
-        None => session.insert(ChartSession::open(source, inputs.asset.clone(), 0.0).map_err(|e| e.to_string())?),
+        None => session.insert(ChartSession::open(source, inputs.asset.clone(), 0.0)?),
     };
     let n = session.prepared().filled.mesh.n_vertices();
     if n > coarse_above
@@ -281,15 +295,13 @@ fn solve(
     {
         return Ok(answer);
     }
-    let Some(solved) =
-        crate::assembly::solve_until(session, &options, StartFrom::LastLayout, stop).map_err(|e| e.to_string())?
-    else {
+    let Some(solved) = crate::assembly::solve_until(session, &options, StartFrom::LastLayout, stop)? else {
         return Ok(None);
     };
     let layout = solved.solver.layout();
     if !chart::written_orientation(session.prepared(), layout).is_clean() {
         // The solver never ends folded; if it ever did, nothing is shown.
-        return Err("the solve ended with a folded layout; nothing is shown".into());
+        return Err(PreviewError::Folded);
     }
     Ok(Some((solved.report, Shown::Chart(session.uvs(layout)))))
 }

@@ -61,7 +61,7 @@ impl SweepRunner {
                 &crate::io::InputRules::default(),
             )
             .map(|(l, a)| (l, Arc::new(a)))
-            .map_err(|e| e.to_string());
+            .map_err(Arc::new);
             Input {
                 name: self.plan.names[file_index].clone(),
                 loaded,
@@ -112,11 +112,12 @@ fn stable_hash(s: &str) -> u64 {
 /// A constraint file and its asset, loaded once per sweep.
 struct Input {
     name: String,
-    loaded: Result<(LoadedConstraints, Arc<SourceAsset>), String>,
+    /// Loaded once and read by every run: the error shared, not rebuilt.
+    loaded: Result<(LoadedConstraints, Arc<SourceAsset>), Arc<crate::Error>>,
 }
 
 /// Step-1 position and whether on the outer boundary, per constraint (file order).
-type Probe = Result<Vec<(DVec2, bool)>, String>;
+type Probe = Result<Vec<(DVec2, bool)>, Arc<crate::Error>>;
 
 fn options_for(loaded: &LoadedConstraints, setting: &Setting) -> SolverOptions {
     setting.solver.unwrap_or(loaded.solver)
@@ -140,10 +141,10 @@ fn probe_step1(loaded: &LoadedConstraints, asset: &Arc<SourceAsset>, corners: Co
         corners,
     };
     let source = ConstraintSource::File(Arc::new(with_setting(loaded, &setting)));
-    let mut session = crate::session::ChartSession::open(source, asset.clone(), 0.0).map_err(|e| e.to_string())?;
-    session.run_step_one().map_err(|e| e.to_string())?;
+    let mut session = crate::session::ChartSession::open(source, asset.clone(), 0.0).map_err(Arc::new)?;
+    session.run_step_one().map_err(Arc::new)?;
     let (Some(boundary), Some(layout)) = (session.boundary(), session.step_one_layout()) else {
-        return Err("step 1 was not solved".into());
+        return Err(Arc::new(crate::Error::Internal("step 1 was not solved".into())));
     };
     let prepared = session.prepared();
     let on_outer = boundary.on_loop(prepared.filled.mesh.n_vertices());
@@ -204,7 +205,7 @@ fn solve_run(run: &Run, input: &Input, step1: &Probe, sweep: &SweepFile, thumbs:
     let (loaded, asset) = match &input.loaded {
         Ok(x) => x,
         Err(e) => {
-            row.message = e.clone();
+            row.message = e.to_string();
             return row;
         }
     };
@@ -215,7 +216,7 @@ fn solve_run(run: &Run, input: &Input, step1: &Probe, sweep: &SweepFile, thumbs:
     let step1 = match step1 {
         Ok(s) => s,
         Err(e) => {
-            row.message = e.clone();
+            row.message = e.to_string();
             return row;
         }
     };
