@@ -95,11 +95,10 @@ pub fn rest_charts(asset: &SourceAsset, prepared: &PreparedChart) -> Vec<Arc<Cha
         }
     }
     let mut out = prepared.opening.rest.clone();
-    out.extend(
-        (0..welded.n_charts as u32)
-            .filter(|&c| c != prepared.chart.id && missing[c as usize])
-            .map(|c| Arc::new(welded.chart(c))),
-    );
+    let others: Vec<u32> = (0..welded.n_charts as u32)
+        .filter(|&c| c != prepared.chart.id && missing[c as usize])
+        .collect();
+    out.extend(welded.charts(&others).into_iter().map(Arc::new));
     out
 }
 

@@ -887,6 +887,15 @@ fn assemble(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part], how: Stora
         }
     }
     give_twins(welded, parts, &mut from);
+    // Welded vertex → the first part holding it and its first copy there
+    // (one pass: a soup's thousands of pieces, each asked of every vertex,
+    // took most of a solve).
+    let mut holder: Vec<Option<(u32, u32)>> = vec![None; welded.mesh.n_vertices()];
+    for (p, part) in parts.iter().enumerate() {
+        for (l, &w) in part.chart.welded_ids.iter().enumerate() {
+            holder[w as usize].get_or_insert((p as u32, l as u32));
+        }
+    }
     let mut first_triangle = 0usize;
     asset
         .primitives
@@ -919,10 +928,8 @@ fn assemble(asset: &SourceAsset, welded: &WeldedMesh, parts: &[Part], how: Stora
             first_triangle += prim.indices.len() / 3;
             let unused = (0..prim.positions.len() as u32)
                 .map(|v| {
-                    let w = map[v as usize];
-                    parts
-                        .iter()
-                        .find_map(|part| part.chart.local_of(w).map(|l| (how.store)(part.layout[l as usize])))
+                    holder[map[v as usize] as usize]
+                        .map(|(p, l)| (how.store)(parts[p as usize].layout[l as usize]))
                         .unwrap_or_else(|| old(v))
                 })
                 .collect();

@@ -164,8 +164,11 @@ fn check_welded(
     tolerance: f64,
 ) -> CheckReport {
     let uv_of = welded_uvs(stored, welded);
-    let mut charts: Vec<ChartCheck> = (0..welded.n_charts as u32)
-        .map(|c| check_chart(welded, c, &uv_of, stored.axis))
+    let ids: Vec<u32> = (0..welded.n_charts as u32).collect();
+    let mut charts: Vec<ChartCheck> = welded
+        .charts(&ids)
+        .iter()
+        .map(|chart| check_chart(chart, &uv_of, stored.axis))
         .collect();
     let complete = check_overlaps(welded, &uv_of, stored.axis, &mut charts);
     let injective = complete && charts.iter().all(|c| c.crossings == 0 && c.overlaps.is_empty());
@@ -210,9 +213,9 @@ fn layout_point(uv: [f32; 2], axis: VAxis) -> DVec2 {
     }
 }
 
-/// Orientation (exactly as stored) and stretch of chart `c`.
-fn check_chart(welded: &WeldedMesh, c: u32, uv_of: &[[f32; 2]], axis: VAxis) -> ChartCheck {
-    let chart = welded.chart(c);
+/// Orientation (exactly as stored) and stretch of `chart`.
+fn check_chart(chart: &crate::mesh::weld::Chart, uv_of: &[[f32; 2]], axis: VAxis) -> ChartCheck {
+    let c = chart.id;
     let uvs: Vec<[f32; 2]> = chart.welded_ids.iter().map(|&w| uv_of[w as usize]).collect();
     // A face naming one vertex twice has no area in the mesh itself: no
     // texture coordinates can give it one, so it is counted apart.

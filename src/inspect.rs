@@ -175,10 +175,12 @@ fn charts(asset: &SourceAsset, welded: &WeldedMesh, with_loops: bool) -> Vec<Cha
     let sizes = welded.chart_sizes();
     let mut order: Vec<usize> = (0..sizes.len()).collect();
     order.sort_by_key(|&c| (std::cmp::Reverse(sizes[c].1), c));
-    order
+    let order: Vec<u32> = order.into_iter().map(|c| c as u32).collect();
+    welded
+        .charts(&order)
         .into_iter()
-        .map(|c| {
-            let chart = welded.chart(c as u32);
+        .map(|chart| {
+            let c = chart.id as usize;
             let topology = Topology::build(&chart.mesh);
             let outer_loop = topology.as_ref().ok().filter(|_| with_loops).map(|t| {
                 t.outer_loop()

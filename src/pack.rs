@@ -123,17 +123,23 @@ impl Grid {
     }
 }
 
-/// Placements between rebuilds of [`Occupancy`]'s summed-area table.
+/// Placements between rebuilds of [`Occupancy`]'s summed-area table at
+/// least.
 const REBUILD_EVERY: usize = 8;
 
 /// What a placement asks of the grid: whether a box is free. A summed-area
 /// table answers for the cells as they were at its last rebuild; the boxes
-/// marked since are looked at cell by cell. Rebuilding the table after every
+/// marked since are looked at one by one. Rebuilding the table after every
 /// chart cost a full pass over the grid per chart (a rest of 1,400 pieces
-/// took a minute to pack).
+/// took a minute to pack); it is rebuilt once looking at the boxes marked
+/// since has cost as much as a rebuild (a soup of ten thousand pieces,
+/// each found in a few looks, rebuilt it every eight placements for most
+/// of its solve).
 struct Occupancy {
     summed: Vec<u32>,
     recent: Vec<(usize, usize, usize, usize)>,
+    /// Boxes looked at since the last rebuild.
+    looked: std::cell::Cell<usize>,
 }
 
 impl Occupancy {
@@ -141,12 +147,14 @@ impl Occupancy {
         Occupancy {
             summed: grid.summed(),
             recent: Vec::new(),
+            looked: std::cell::Cell::new(0),
         }
     }
 
     /// Whether no cell of the `w × h` box at `(x, y)` is occupied.
     fn is_free(&self, grid: &Grid, (x, y): (usize, usize), (w, h): (usize, usize)) -> bool {
         let n = grid.n;
+        self.looked.set(self.looked.get() + self.recent.len());
         occupied_in(&self.summed, n, (x, y), (w, h)) == 0
             && self.recent.iter().all(|&(x0, y0, x1, y1)| {
                 let (ax, bx) = (x.max(x0), (x + w).min(x1 + 1));
@@ -158,9 +166,11 @@ impl Occupancy {
     /// `cells` were marked in `grid`.
     fn marked(&mut self, grid: &Grid, cells: (usize, usize, usize, usize)) {
         self.recent.push(cells);
-        if self.recent.len() >= REBUILD_EVERY {
+        let rebuild = grid.n * grid.n;
+        if self.recent.len() >= REBUILD_EVERY && (self.looked.get() >= rebuild || self.recent.len() >= grid.n) {
             self.summed = grid.summed();
             self.recent.clear();
+            self.looked.set(0);
         }
     }
 }
@@ -293,6 +303,9 @@ fn row_spans(
     spans
 }
 
+/// A shape's cells at one scale: its box and the cells of each row.
+type Cells = (usize, usize, Vec<Option<(usize, usize)>>);
+
 /// Every shape placed at `scale`, or `None` if one does not fit.
 fn try_pack(
     base: &Grid,
@@ -306,6 +319,10 @@ fn try_pack(
     let mut occupancy = Occupancy::new(&grid);
     let mut first_row = 0;
     let mut placed = vec![None; shapes.len()];
+    // Where the last shape with the same cells was placed: every spot
+    // before it was refused to that shape, and the grid only fills, so an
+    // identical shape (a soup's repeated parts) is looked for from there.
+    let mut resume: std::collections::HashMap<Cells, (usize, usize)> = std::collections::HashMap::new();
     for &i in order {
         let (rotation, box_lo, size) = turns[i];
         // The box in cells, one more each way for rounding.
@@ -332,9 +349,12 @@ fn try_pack(
         while first_row < n && !grid.occupied[first_row * n..(first_row + 1) * n].contains(&false) {
             first_row += 1;
         }
-        let spot = (first_row..=n.checked_sub(h)?)
-            .flat_map(|y| (0..=n - w).map(move |x| (x, y)))
+        let key = (w, h, spans.clone());
+        let from = resume.get(&key).copied().unwrap_or((0, 0));
+        let spot = (first_row.max(from.1)..=n.checked_sub(h)?)
+            .flat_map(|y| (if y == from.1 { from.0 } else { 0 }..=n - w).map(move |x| (x, y)))
             .find(|&at| fits(at))?;
+        resume.insert(key, spot);
         let corner = grid.lo + DVec2::new((spot.0 + 1) as f64 * grid.cell.x, (spot.1 + 1) as f64 * grid.cell.y);
         let placement = Placement {
             rotation,
@@ -418,6 +438,31 @@ mod tests {
         // Most of the free half is used.
         let used: f64 = shapes.iter().map(|s| 0.0 + s.points[2].x * s.points[2].y).sum::<f64>() * scale * scale;
         assert!(used > 0.2, "{used}");
+    }
+
+    #[test]
+    fn many_equal_charts_fill_the_texture_apart() {
+        // A soup's repeated parts: each looked for from where the last
+        // equal one went, each between two rebuilds of the table.
+        let shapes: Vec<Shape> = (0..600).map(|k| square(if k % 3 == 0 { 1.0 } else { 0.5 })).collect();
+        let placements = pack(&[], (DVec2::ZERO, DVec2::ONE), &shapes, &PackRules::DEFAULT).unwrap();
+        let boxes: Vec<(DVec2, DVec2)> = shapes
+            .iter()
+            .zip(&placements)
+            .map(|(s, p)| bounds(s.points.iter().map(|&q| p.apply(q))))
+            .collect();
+        let mut by_x: Vec<usize> = (0..boxes.len()).collect();
+        by_x.sort_by(|&i, &j| boxes[i].0.x.total_cmp(&boxes[j].0.x));
+        for (k, &i) in by_x.iter().enumerate() {
+            for &j in by_x[k + 1..].iter().take_while(|&&j| boxes[j].0.x <= boxes[i].1.x) {
+                let (a, b) = (boxes[i], boxes[j]);
+                let apart = a.1.x < b.0.x || a.1.y < b.0.y || b.1.y < a.0.y;
+                assert!(apart, "charts {i} and {j}: {a:?} {b:?}");
+            }
+        }
+        let used: f64 = shapes.iter().map(|s| s.points[2].x * s.points[2].y).sum::<f64>();
+        let scale = placements[0].scale;
+        assert!(used * scale * scale > 0.4, "{}", used * scale * scale);
     }
 
     #[test]

@@ -370,8 +370,7 @@ pub(crate) fn sorted_pieces(
     Vec<crate::mesh::weld::Chart>,
 ) {
     let (mut first, mut pieces, mut rest) = (None, Vec::new(), Vec::new());
-    for (p, &h) in held.iter().enumerate() {
-        let piece = chart.piece(&piece_of.iter().map(|&q| q as usize == p).collect::<Vec<bool>>());
+    for (p, (piece, &h)) in chart.pieces(piece_of, held.len()).into_iter().zip(held).enumerate() {
         match (p == main, h > 0) {
             (true, _) => first = Some(piece),
             (false, true) => pieces.push(piece),

@@ -48,7 +48,27 @@ pub struct Chart {
     /// Chart triangle → welded triangle (the primitives' triangles in order).
     pub triangle_ids: Vec<u32>,
     /// Welded vertex → chart-local vertex; `None` outside this chart.
-    local_of: Vec<Option<u32>>,
+    local_of: LocalIds,
+}
+
+/// Welded vertex → the first chart vertex standing for it, sorted by
+/// welded id: a chart holds a share of the mesh, and a table the mesh's
+/// size in every chart cost a soup of ten thousand pieces gigabytes.
+#[derive(Debug, Clone, Default)]
+struct LocalIds(Vec<(u32, u32)>);
+
+impl LocalIds {
+    /// Each welded id of `welded_ids` (chart-local order) at its first place.
+    fn of(welded_ids: &[u32]) -> LocalIds {
+        let mut pairs: Vec<(u32, u32)> = welded_ids.iter().enumerate().map(|(l, &w)| (w, l as u32)).collect();
+        pairs.sort_unstable();
+        pairs.dedup_by_key(|p| p.0);
+        LocalIds(pairs)
+    }
+
+    fn get(&self, welded: u32) -> Option<u32> {
+        self.0.binary_search_by_key(&welded, |p| p.0).ok().map(|k| self.0[k].1)
+    }
 }
 
 impl Chart {
@@ -56,7 +76,7 @@ impl Chart {
     /// (its first copy, if it was split).
     #[inline]
     pub fn local_of(&self, welded: u32) -> Option<u32> {
-        self.local_of.get(welded as usize).copied().flatten()
+        self.local_of.get(welded)
     }
 
     /// This chart with its vertices split as `wedges` (made from this
@@ -77,24 +97,44 @@ impl Chart {
     /// vertices renumbered in order (those no kept triangle uses dropped);
     /// a welded vertex's local id is its first vertex in the piece.
     pub fn piece(&self, keep: &[bool]) -> Chart {
+        let kept: Vec<usize> = (0..keep.len()).filter(|&k| keep[k]).collect();
+        self.piece_of_triangles(&kept, &mut vec![u32::MAX; self.mesh.n_vertices()])
+    }
+
+    /// Every piece `piece_of` names (each triangle's, `0..n`), as
+    /// [`Self::piece`] makes each, in one pass: a chart repaired into
+    /// thousands of pieces cost a pass over it per piece.
+    pub fn pieces(&self, piece_of: &[u32], n: usize) -> Vec<Chart> {
+        let mut triangles: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for (k, &p) in piece_of.iter().enumerate() {
+            triangles[p as usize].push(k);
+        }
         let mut new_id = vec![u32::MAX; self.mesh.n_vertices()];
-        let (mut positions, mut welded_ids) = (Vec::new(), Vec::new());
-        let (mut triangles, mut triangle_ids) = (Vec::new(), Vec::new());
-        for (k, t) in self.mesh.triangles.iter().enumerate().filter(|(k, _)| keep[*k]) {
-            triangles.push(t.map(|v| {
+        triangles
+            .iter()
+            .map(|kept| self.piece_of_triangles(kept, &mut new_id))
+            .collect()
+    }
+
+    /// The piece of triangles `kept` (ascending); `new_id` is all `u32::MAX`
+    /// on entry and is left so.
+    fn piece_of_triangles(&self, kept: &[usize], new_id: &mut [u32]) -> Chart {
+        let (mut positions, mut welded_ids, mut old) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut triangles, mut triangle_ids) = (Vec::with_capacity(kept.len()), Vec::with_capacity(kept.len()));
+        for &k in kept {
+            triangles.push(self.mesh.triangles[k].map(|v| {
                 if new_id[v as usize] == u32::MAX {
                     new_id[v as usize] = positions.len() as u32;
                     positions.push(self.mesh.positions[v as usize]);
                     welded_ids.push(self.welded_ids[v as usize]);
+                    old.push(v);
                 }
                 new_id[v as usize]
             }));
             triangle_ids.push(self.triangle_ids[k]);
         }
-        let mut local_of = vec![None; self.local_of.len()];
-        for (l, &w) in welded_ids.iter().enumerate().rev() {
-            local_of[w as usize] = Some(l as u32);
-        }
+        old.iter().for_each(|&v| new_id[v as usize] = u32::MAX);
+        let local_of = LocalIds::of(&welded_ids);
         Chart {
             id: self.id,
             mesh: TriMesh { positions, triangles },
@@ -109,10 +149,7 @@ impl Chart {
     /// level of it); each new triangle stands for this chart's first.
     pub fn subset(&self, vertices: &[u32], triangles: Vec<[u32; 3]>) -> Chart {
         let welded_ids: Vec<u32> = vertices.iter().map(|&v| self.welded_ids[v as usize]).collect();
-        let mut local_of = vec![None; self.local_of.len()];
-        for (l, &w) in welded_ids.iter().enumerate().rev() {
-            local_of[w as usize] = Some(l as u32);
-        }
+        let local_of = LocalIds::of(&welded_ids);
         Chart {
             id: self.id,
             mesh: TriMesh {
@@ -216,29 +253,58 @@ pub fn weld(primitives: &[PrimitiveGeometry]) -> WeldedMesh {
 impl WeldedMesh {
     /// Cuts chart `id` out with its own vertex numbering (welded order).
     pub fn chart(&self, id: u32) -> Chart {
-        let mut local_of = vec![None; self.chart_of_vertex.len()];
-        let mut welded_ids = Vec::new();
+        self.charts(&[id]).pop().expect("one chart asked for")
+    }
+
+    /// Charts `ids` (distinct) cut out as [`Self::chart`] does, in one pass
+    /// over the mesh: a soup's thousands of pieces each cut out by a pass
+    /// of its own took most of a solve.
+    pub fn charts(&self, ids: &[u32]) -> Vec<Chart> {
+        let mut slot = vec![u32::MAX; self.n_charts];
+        for (k, &id) in ids.iter().enumerate() {
+            slot[id as usize] = k as u32;
+        }
+        let mut out: Vec<Chart> = ids
+            .iter()
+            .map(|&id| Chart {
+                id,
+                mesh: TriMesh {
+                    positions: Vec::new(),
+                    triangles: Vec::new(),
+                },
+                welded_ids: Vec::new(),
+                triangle_ids: Vec::new(),
+                local_of: LocalIds::default(),
+            })
+            .collect();
+        let mut local = vec![u32::MAX; self.chart_of_vertex.len()];
         for (v, c) in self.chart_of_vertex.iter().enumerate() {
-            if *c == Some(id) {
-                local_of[v] = Some(welded_ids.len() as u32);
-                welded_ids.push(v as u32);
+            if let Some(chart) = c.and_then(|c| out.get_mut(slot[c as usize] as usize)) {
+                local[v] = chart.welded_ids.len() as u32;
+                chart.welded_ids.push(v as u32);
+                chart.mesh.positions.push(self.mesh.positions[v]);
             }
         }
-        let positions = welded_ids.iter().map(|&v| self.mesh.positions[v as usize]).collect();
-        let (mut triangles, mut triangle_ids) = (Vec::new(), Vec::new());
         for (k, t) in self.mesh.triangles.iter().enumerate() {
-            if self.chart_of_vertex[t[0] as usize] == Some(id) {
-                triangles.push(t.map(|v| local_of[v as usize].expect("same chart")));
-                triangle_ids.push(k as u32);
+            if let Some(chart) =
+                self.chart_of_vertex[t[0] as usize].and_then(|c| out.get_mut(slot[c as usize] as usize))
+            {
+                chart.mesh.triangles.push(t.map(|v| local[v as usize]));
+                chart.triangle_ids.push(k as u32);
             }
         }
-        Chart {
-            id,
-            mesh: TriMesh { positions, triangles },
-            welded_ids,
-            triangle_ids,
-            local_of,
+        for chart in &mut out {
+            // Welded order: already sorted, one vertex each.
+            chart.local_of = LocalIds(
+                chart
+                    .welded_ids
+                    .iter()
+                    .enumerate()
+                    .map(|(l, &w)| (w, l as u32))
+                    .collect(),
+            );
         }
+        out
     }
 
     /// Number of triangles and vertices in each chart.
@@ -288,5 +354,44 @@ mod tests {
         let c = w.chart(1);
         assert_eq!(c.mesh.n_triangles(), 2);
         assert_eq!(c.welded_ids, vec![4, 5, 6, 7]);
+    }
+
+    #[test]
+    fn charts_cut_out_together_are_each_as_cut_out_alone() {
+        let quads: Vec<PrimitiveGeometry> = (0..6).map(|k| quad(2.0 * k as f32, Some(0.1 * k as f32))).collect();
+        let w = weld(&quads);
+        assert_eq!(w.n_charts, 6);
+        let ids = [4, 1, 5];
+        let together = w.charts(&ids);
+        for (chart, &id) in together.iter().zip(&ids) {
+            let alone = w.chart(id);
+            assert_eq!((chart.id, &chart.mesh.triangles), (id, &alone.mesh.triangles));
+            assert_eq!(
+                (&chart.welded_ids, &chart.triangle_ids),
+                (&alone.welded_ids, &alone.triangle_ids)
+            );
+            for v in 0..w.mesh.n_vertices() as u32 {
+                assert_eq!(chart.local_of(v), alone.local_of(v), "welded vertex {v}");
+            }
+        }
+        assert!(
+            together[0].local_of(together[1].welded_ids[0]).is_none(),
+            "another chart's vertex"
+        );
+        // Pieces cut out together are each as cut out alone.
+        let all = w.chart(0);
+        let piece_of = [1, 0];
+        let pieces = all.pieces(&piece_of, 2);
+        for (p, piece) in pieces.iter().enumerate() {
+            let alone = all.piece(&piece_of.map(|q| q as usize == p));
+            assert_eq!(
+                (&piece.mesh.triangles, &piece.welded_ids),
+                (&alone.mesh.triangles, &alone.welded_ids)
+            );
+            assert_eq!(piece.triangle_ids, vec![p as u32 ^ 1]);
+            for v in 0..w.mesh.n_vertices() as u32 {
+                assert_eq!(piece.local_of(v), alone.local_of(v), "welded vertex {v}");
+            }
+        }
     }
 }
