@@ -118,11 +118,41 @@ fn hint_and_proof(
         .collect();
     let certificate = certificate(s, !unreached.is_empty());
     let name = vertex_namer(p, on_outer);
-    let hint = (!unreached.is_empty()).then(|| match &certificate {
-        Some(c) => crate::complete::obstruction_hint(c, constraint_of(p), &name),
-        None => crate::complete::partial_hint(&p.filled, s.solver.layout(), s.solver.problem(), &unreached),
+    let hint = (!unreached.is_empty()).then(|| {
+        on_other_islands(p, &unreached).unwrap_or_else(|| match &certificate {
+            Some(c) => crate::complete::obstruction_hint(c, constraint_of(p), &name),
+            None => crate::complete::partial_hint(&p.filled, s.solver.layout(), s.solver.problem(), &unreached),
+        })
     });
     (hint, certificate.as_ref().map(|c| c.describe(&name)))
+}
+
+/// The hint when a chart laid out again in its own island falls short of
+/// targets that lie on other charts' islands: those keep their UVs in the
+/// set written, so the chart cannot reach them however it is laid out.
+fn on_other_islands(p: &PreparedChart, unreached: &[(usize, u32)]) -> Option<String> {
+    let free = p.domain.free().filter(|f| f.island.is_some())?;
+    let o = &free.obstacles;
+    let covered: Vec<String> = p
+        .constraints
+        .iter()
+        .filter(|c| unreached.iter().any(|(index, _)| *index == c.index))
+        .filter(|c| {
+            let t = crate::param::uv_to_xy(c.target_uv);
+            o.triangles
+                .iter()
+                .any(|tri| crate::injective::strictly_inside(t, tri.map(|v| o.layout[v as usize])))
+        })
+        .map(|c| format!("constraints[{}]", c.index))
+        .collect();
+    (!covered.is_empty()).then(|| {
+        format!(
+            "{} have targets on other charts' islands, which keep their UVs in this set: write the layout as a new UV \
+             set (`uv_set: 1` beside an atlas in set 0) to lay the whole mesh out afresh, or keep the targets inside \
+             this chart's island",
+            covered.join(", ")
+        )
+    })
 }
 
 fn coarse_level(s: &SolveSummary) -> Option<crate::report::CoarseLevel> {
@@ -285,4 +315,41 @@ fn free_report(s: &SolveSummary) -> Option<FreeReport> {
         start_ms: free.start_ms,
         scaffold_ms: s.solver.record().scaffold_ms,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pins::Pins;
+
+    #[test]
+    fn targets_on_another_island_get_a_hint_that_says_so() {
+        // Two grids apart in space; set 0 holds one in the left half of the
+        // texture and the other in the right half.
+        let grid = crate::testing::grid_mesh(6, 6);
+        let n = grid.n_vertices();
+        let mut mesh = grid.clone();
+        mesh.positions
+            .extend(grid.positions.iter().map(|p| *p + glam::DVec3::X * 2.0));
+        mesh.triangles
+            .extend(grid.triangles.iter().map(|t| t.map(|v| v + n as u32)));
+        let uvs: Vec<[f32; 2]> = (0..2 * n)
+            .map(|k| {
+                let p = grid.positions[k % n];
+                let u0 = if k < n { 0.05 } else { 0.55 };
+                [(u0 + 0.4 * p.x) as f32, (0.9 - 0.8 * p.y) as f32]
+            })
+            .collect();
+        // The first grid's corners pinned where they are, a middle vertex
+        // into the other grid's island.
+        let at = |v: usize| DVec2::new(f64::from(uvs[v][0]), f64::from(uvs[v][1]));
+        let pins = Pins::new(&[(0, at(0)), (5, at(5)), (30, at(30)), (14, DVec2::new(0.75, 0.5))]);
+        let solved = crate::api::solve_atlas(&mesh, &uvs, &pins, &Default::default()).expect("a solve");
+        assert_eq!(solved.report.status, Status::Partial);
+        let hint = solved.report.hint.expect("a hint");
+        assert!(
+            hint.starts_with("constraints[3] have targets on other charts' islands") && hint.contains("uv_set: 1"),
+            "{hint}"
+        );
+    }
 }
