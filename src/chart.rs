@@ -977,7 +977,7 @@ mod tests {
             "the seam keeps clear of the landmark"
         );
         prepared.constraint_vertices[0] = split as u32;
-        prepared.constraints[0].target_uv = crate::param::xy_to_uv(layout[split]);
+        prepared.constraints[0].target_uv = xy_to_uv(layout[split]);
         let off = prepared.landmark_copies_off(&layout, &prepared).expect("a copy");
         assert!((off - layout[split].distance(layout[copy])).abs() < 1e-12, "{off}");
         layout[copy] = layout[split];
