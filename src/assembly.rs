@@ -11,7 +11,9 @@
 //!        ▼
 //! ChartPlan: candidates on the coarse level, the winner finished    (crate::plan)
 //!        ▼
-//! finish: the chosen chart kept, secondaries solved, every constraint reported
+//! finish: the chosen chart kept, secondaries solved (the chart again, clear
+//!         of a short one's targets, when that reaches more), every
+//!         constraint reported
 //!        ▼
 //! export(session, solution, outputs)                                (one commit)
 //! ```
@@ -116,8 +118,96 @@ fn run(
 
 /// A finished plan made a solution: its chart becomes `session`, the other
 /// charts and pieces holding landmarks are solved around it, and every
-/// constraint of the file is accounted for.
+/// constraint of the file is accounted for. When one of those falls short,
+/// the chart is solved again clear of where their targets are, and the
+/// two solves compared: the one reaching more constraints is kept.
 pub fn finish(session: &mut ChartSession, planned: crate::plan::Solution) -> Solution {
+    let options = *planned.solver.options();
+    let first = around(session, planned);
+    if reached(&first.report) == every(&first.report) {
+        return first;
+    }
+    match cleared(session, &first, &options) {
+        Some((again, mut solution)) if reached(&solution.report) > reached(&first.report) => {
+            solution.report.explain.push(format!(
+                "solved again clear of the other pieces' targets: {} constraints reached, against {} the first time",
+                reached(&solution.report),
+                reached(&first.report)
+            ));
+            *session = again;
+            session.forget_placed();
+            solution
+        }
+        _ => first,
+    }
+}
+
+/// Constraints reached in every chart of `report`.
+fn reached(report: &Report) -> usize {
+    std::iter::once(report)
+        .chain(&report.charts)
+        .map(|r| r.constraints.iter().filter(|c| c.reached).count())
+        .sum()
+}
+
+/// Constraints in every chart of `report`.
+fn every(report: &Report) -> usize {
+    std::iter::once(report)
+        .chain(&report.charts)
+        .map(|r| r.constraints.len())
+        .sum()
+}
+
+/// How far the room kept for another chart reaches past its targets' box
+/// (texture units).
+const KEPT_FOR_OTHERS: f64 = 0.03;
+
+/// `session`'s chart solved again clear of a box about the targets of each
+/// other chart that `first` left short (grown by [`KEPT_FOR_OTHERS`]), and
+/// the other charts around it; `None` when none fell short, the chart
+/// is not free in the texture (on the square, or kept in its own atlas
+/// island, where the other islands stay), has obstacles of its own
+/// already, or the solve fails.
+fn cleared(session: &ChartSession, first: &Solution, options: &SolverOptions) -> Option<(ChartSession, Solution)> {
+    let free_in_texture = session.prepared().domain.free().is_some_and(|f| f.island.is_none());
+    if !free_in_texture || !session.pick().placed.is_empty() {
+        return None;
+    }
+    let kept: Vec<[DVec2; 3]> = first
+        .report
+        .charts
+        .iter()
+        .filter(|r| r.constraints.iter().any(|c| !c.reached))
+        .flat_map(|r| {
+            let (lo, hi) = crate::injective::bounds(r.constraints.iter().map(|c| crate::param::uv_to_xy(c.target)));
+            let (lo, hi) = (lo - KEPT_FOR_OTHERS, hi + KEPT_FOR_OTHERS);
+            let (a, b, c, d) = (lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y));
+            [[a, b, c], [a, c, d]]
+        })
+        .collect();
+    if kept.is_empty() {
+        return None;
+    }
+    let pick = chart::Pick {
+        placed: Arc::new(kept),
+        ..session.pick().clone()
+    };
+    let (source, asset) = (session.source().clone(), session.asset().clone());
+    let prepared = chart::prepare_pick(&source, &asset, session.prepared().welded.clone(), &pick).ok()?;
+    let mut plan = ChartPlan::new(
+        ChartSession::from_prepared(source, asset, prepared, pick),
+        *options,
+        StartFrom::StepOne,
+    );
+    plan.run().ok()?;
+    let planned = plan.into_solution().ok()?;
+    let mut again = planned.session.clone();
+    let solution = around(&mut again, planned);
+    Some((again, solution))
+}
+
+/// [`finish`] with the chart as solved: the others solved around it.
+fn around(session: &mut ChartSession, planned: crate::plan::Solution) -> Solution {
     *session = planned.session;
     let (solver, mut report) = (planned.solver, planned.report);
     let mut secondary = Vec::new();
@@ -304,5 +394,48 @@ fn finished<'a>(
         guard: solution.solver.options().guard,
         rest: Some(rest),
         secondary: &solution.secondary,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pins::Pins;
+    use glam::DVec3;
+
+    #[test]
+    fn a_chart_over_another_charts_targets_is_solved_again_clear_of_them() {
+        // Two sheets apart in space: the first pinned along its left part,
+        // the second, small, at two points where the first's right part
+        // would lie.
+        let grid = crate::testing::grid_mesh(12, 12);
+        let n = grid.n_vertices() as u32;
+        let mut mesh = grid.clone();
+        mesh.positions
+            .extend(grid.positions.iter().map(|p| *p * 0.05 + DVec3::X * 3.0));
+        mesh.triangles.extend(grid.triangles.iter().map(|t| t.map(|v| v + n)));
+        let at = |i: u32, j: u32| i + 12 * j;
+        let pins = Pins::new(&[
+            (at(0, 3), DVec2::new(0.2, 0.7)),
+            (at(3, 3), DVec2::new(0.35, 0.7)),
+            (at(3, 8), DVec2::new(0.35, 0.45)),
+            (at(0, 8), DVec2::new(0.2, 0.45)),
+            (n + at(4, 5), DVec2::new(0.62, 0.58)),
+            (n + at(7, 5), DVec2::new(0.64, 0.58)),
+        ]);
+        let asset = Arc::new(crate::io::SourceAsset::from_mesh(&mesh));
+        let source = crate::constraints::ConstraintSource::Memory(Arc::new(pins));
+        let mut session = ChartSession::open(source, asset, 0.0).expect("a session");
+        let solved = solve(&mut session, &SolverOptions::DEFAULT).expect("a solve");
+        assert!(
+            session.pick().placed.is_empty(),
+            "the room kept for the second sheet is not kept for the next targets"
+        );
+        let r = &solved.report;
+        assert_eq!(r.status, report::Status::Reached, "{:?}", r.message);
+        assert!(
+            r.explain.iter().any(|l| l.starts_with("solved again clear of")),
+            "the first solve covered the second sheet's targets"
+        );
     }
 }

@@ -338,6 +338,13 @@ impl ChartSession {
         ))
     }
 
+    /// Forgets the triangles this chart was kept clear of (room kept for
+    /// other pieces in one solve, [`crate::assembly::finish`]): a later
+    /// solve, on new targets, starts without them.
+    pub fn forget_placed(&mut self) {
+        self.pick.placed = Arc::default();
+    }
+
     /// How the chart was picked and made.
     pub fn pick(&self) -> &chart::Pick {
         &self.pick
