@@ -113,21 +113,22 @@ fn run(
         watch(plan.progress());
     }
     watch(Progress::at(Stage::Finishing));
-    Ok(Some(finish(session, plan.into_solution()?)))
+    Ok(Some(finish(session, plan.into_solution()?, stop)))
 }
 
 /// A finished plan made a solution: its chart becomes `session`, the other
 /// charts and pieces holding landmarks are solved around it, and every
 /// constraint of the file is accounted for. When one of those falls short,
 /// the chart is solved again clear of where their targets are, and the
-/// two solves compared: the one reaching more constraints is kept.
-pub fn finish(session: &mut ChartSession, planned: crate::plan::Solution) -> Solution {
+/// two solves compared: the one reaching more constraints is kept (the
+/// first when `stop` says so during the second).
+pub fn finish(session: &mut ChartSession, planned: crate::plan::Solution, stop: &dyn Fn() -> bool) -> Solution {
     let options = *planned.solver.options();
     let first = around(session, planned);
     if reached(&first.report) == every(&first.report) {
         return first;
     }
-    match cleared(session, &first, &options) {
+    match cleared(session, &first, &options, stop) {
         Some((again, mut solution)) if reached(&solution.report) > reached(&first.report) => {
             solution.report.explain.push(format!(
                 "solved again clear of the other pieces' targets: {} constraints reached, against {} the first time",
@@ -167,8 +168,13 @@ const KEPT_FOR_OTHERS: f64 = 0.03;
 /// the other charts around it; `None` when none fell short, the chart
 /// is not free in the texture (on the square, or kept in its own atlas
 /// island, where the other islands stay), has obstacles of its own
-/// already, or the solve fails.
-fn cleared(session: &ChartSession, first: &Solution, options: &SolverOptions) -> Option<(ChartSession, Solution)> {
+/// already, the solve fails, or `stop` says so.
+fn cleared(
+    session: &ChartSession,
+    first: &Solution,
+    options: &SolverOptions,
+    stop: &dyn Fn() -> bool,
+) -> Option<(ChartSession, Solution)> {
     let free_in_texture = session.prepared().domain.free().is_some_and(|f| f.island.is_none());
     if !free_in_texture || !session.pick().placed.is_empty() {
         return None;
@@ -199,7 +205,12 @@ fn cleared(session: &ChartSession, first: &Solution, options: &SolverOptions) ->
         *options,
         StartFrom::StepOne,
     );
-    plan.run().ok()?;
+    while !plan.is_done() {
+        if stop() {
+            return None;
+        }
+        plan.tick().ok()?;
+    }
     let planned = plan.into_solution().ok()?;
     let mut again = planned.session.clone();
     let solution = around(&mut again, planned);

@@ -140,7 +140,7 @@ pub fn finish_solve(mut commands: Commands, mut charts: Query<(Entity, &mut Sess
             continue;
         }
         if let Some(planned) = planning.0.take_solution() {
-            let solution = crate::assembly::finish(&mut session.0, planned);
+            let solution = crate::assembly::finish(&mut session.0, planned, &|| false);
             let revision = planning.1;
             commands
                 .entity(entity)
