@@ -29,16 +29,6 @@ fn tiles(n: usize) -> TriMesh {
     mesh
 }
 
-fn peak_mb() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|kb| kb.parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
-
 fn main() {
     let filter = common::filter();
     let mut rows = String::new();
@@ -57,7 +47,7 @@ fn main() {
         ]);
         let mut ms = Vec::new();
         let mut status = String::new();
-        let _ = std::fs::write("/proc/self/clear_refs", "5");
+        common::reset_peak();
         for _ in 0..3 {
             let t0 = std::time::Instant::now();
             let solved = uvpin::solve_mesh(&mesh, &pins, &SolverOptions::DEFAULT.into()).expect("solve");
@@ -73,7 +63,7 @@ fn main() {
             mesh.n_vertices(),
             status,
             common::median(ms),
-            peak_mb()
+            common::peak_mb()
         );
     }
     let body = format!(

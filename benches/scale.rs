@@ -20,21 +20,6 @@ fn runs(n_vertices: usize) -> usize {
     }
 }
 
-/// The peak resident memory since the last [`reset_peak`], in MB.
-fn peak_mb() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|kb| kb.parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
-
-fn reset_peak() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
-
 /// One solve's figures.
 #[derive(Debug, Default, Clone)]
 struct Figures {
@@ -51,11 +36,11 @@ fn solve(mesh: &TriMesh, constraints: &[(u32, DVec2)], boundary: BoundaryChoice,
     let pins = uvpin::Pins::new(constraints).with_boundary(boundary);
     let mut f = Figures::default();
     for _ in 0..runs {
-        reset_peak();
+        common::reset_peak();
         let t0 = Instant::now();
         let s = uvpin::solve_mesh(mesh, &pins, &SolverOptions::DEFAULT.into()).expect("solve");
         f.ms.push(t0.elapsed().as_secs_f64() * 1e3);
-        f.peak_mb = f.peak_mb.max(peak_mb());
+        f.peak_mb = f.peak_mb.max(common::peak_mb());
         let r = &s.report;
         let t = &r.times;
         assert_eq!(r.orientation.flipped + r.orientation.zero_area, 0, "a fold");

@@ -125,7 +125,7 @@ fn run(
 pub fn finish(session: &mut ChartSession, planned: crate::plan::Solution, stop: &dyn Fn() -> bool) -> Solution {
     let options = *planned.solver.options();
     let first = around(session, planned);
-    if reached(&first.report) == every(&first.report) {
+    if reached(&first.report) == first.report.every_constraint().count() {
         return first;
     }
     match cleared(session, &first, &options, stop) {
@@ -145,18 +145,7 @@ pub fn finish(session: &mut ChartSession, planned: crate::plan::Solution, stop: 
 
 /// Constraints reached in every chart of `report`.
 fn reached(report: &Report) -> usize {
-    std::iter::once(report)
-        .chain(&report.charts)
-        .map(|r| r.constraints.iter().filter(|c| c.reached).count())
-        .sum()
-}
-
-/// Constraints in every chart of `report`.
-fn every(report: &Report) -> usize {
-    std::iter::once(report)
-        .chain(&report.charts)
-        .map(|r| r.constraints.len())
-        .sum()
+    report.every_constraint().filter(|c| c.reached).count()
 }
 
 /// How far the room kept for another chart reaches past its targets' box

@@ -228,9 +228,7 @@ fn every_copy_on_target(
     // Reached ones, and set-aside ones whose place is not known yet.
     let measured = |c: &&crate::report::ConstraintReport| c.reached || !c.residual.is_finite();
     let mut farthest: std::collections::HashMap<u32, (f64, DVec2)> = report
-        .constraints
-        .iter()
-        .chain(report.charts.iter().flat_map(|r| &r.constraints))
+        .every_constraint()
         .filter(measured)
         .map(|c| (c.welded, (0.0, c.target)))
         .collect();
@@ -264,11 +262,7 @@ fn every_copy_on_target(
         }
     }
     if set_aside && report.max_residual.is_infinite() {
-        let all = report
-            .constraints
-            .iter()
-            .chain(report.charts.iter().flat_map(|r| &r.constraints));
-        report.max_residual = all.map(|c| c.residual).fold(0.0, f64::max);
+        report.max_residual = report.every_constraint().map(|c| c.residual).fold(0.0, f64::max);
     }
     if let Some(&(index, far)) = missed.first() {
         report.max_residual = report.max_residual.max(far);

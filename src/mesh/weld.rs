@@ -294,15 +294,7 @@ impl WeldedMesh {
             }
         }
         for chart in &mut out {
-            // Welded order: already sorted, one vertex each.
-            chart.local_of = LocalIds(
-                chart
-                    .welded_ids
-                    .iter()
-                    .enumerate()
-                    .map(|(l, &w)| (w, l as u32))
-                    .collect(),
-            );
+            chart.local_of = LocalIds::of(&chart.welded_ids);
         }
         out
     }

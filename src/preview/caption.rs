@@ -29,11 +29,7 @@ impl Caption {
             Status::Error => "ERROR (not written)",
         };
         // Every chart's landmarks count, the first's and the others'.
-        let all: Vec<_> = report
-            .constraints
-            .iter()
-            .chain(report.charts.iter().flat_map(|c| &c.constraints))
-            .collect();
+        let all: Vec<_> = report.every_constraint().collect();
         let on_target = all.iter().filter(|c| c.reached).count();
         let mut first = format!("{file}: {status}");
         if let Some(image) = over {

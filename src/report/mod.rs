@@ -562,18 +562,20 @@ impl Report {
         self.charts = charts;
     }
 
+    /// Every chart's constraints: the solved chart's, then the others'.
+    pub fn every_constraint(&self) -> impl Iterator<Item = &ConstraintReport> {
+        self.constraints
+            .iter()
+            .chain(self.charts.iter().flat_map(|c| &c.constraints))
+    }
+
     /// A short human summary (a few lines).
     pub fn summary(&self) -> String {
         // Every chart's constraints count, the first's and the others'.
-        let all = || {
-            self.constraints
-                .iter()
-                .chain(self.charts.iter().flat_map(|c| &c.constraints))
-        };
         let counts = format!(
             "{} of {} constraints reached (max residual {:.3e}), {} flipped / {} zero-area triangles",
-            all().filter(|c| c.reached).count(),
-            all().count(),
+            self.every_constraint().filter(|c| c.reached).count(),
+            self.every_constraint().count(),
             self.max_residual,
             self.orientation.flipped,
             self.orientation.zero_area,
