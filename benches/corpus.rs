@@ -13,7 +13,11 @@
 //! A landmark set: the mesh seen orthographically from a direction drawn
 //! from its name, the side its faces turn to; 12 visible vertices spread
 //! over the view (farthest points on screen); their targets where the view
-//! shows them, fitted into 15–85 % of the texture.
+//! shows them, fitted into 15–85 % of the texture. Two sets per mesh, by
+//! what hides a vertex ([`uvpin::testing::Hiding`]): a nearer vertex (the
+//! first set the bench kept, rows named by the mesh alone), or a nearer
+//! vertex or surface (rows named `mesh (unhidden)`), which is what a
+//! photograph shows of a CAD part's long facets.
 
 mod common;
 use glam::{DVec2, DVec3};
@@ -141,10 +145,29 @@ fn view_of(mesh: &Mesh) -> (DVec3, DVec3) {
     (d, up)
 }
 
+/// The two landmark sets of a mesh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Set {
+    /// Hidden by nearer vertices only ([`uvpin::testing::photo_landmarks`]).
+    Vertices,
+    /// Hidden by nearer surfaces too ([`uvpin::testing::photo_landmarks_unhidden`]).
+    Unhidden,
+}
+
+impl Set {
+    /// The row's name for `mesh`.
+    fn name(self, mesh: &str) -> String {
+        match self {
+            Set::Vertices => mesh.to_string(),
+            Set::Unhidden => format!("{mesh} (unhidden)"),
+        }
+    }
+}
+
 /// Photo-style landmarks ([`uvpin::testing::photo_landmarks`]) from the
 /// mesh's view or, when too few vertices face it (a mesh wound inward),
 /// the opposite one: each landmark's position and target.
-fn landmarks(mesh: &Mesh) -> Option<Vec<(DVec3, DVec2)>> {
+fn landmarks(mesh: &Mesh, set: Set) -> Option<Vec<(DVec3, DVec2)>> {
     let tri = uvpin::mesh::TriMesh {
         positions: mesh.positions.clone(),
         triangles: mesh.triangles.clone(),
@@ -152,9 +175,13 @@ fn landmarks(mesh: &Mesh) -> Option<Vec<(DVec3, DVec2)>> {
     let (view, up) = view_of(mesh);
     let quiet = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let found = [view, -view]
-        .into_iter()
-        .find_map(|v| std::panic::catch_unwind(|| uvpin::testing::photo_landmarks(&tri, v, up, LANDMARKS, 0.7)).ok());
+    let found = [view, -view].into_iter().find_map(|v| {
+        std::panic::catch_unwind(|| match set {
+            Set::Vertices => uvpin::testing::photo_landmarks(&tri, v, up, LANDMARKS, 0.7),
+            Set::Unhidden => uvpin::testing::photo_landmarks_unhidden(&tri, v, up, LANDMARKS, 0.7),
+        })
+        .ok()
+    });
     std::panic::set_hook(quiet);
     let marks = found?;
     Some(
@@ -258,9 +285,10 @@ fn confirmed(out: &Path, ron: &Path) -> Result<(), String> {
     }
 }
 
-fn solve_case(mesh: &Mesh, marks: &[(DVec3, DVec2)], free: bool, dir: &Path) -> (Outcome, f64) {
+fn solve_case(mesh: &Mesh, (marks, set): (&[(DVec3, DVec2)], Set), free: bool, dir: &Path) -> (Outcome, f64) {
+    let tag = if set == Set::Unhidden { "-unhidden" } else { "" };
     let ron = dir.join(format!(
-        "{}-{}.uvpin.ron",
+        "{}{tag}-{}.uvpin.ron",
         mesh.name,
         if free { "free" } else { "default" }
     ));
@@ -321,6 +349,75 @@ impl Tally {
 
 const HEADER: &str = "| cases | n | reached | partial | refused | crashed | false exit 0 | median time |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
 
+/// Every table of the run: counts by group, refusals, crashes and false exits.
+#[derive(Default)]
+struct Tables {
+    all: Tally,
+    by_mode: BTreeMap<&'static str, Tally>,
+    by_set: BTreeMap<&'static str, Tally>,
+    by_format: BTreeMap<String, Tally>,
+    by_genus: BTreeMap<String, Tally>,
+    reasons: BTreeMap<String, usize>,
+    notable: String,
+    meshes: usize,
+}
+
+impl Tables {
+    fn add(&mut self, mesh: &Mesh, (row, set, mode): (&str, Set, &'static str), outcome: &Outcome, seconds: f64) {
+        let hidden_by = match set {
+            Set::Vertices => "landmarks hidden by vertices",
+            Set::Unhidden => "landmarks hidden by surfaces too",
+        };
+        for tally in [
+            self.by_format.entry(mesh.format.clone()).or_default(),
+            self.by_genus.entry(mesh.genus.clone()).or_default(),
+            self.by_mode.entry(mode).or_default(),
+            self.by_set.entry(hidden_by).or_default(),
+            &mut self.all,
+        ] {
+            tally.add(outcome, seconds);
+        }
+        match outcome {
+            Outcome::Refused(r) => *self.reasons.entry(r.clone()).or_default() += 1,
+            Outcome::Crashed(r) | Outcome::FalseExit(r) => {
+                self.notable += &format!("- {row} ({mode}): {outcome:?}: {r}\n");
+            }
+            _ => {}
+        }
+    }
+
+    fn body(&self) -> String {
+        let mut body = format!(
+            "{} mesh files, each with two landmark sets of {LANDMARKS} photo-style landmarks (a vertex hidden \
+             by nearer vertices, or by nearer surfaces too), each solved with the default boundary and free: {} cases.\n\n",
+            self.meshes, self.all.n
+        );
+        body += HEADER;
+        body += &self.all.row("all");
+        for (name, t) in self.by_mode.iter().chain(&self.by_set) {
+            body += &t.row(name);
+        }
+        for (name, t) in &self.by_format {
+            body += &t.row(&format!("`.{name}`"));
+        }
+        body += "\nBy shape:\n\n";
+        body += HEADER;
+        for (name, t) in &self.by_genus {
+            body += &t.row(name);
+        }
+        let mut common_reasons: Vec<(&String, &usize)> = self.reasons.iter().collect();
+        common_reasons.sort_by(|a, b| b.1.cmp(a.1));
+        body += "\nThe commonest refusals:\n\n";
+        for (r, n) in common_reasons.iter().take(5) {
+            body += &format!("- {n} × `{r}`\n");
+        }
+        if !self.notable.is_empty() {
+            body += &format!("\nCrashes and false exits:\n\n{}", self.notable);
+        }
+        body
+    }
+}
+
 fn main() {
     let Some(dir) = corpus_dir() else {
         eprintln!("give the corpus folder: cargo bench --bench corpus -- DIR (or UVPIN_CORPUS=DIR)");
@@ -331,10 +428,7 @@ fn main() {
     let filter = name_filter();
     let work = std::env::temp_dir().join(format!("uvpin-bench-corpus-{}", std::process::id()));
     std::fs::create_dir_all(&work).unwrap();
-    let (mut by_format, mut by_genus, mut by_mode) = (BTreeMap::new(), BTreeMap::new(), BTreeMap::new());
-    let mut all = Tally::default();
-    let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
-    let mut notable = String::new();
+    let mut tables = Tables::default();
     let mut ever = common::Reached::open("corpus");
     for path in files
         .iter()
@@ -347,62 +441,33 @@ fn main() {
                 continue;
             }
         };
-        let Some(marks) = landmarks(&mesh) else {
-            eprintln!(
-                "{}: fewer than {LANDMARKS} vertices face the camera either way: skipped",
-                mesh.name
-            );
-            continue;
-        };
-        for free in [false, true] {
-            let (outcome, seconds) = solve_case(&mesh, &marks, free, &work);
-            let mode = if free { "boundary: Free" } else { "default boundary" };
-            eprintln!("{} ({mode}): {outcome:?} in {seconds:.2} s", mesh.name);
-            ever.record(&format!("{} | {mode}", mesh.name), outcome == Outcome::Reached);
-            for tally in [
-                by_format.entry(mesh.format.clone()).or_insert_with(Tally::default),
-                by_genus.entry(mesh.genus.clone()).or_insert_with(Tally::default),
-                by_mode.entry(mode).or_insert_with(Tally::default),
-                &mut all,
-            ] {
-                tally.add(&outcome, seconds);
-            }
-            match &outcome {
-                Outcome::Refused(r) => *reasons.entry(r.clone()).or_default() += 1,
-                Outcome::Crashed(r) | Outcome::FalseExit(r) => {
-                    notable += &format!("- {} ({mode}): {outcome:?}: {r}\n", mesh.name);
+        let sets: Vec<(Set, Vec<(DVec3, DVec2)>)> = [Set::Vertices, Set::Unhidden]
+            .into_iter()
+            .filter_map(|set| {
+                let marks = landmarks(&mesh, set);
+                if marks.is_none() {
+                    eprintln!(
+                        "{}: fewer than {LANDMARKS} vertices face the camera either way: skipped",
+                        set.name(&mesh.name)
+                    );
                 }
-                _ => {}
+                marks.map(|m| (set, m))
+            })
+            .collect();
+        tables.meshes += usize::from(!sets.is_empty());
+        for (set, marks) in &sets {
+            for free in [false, true] {
+                let (outcome, seconds) = solve_case(&mesh, (marks, *set), free, &work);
+                let mode = if free { "boundary: Free" } else { "default boundary" };
+                let row = set.name(&mesh.name);
+                eprintln!("{row} ({mode}): {outcome:?} in {seconds:.2} s");
+                ever.record(&format!("{row} | {mode}"), outcome == Outcome::Reached);
+                tables.add(&mesh, (&row, *set, mode), &outcome, seconds);
             }
         }
     }
-    let mut body = format!(
-        "{} mesh files, each with two landmark sets ({LANDMARKS} photo-style landmarks).\n\n",
-        all.n / 2
-    );
-    body += HEADER;
-    body += &all.row("all");
-    for (name, t) in &by_mode {
-        body += &t.row(name);
-    }
-    for (name, t) in &by_format {
-        body += &t.row(&format!("`.{name}`"));
-    }
-    body += "\nBy shape:\n\n";
-    body += HEADER;
-    for (name, t) in &by_genus {
-        body += &t.row(name);
-    }
-    let mut common_reasons: Vec<(&String, &usize)> = reasons.iter().collect();
-    common_reasons.sort_by(|a, b| b.1.cmp(a.1));
-    body += "\nThe commonest refusals:\n\n";
-    for (r, n) in common_reasons.iter().take(5) {
-        body += &format!("- {n} × `{r}`\n");
-    }
-    if !notable.is_empty() {
-        body += &format!("\nCrashes and false exits:\n\n{notable}");
-    }
-    if notable.is_empty() && std::env::var_os("UVPIN_CORPUS_KEEP").is_none() {
+    let body = tables.body();
+    if tables.notable.is_empty() && std::env::var_os("UVPIN_CORPUS_KEEP").is_none() {
         let _ = std::fs::remove_dir_all(&work);
     } else {
         eprintln!("the cases' files are kept in {}", work.display());

@@ -430,7 +430,35 @@ pub fn photo_landmarks_on(
     k: usize,
     span: f64,
 ) -> Vec<(u32, f64, f64)> {
-    photo_landmarks_where(mesh, allowed, (view, up), (k, span), Seen::NearHalf)
+    photo_landmarks_where(mesh, allowed, (view, up), (k, span), (Seen::NearHalf, Hiding::Vertices))
+}
+
+/// As [`photo_landmarks`], but among the vertices the photograph truly
+/// shows ([`Hiding::Surfaces`]): on a triangle turned towards the camera
+/// and behind no triangle nearer it.
+///
+/// # Panics
+/// Fewer than `k` such vertices.
+pub fn photo_landmarks_unhidden(mesh: &TriMesh, view: DVec3, up: DVec3, k: usize, span: f64) -> Vec<(u32, f64, f64)> {
+    photo_landmarks_where(
+        mesh,
+        &vec![true; mesh.n_vertices()],
+        (view, up),
+        (k, span),
+        (Seen::NearHalf, Hiding::Surfaces),
+    )
+}
+
+/// What hides a vertex from the photograph.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Hiding {
+    /// Another vertex near its view ray and nearer the camera: a dense
+    /// mesh's surface, read at its vertices (a CAD part's long facets hide
+    /// vertices that no vertex of theirs is near).
+    Vertices,
+    /// That, or a triangle covering it nearer the camera; and a vertex
+    /// only on triangles turned away is not shown.
+    Surfaces,
 }
 
 /// Which of the vertices a photograph shows may be landmarks.
@@ -453,7 +481,7 @@ pub fn photo_landmarks_anywhere(mesh: &TriMesh, view: DVec3, up: DVec3, k: usize
         &vec![true; mesh.n_vertices()],
         (view, up),
         (k, span),
-        Seen::Anywhere,
+        (Seen::Anywhere, Hiding::Vertices),
     )
 }
 
@@ -462,7 +490,7 @@ fn photo_landmarks_where(
     allowed: &[bool],
     (view, up): (DVec3, DVec3),
     (k, span): (usize, f64),
-    seen: Seen,
+    (seen, hiding): (Seen, Hiding),
 ) -> Vec<(u32, f64, f64)> {
     let normals = crate::cut::cost::vertex_normals(mesh);
     let right = view.cross(up).normalize();
@@ -476,11 +504,22 @@ fn photo_landmarks_where(
     // (between a cow's legs) is mirrored in any one-piece layout.
     let middle = 0.5 * (lo + hi).dot(view);
     let radius = 0.03 * scale;
-    let hidden = occluded(mesh, (right, up, view), radius, 0.05 * scale);
+    let mut hidden = occluded(mesh, (right, up, view), radius, 0.05 * scale);
+    let mut on_front = vec![hiding == Hiding::Vertices; mesh.n_vertices()];
+    if hiding == Hiding::Surfaces {
+        let covered = covered(mesh, (right, up, view), 0.01 * scale);
+        hidden.iter_mut().zip(&covered).for_each(|(h, c)| *h |= c);
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+            if (b - a).cross(c - a).dot(-view) > 0.0 {
+                t.iter().for_each(|&v| on_front[v as usize] = true);
+            }
+        }
+    }
     let visible: Vec<usize> = (0..mesh.n_vertices())
         .filter(|&v| {
             let near = seen == Seen::Anywhere || mesh.positions[v].dot(view) < middle;
-            allowed[v] && normals[v].dot(-view) > 0.55 && near && !hidden[v]
+            allowed[v] && normals[v].dot(-view) > 0.55 && on_front[v] && near && !hidden[v]
         })
         .collect();
     assert!(visible.len() >= k, "only {} visible vertices", visible.len());
@@ -550,6 +589,91 @@ fn occluded(mesh: &TriMesh, (right, up, view): (DVec3, DVec3, DVec3), radius: f6
                 })
         })
         .collect()
+}
+
+/// Whether each vertex lies behind a triangle (not one of its own) that
+/// covers it in the view and is more than `depth` nearer the camera: a
+/// CAD part's long facets hide vertices that no vertex of theirs is near.
+fn covered(mesh: &TriMesh, (right, up, view): (DVec3, DVec3, DVec3), depth: f64) -> Vec<bool> {
+    let flat: Vec<(f64, f64, f64)> = mesh
+        .positions
+        .iter()
+        .map(|p| (p.dot(right), p.dot(up), p.dot(view)))
+        .collect();
+    let (mut lo, mut hi) = ((f64::MAX, f64::MAX), (f64::MIN, f64::MIN));
+    for &(x, y, _) in &flat {
+        lo = (lo.0.min(x), lo.1.min(y));
+        hi = (hi.0.max(x), hi.1.max(y));
+    }
+    const CELLS: usize = 128;
+    let cell = ((hi.0 - lo.0).max(hi.1 - lo.1) / CELLS as f64).max(1e-300);
+    let at = |x: f64, y: f64| {
+        (
+            (((x - lo.0) / cell) as usize).min(CELLS),
+            (((y - lo.1) / cell) as usize).min(CELLS),
+        )
+    };
+    let mut grid = vec![Vec::<u32>::new(); (CELLS + 1) * (CELLS + 1)];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = tri.map(|v| flat[v as usize]);
+        let (x0, y0) = at(a.0.min(b.0).min(c.0), a.1.min(b.1).min(c.1));
+        let (x1, y1) = at(a.0.max(b.0).max(c.0), a.1.max(b.1).max(c.1));
+        for j in y0..=y1 {
+            for i in x0..=x1 {
+                grid[j * (CELLS + 1) + i].push(t as u32);
+            }
+        }
+    }
+    (0..mesh.n_vertices())
+        .map(|v| {
+            let (x, y, d) = flat[v];
+            let (i, j) = at(x, y);
+            grid[j * (CELLS + 1) + i].iter().any(|&t| {
+                let tri = mesh.triangles[t as usize];
+                if tri.contains(&(v as u32)) {
+                    return false;
+                }
+                let [a, b, c] = tri.map(|w| flat[w as usize]);
+                let twice = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+                if twice.abs() < 1e-300 {
+                    return false;
+                }
+                let wa = ((b.0 - x) * (c.1 - y) - (b.1 - y) * (c.0 - x)) / twice;
+                let wb = ((c.0 - x) * (a.1 - y) - (c.1 - y) * (a.0 - x)) / twice;
+                let wc = 1.0 - wa - wb;
+                wa >= 0.0 && wb >= 0.0 && wc >= 0.0 && wa * a.2 + wb * b.2 + wc * c.2 < d - depth
+            })
+        })
+        .collect()
+}
+
+/// A square frame as a CAD tool exports it (genus 1): a 3 × 3 square
+/// with a 1 × 1 square hole through it, `height` thick, every face flat
+/// and split into long facets; each facet then split `levels` times at
+/// its edges' midpoints (the surface unchanged). Outward, counter-clockwise.
+pub fn square_frame(height: f64, levels: usize) -> TriMesh {
+    let ring = |r: f64, z: f64| -> Vec<DVec3> {
+        [(-r, -r), (r, -r), (r, r), (-r, r)]
+            .iter()
+            .map(|&(x, y)| DVec3::new(x, y, z))
+            .collect()
+    };
+    // Outer top 0..4, inner top 4..8, outer bottom 8..12, inner bottom 12..16.
+    let positions = [ring(1.5, height), ring(0.5, height), ring(1.5, 0.0), ring(0.5, 0.0)].concat();
+    let mut triangles = Vec::new();
+    for k in 0..4u32 {
+        let j = (k + 1) % 4;
+        let (o, i, ob, ib) = ((k, j), (4 + k, 4 + j), (8 + k, 8 + j), (12 + k, 12 + j));
+        triangles.extend([[o.0, o.1, i.1], [o.0, i.1, i.0]]);
+        triangles.extend([[ob.0, ib.1, ob.1], [ob.0, ib.0, ib.1]]);
+        triangles.extend([[ob.0, ob.1, o.1], [ob.0, o.1, o.0]]);
+        triangles.extend([[ib.1, ib.0, i.0], [ib.1, i.0, i.1]]);
+    }
+    let mut mesh = TriMesh { positions, triangles };
+    for _ in 0..levels {
+        mesh = subdivide_midpoint(&mesh);
+    }
+    mesh
 }
 
 /// `mesh` with every triangle split into four at its edges' midpoints (a
