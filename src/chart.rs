@@ -221,8 +221,8 @@ fn prepare_on(
         (cut, rest_share),
         decided_by,
     )?;
-    if let (Some(Form::Facing { camera, .. }), Domain::Free(setup)) = (&pick.form, &domain)
-        && let Some(layout) = crate::domain::start::projection_start(camera, &filled)
+    if let (Some(Form::Facing { camera, sight, .. }), Domain::Free(setup)) = (&pick.form, &domain)
+        && let Some(layout) = crate::domain::start::projection_start((camera, *sight), &filled)
     {
         domain = Domain::Free(Arc::new(
             setup.starting_from(layout, crate::domain::start::StartKind::Projection),

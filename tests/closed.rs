@@ -14,7 +14,7 @@ use serde_json::{Value, json};
 use std::path::Path;
 use uvpin::mesh::TriMesh;
 
-use uvpin::testing::{photo_landmarks, photo_landmarks_anywhere, photo_landmarks_on};
+use uvpin::testing::{photo_landmarks, photo_landmarks_anywhere, photo_landmarks_on, photo_landmarks_unhidden};
 
 /// Appends `data` as a new view (optionally strided) and accessor; its index.
 fn push(doc: &mut Value, blob: &mut Vec<u8>, data: &[u8], accessor: Value, stride: Option<usize>) -> usize {
@@ -284,6 +284,28 @@ fn a_ring_seen_through_its_hole_has_both_parts_it_shows_reached() {
     assert_eq!(check.status.code(), Some(0), "{}", stderr(&check));
 }
 
+/// A square frame as a CAD tool writes it (flat faces in long facets,
+/// genus 1), photographed from above at a slant: the photo shows its top,
+/// two outer walls and, through the hole, two inner walls. Its landmarks
+/// (vertices no surface hides, [`photo_landmarks_unhidden`]) are reached
+/// and the written set is one-to-one.
+fn a_cad_frame_seen_at_a_slant_lands_on_the_photo() {
+    let mesh = uvpin::testing::square_frame(0.6, 2);
+    let view = DVec3::new(0.45, 0.6, -1.0).normalize();
+    let landmarks = photo_landmarks_unhidden(&mesh, view, DVec3::Y, 12, 0.7);
+    let tmp = TempDir::new("closed-frame");
+    std::fs::write(tmp.path("frame.obj"), obj_text(&mesh)).unwrap();
+    let ron = tmp.path("frame.uvpin.ron");
+    write_constraints(&ron, Path::new("frame.obj"), &landmarks, "");
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stderr(&o), report["explain"]);
+    assert_eq!(report["status"], "reached", "{}", report["explain"]);
+    assert_read_back_one_to_one(&out, 0, "the written set");
+    let check = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
+    assert_eq!(check.status.code(), Some(0), "{}", stderr(&check));
+}
+
 fn a_head_is_cut_at_the_back_and_its_face_lands_on_the_photo() {
     let (head, _) = uvpin::testing::blob_head(40, 60);
     let report = solve_closed("head", &head, 32, 0.7);
@@ -436,6 +458,11 @@ fn main() -> std::process::ExitCode {
             "a_ring_seen_through_its_hole_has_both_parts_it_shows_reached",
             &[],
             a_ring_seen_through_its_hole_has_both_parts_it_shows_reached,
+        ),
+        (
+            "a_cad_frame_seen_at_a_slant_lands_on_the_photo",
+            &[],
+            a_cad_frame_seen_at_a_slant_lands_on_the_photo,
         ),
         (
             "a_head_is_cut_at_the_back_and_its_face_lands_on_the_photo",

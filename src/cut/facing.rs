@@ -100,14 +100,28 @@ impl Camera {
     }
 }
 
-/// The triangles of `mesh` (manifold) the camera sees facing it, unhidden,
+/// Which triangles count as what the camera sees.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sight {
+    /// Facing it by their corners' normals and nearest within a few edge
+    /// lengths of depth, with the dimples they enclose: a scan's noisy
+    /// surface, seen as a photograph shows it.
+    Near,
+    /// Seen whole ([`super::occlusion::seen_whole`]): turned towards it by
+    /// their own normal and overlapped by nothing nearer, so that the view
+    /// of them is one-to-one exactly — a CAD part's facets, walls and
+    /// bores, where a depth tolerance takes in what lies behind an edge.
+    Whole,
+}
+
+/// The triangles of `mesh` (manifold) the camera sees (as `sight` says),
 /// projected inside `room` (a layout box), in the parts joined by edges
-/// that hold landmarks (with the dimples they enclose); never across an
-/// `unseamable` edge (sorted pairs: a polygon of the file stays whole, on
-/// the side away from the chart). `None` when a landmark is on no such part.
+/// that hold landmarks; never across an `unseamable` edge (sorted pairs: a
+/// polygon of the file stays whole, on the side away from the chart).
+/// `None` when a landmark is on no such part.
 pub fn facing_region(
     mesh: &TriMesh,
-    camera: &Camera,
+    (camera, sight): (&Camera, Sight),
     landmarks: &[u32],
     room: (DVec2, DVec2),
     unseamable: &[[u32; 2]],
@@ -118,11 +132,9 @@ pub fn facing_region(
     let towards = camera.towards();
     let projected: Vec<DVec2> = mesh.positions.iter().map(|&p| camera.project(p)).collect();
     let depth: Vec<f64> = mesh.positions.iter().map(|p| p.dot(towards)).collect();
-    let (visible, strict) = visible(mesh, &projected, &depth);
     let margin = (room.1 - room.0) * ROOM_MARGIN;
     let (lo, hi) = (room.0 + margin, room.1 - margin);
     let graph = EdgeGraph::new(mesh);
-    let facing = facing_triangles(mesh, towards);
     let within: Vec<bool> = mesh
         .triangles
         .iter()
@@ -133,6 +145,32 @@ pub fn facing_region(
             })
         })
         .collect();
+    let mut seen = match sight {
+        Sight::Near => {
+            let (mut seen, at_centre) = seen_near(mesh, (&projected, &depth), towards, landmarks, &within);
+            fill_pockets(&graph, &mut seen, &at_centre);
+            seen
+        }
+        Sight::Whole => {
+            let whole = super::occlusion::seen_whole(mesh, &projected, &depth);
+            whole.iter().zip(&within).map(|(w, i)| *w && *i).collect()
+        }
+    };
+    keep_polygons_out(&graph, unseamable, &mut seen);
+    landmarks_part(&graph, mesh, &seen, landmarks)
+}
+
+/// The triangles [`Sight::Near`] sees, before the dimples they enclose,
+/// and those seen at their centre (the dimples it may take in).
+fn seen_near(
+    mesh: &TriMesh,
+    (projected, depth): (&[DVec2], &[f64]),
+    towards: DVec3,
+    landmarks: &[u32],
+    within: &[bool],
+) -> (Vec<bool>, Vec<bool>) {
+    let (visible, strict) = visible(mesh, projected, depth);
+    let facing = facing_triangles(mesh, towards);
     let mut seen: Vec<bool> = (0..strict.len()).map(|t| strict[t] && facing[t] && within[t]).collect();
     // A landmark the photo shows is seen: where every triangle around it
     // passes behind another part at a corner, leans past the room (a CAD
@@ -150,10 +188,8 @@ pub fn facing_region(
         let turned = facing[t] || crate::guard::orientation(a, b, c) > 0.0;
         seen[t] |= lone && visible[t] && turned;
     }
-    let unseen: Vec<bool> = (0..seen.len()).map(|t| visible[t] && within[t]).collect();
-    fill_pockets(&graph, &mut seen, &unseen);
-    keep_polygons_out(&graph, unseamable, &mut seen);
-    landmarks_part(&graph, mesh, &seen, landmarks)
+    let at_centre = (0..seen.len()).map(|t| visible[t] && within[t]).collect();
+    (seen, at_centre)
 }
 
 /// Whether each triangle faces the camera (`towards` it): the mean of its
@@ -382,7 +418,8 @@ mod tests {
         let front: Vec<u32> = (0..sphere.n_vertices() as u32)
             .filter(|&v| sphere.positions[v as usize].y < -0.9)
             .collect();
-        let region = facing_region(&sphere, &camera, &front, (DVec2::ZERO, DVec2::ONE), &[]).expect("a part");
+        let region =
+            facing_region(&sphere, (&camera, Sight::Near), &front, (DVec2::ZERO, DVec2::ONE), &[]).expect("a part");
         let kept = region.iter().filter(|&&k| k).count();
         assert!(kept > 0 && kept < sphere.n_triangles() / 2 + 40, "{kept} triangles");
         for (t, tri) in sphere.triangles.iter().enumerate().filter(|(t, _)| region[*t]) {
@@ -394,7 +431,13 @@ mod tests {
             ..camera
         };
         assert_eq!(
-            facing_region(&sphere, &mirrored, &front, (DVec2::ZERO, DVec2::ONE), &[]),
+            facing_region(
+                &sphere,
+                (&mirrored, Sight::Near),
+                &front,
+                (DVec2::ZERO, DVec2::ONE),
+                &[]
+            ),
             None,
             "a mirrored view sees the back, away from the landmarks"
         );

@@ -12,6 +12,7 @@ pub mod cost;
 pub mod facing;
 pub mod graph;
 pub mod handles;
+pub mod occlusion;
 pub mod prepare;
 pub mod separate;
 

@@ -3,7 +3,7 @@
 //! disagreeing windings repaired by splitting vertices ([`split_wedges`]),
 //! and the result opened to a disk along seams ([`super::open`]).
 
-use super::facing::Camera;
+use super::facing::{Camera, Sight};
 use super::separate::{Budget, separate};
 use super::{CutError, Seam, SeamRules, SeamSpec};
 use crate::mesh::topology::{Topology, TopologyError, triangle_components};
@@ -68,9 +68,13 @@ pub enum Form {
     /// The landmarks' geodesic surroundings, as large as the targets'
     /// scale leaves room for ([`super::separate`]); the rest apart.
     Around(Budget),
-    /// What a camera fitted to the targets sees facing it, projected
-    /// inside `room` (a layout box) ([`super::facing`]); the rest apart.
-    Facing { camera: Camera, room: (DVec2, DVec2) },
+    /// What a camera fitted to the targets sees (as `sight` says),
+    /// projected inside `room` (a layout box) ([`super::facing`]); the rest apart.
+    Facing {
+        camera: Camera,
+        room: (DVec2, DVec2),
+        sight: Sight,
+    },
 }
 
 impl Form {
@@ -80,7 +84,10 @@ impl Form {
             Form::AsGiven => "as given",
             Form::Cut => "cut",
             Form::Around(_) => "landmarks' surroundings",
-            Form::Facing { .. } => "as the camera sees it",
+            Form::Facing { sight: Sight::Near, .. } => "as the camera sees it",
+            Form::Facing {
+                sight: Sight::Whole, ..
+            } => "what the camera sees whole",
         }
     }
 }
@@ -121,9 +128,10 @@ pub fn make_solvable(
             let split = separate(&main, &local_landmarks(&main), *budget, &barred);
             Some(split.ok_or(SolvableError::NoPart { form: form.name() })?)
         }
-        Form::Facing { camera, room } => {
+        Form::Facing { camera, room, sight } => {
             let barred = local_pairs(&main, unseamable);
-            let region = super::facing::facing_region(&main.mesh, camera, &local_landmarks(&main), *room, &barred)
+            let landmarks = local_landmarks(&main);
+            let region = super::facing::facing_region(&main.mesh, (camera, *sight), &landmarks, *room, &barred)
                 .ok_or(SolvableError::NoPart { form: form.name() })?;
             Some(
                 super::separate::split_off(&main, &region, &local_landmarks(&main))

@@ -7,6 +7,7 @@
 pub mod setup;
 pub mod solve;
 pub mod start;
+pub mod unfold;
 
 use crate::free::FreeSetup;
 use std::sync::Arc;

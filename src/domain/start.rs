@@ -11,6 +11,7 @@
 
 use crate::complete::energy::RestTriangle;
 use crate::complete::newton::NewtonSystem;
+use crate::cut::facing::Sight;
 pub use crate::free::StartKind;
 use crate::free::room::Room;
 use crate::guard;
@@ -144,14 +145,32 @@ fn through_targets(
 /// The filled chart as `camera` sees it: its real vertices projected, each
 /// hole's virtual vertex where its fan keeps every triangle positive (the
 /// loop's mean, its area centroid, or a point between the mean and a loop
-/// vertex). A hole seen at a slant (a bore's rim and the part of its wall
-/// the camera sees) need not be star-shaped about any point: its fan and
-/// the loop are then untangled with the rest. `None` when a triangle still
-/// folds.
-pub fn projection_start(camera: &crate::cut::facing::Camera, filled: &FilledChart) -> Option<Vec<DVec2>> {
+/// vertex). Seen whole ([`Sight::Whole`]), the triangles around a landmark
+/// that the camera does not see whole (behind it on a silhouette, or half
+/// behind another part) are fanned out across the gap the seen ones leave
+/// ([`super::unfold`]) and slivers nudged positive. A hole seen at a slant
+/// (a bore's rim and the part of its wall the camera sees) need not be
+/// star-shaped about any point: its fan and the loop are then untangled
+/// with the rest. `None` when a triangle still folds.
+pub fn projection_start(
+    (camera, sight): (&crate::cut::facing::Camera, Sight),
+    filled: &FilledChart,
+) -> Option<Vec<DVec2>> {
     let n = filled.n_real_vertices;
+    let real = &filled.mesh.triangles[..filled.n_real_triangles];
     let mut layout = crate::cut::facing::projection(camera, &filled.mesh.positions[..n]);
-    untangle(&mut layout, &filled.mesh.triangles[..filled.n_real_triangles]);
+    if sight == Sight::Whole {
+        let towards = camera.towards();
+        let chart = crate::mesh::TriMesh {
+            positions: filled.mesh.positions[..n].to_vec(),
+            triangles: real.to_vec(),
+        };
+        let depth: Vec<f64> = chart.positions.iter().map(|p| p.dot(towards)).collect();
+        let whole = crate::cut::occlusion::seen_whole(&chart, &layout, &depth);
+        super::unfold::unfold_fans(&mut layout, real, &whole);
+        super::unfold::settle(&mut layout, real);
+    }
+    untangle(&mut layout, real);
     layout.resize(filled.mesh.n_vertices(), DVec2::ZERO);
     let fans = &filled.mesh.triangles[filled.n_real_triangles..];
     for (k, hole) in filled.holes.iter().enumerate() {

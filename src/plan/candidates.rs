@@ -4,7 +4,7 @@
 //! mesh as given, and no cut or separation overrides them.
 
 use crate::chart::PreparedChart;
-use crate::cut::facing::Camera;
+use crate::cut::facing::{Camera, Sight};
 use crate::cut::prepare::Form;
 use crate::domain::Domain;
 use crate::param::region::Region;
@@ -176,14 +176,17 @@ pub fn next(chart: &Chart, tried: &[(Candidate, Ended)]) -> Option<Candidate> {
     if law.may_reshape() && law.boundary != Some(BoundaryChoice::Square) {
         let (points, targets): (Vec<_>, Vec<_>) = chart.landmarks.iter().copied().unzip();
         if let Some(camera) = Camera::fit(&points, &targets) {
-            list.push(Candidate {
-                form: Form::Facing {
-                    camera,
-                    room: chart.room,
-                },
-                boundary: Some(BoundaryChoice::Free),
-                start: Start::Own,
-            });
+            for sight in [Sight::Near, Sight::Whole] {
+                list.push(Candidate {
+                    form: Form::Facing {
+                        camera,
+                        room: chart.room,
+                        sight,
+                    },
+                    boundary: Some(BoundaryChoice::Free),
+                    start: Start::Own,
+                });
+            }
         }
         if let Some(budget) = chart.budget {
             list.push(Candidate {

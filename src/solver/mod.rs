@@ -245,15 +245,20 @@ impl ChartSolver {
     ///
     /// # Errors
     /// A constraint on the outer boundary whose target contradicts the
-    /// boundary map; a step-1 layout that folds (a bug).
+    /// boundary map; a step-1 layout that folds on the square (a bug).
     pub fn new(start: SolverInputs) -> Result<Self, Error> {
         let t0 = Instant::now();
         let filled = &start.prepared.filled;
         let triangles = &filled.mesh.triangles;
         // One pass when storable (which implies positive in f64); the f64
-        // check only for a squeezed start.
+        // check only for a squeezed start. A free chart starts from step 1
+        // only where that start is positive ([`crate::domain::start`]
+        // checks every start it takes): a strip of slivers that step 1
+        // crowds to nothing in double precision (a CAD part's fillet) is
+        // still laid out from its conformal start.
         let storable = guard::all_positive_as_stored(start.step1, triangles);
-        if let Some(t) = (!storable)
+        let square = start.prepared.domain.free().is_none();
+        if let Some(t) = (!storable && square)
             .then(|| guard::first_non_positive(start.step1, triangles))
             .flatten()
         {

@@ -349,14 +349,17 @@ fn coarse_chart(
 /// (a level solved in a room inset from it falls short of targets the
 /// chart reaches, while a fine loop put back outside the region is caught
 /// where the level is prolonged), a given start taken at the coarse
-/// vertices (`fine_ids`) and left out where it folds there.
+/// vertices (`fine_ids`), its few triangles the collapses turned over
+/// (slivers of a camera's view) settled ([`crate::domain::unfold::settle`]),
+/// and left out where it still folds there.
 fn coarse_domain(prepared: &PreparedChart, fine_ids: &[u32], coarse: &FilledChart) -> Domain {
     let Domain::Free(setup) = &prepared.domain else {
         return Domain::Square;
     };
     let mut setup = (**setup).clone();
     if let Some(given) = &setup.given {
-        let layout: Vec<DVec2> = fine_ids.iter().map(|&f| given.layout[f as usize]).collect();
+        let mut layout: Vec<DVec2> = fine_ids.iter().map(|&f| given.layout[f as usize]).collect();
+        crate::domain::unfold::settle(&mut layout, &coarse.mesh.triangles);
         setup.given = crate::guard::all_positive(&layout, &coarse.mesh.triangles).then(|| crate::free::GivenStart {
             layout: Arc::new(layout),
             kind: given.kind,
