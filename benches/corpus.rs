@@ -3,7 +3,8 @@
 //! by the `uvpin` binary with the default boundary and with `boundary:
 //! Free`; counts by format and by genus, the commonest refusals, crashes
 //! and false exits (exit 0 with a landmark off target or a fold, as
-//! `uvpin check` reads the written file).
+//! `uvpin check` reads the written file); of the partial runs, those whose
+//! report proves the targets unreachable.
 //!
 //! `cargo bench --bench corpus -- DIR [FILTER]` (or `UVPIN_CORPUS=DIR`);
 //! `UVPIN_CORPUS_KEEP=1` keeps the cases' files (constraints and outputs);
@@ -44,7 +45,9 @@ struct Mesh {
 #[derive(Debug, Clone, PartialEq)]
 enum Outcome {
     Reached,
-    Partial,
+    /// Exit 2; `true` when the report proves the targets unreachable (no
+    /// fold-free layout without splitting a landmark holds them).
+    Partial(bool),
     Refused(String),
     Crashed(String),
     /// Exit 0 with a landmark off target or a fold in the written file.
@@ -295,16 +298,33 @@ fn solve_case(mesh: &Mesh, (marks, set): (&[(DVec3, DVec2)], Set), free: bool, d
     std::fs::write(&ron, constraint_file(mesh, marks, free)).expect("write case");
     let out = ron.with_extension("glb");
     let t0 = Instant::now();
-    let (code, err) = run(&["solve", &ron.to_string_lossy(), "-o", &out.to_string_lossy(), "-q"]);
+    let report = ron.with_extension("json");
+    let (code, err) = run(&[
+        "solve",
+        &ron.to_string_lossy(),
+        "-o",
+        &out.to_string_lossy(),
+        "--report",
+        &report.to_string_lossy(),
+        "-q",
+    ]);
     let seconds = t0.elapsed().as_secs_f64();
     let outcome = match code {
         Some(0) => confirmed(&out, &ron).map_or_else(Outcome::FalseExit, |()| Outcome::Reached),
-        Some(2) => Outcome::Partial,
+        Some(2) => Outcome::Partial(proven(&report)),
         Some(1) => Outcome::Refused(reason(&err)),
         Some(c) => Outcome::Crashed(format!("exit {c}: {}", reason(&err))),
         None => Outcome::Crashed(format!("no end within {} s (or a signal)", TIMEOUT.as_secs())),
     };
     (outcome, seconds)
+}
+
+/// Whether the written report proves the targets unreachable.
+fn proven(report: &Path) -> bool {
+    std::fs::read(report)
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .is_some_and(|r| !r["unreachable_proof"].is_null())
 }
 
 /// Counts of one group of cases.
@@ -313,6 +333,7 @@ struct Tally {
     n: usize,
     reached: usize,
     partial: usize,
+    proven: usize,
     refused: usize,
     crashed: usize,
     false_exits: usize,
@@ -325,7 +346,10 @@ impl Tally {
         self.seconds.push(seconds);
         match o {
             Outcome::Reached => self.reached += 1,
-            Outcome::Partial => self.partial += 1,
+            Outcome::Partial(proven) => {
+                self.partial += 1;
+                self.proven += usize::from(*proven);
+            }
             Outcome::Refused(_) => self.refused += 1,
             Outcome::Crashed(_) => self.crashed += 1,
             Outcome::FalseExit(_) => self.false_exits += 1,
@@ -334,11 +358,12 @@ impl Tally {
 
     fn row(&self, name: &str) -> String {
         format!(
-            "| {name} | {} | {} ({:.0} %) | {} | {} | {} | {} | {:.2} s |\n",
+            "| {name} | {} | {} ({:.0} %) | {} ({} proven) | {} | {} | {} | {:.2} s |\n",
             self.n,
             self.reached,
             100.0 * self.reached as f64 / self.n.max(1) as f64,
             self.partial,
+            self.proven,
             self.refused,
             self.crashed,
             self.false_exits,
@@ -347,7 +372,7 @@ impl Tally {
     }
 }
 
-const HEADER: &str = "| cases | n | reached | partial | refused | crashed | false exit 0 | median time |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
+const HEADER: &str = "| cases | n | reached | partial (proven unreachable) | refused | crashed | false exit 0 | median time |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
 
 /// Every table of the run: counts by group, refusals, crashes and false exits.
 #[derive(Default)]

@@ -330,7 +330,7 @@ pub fn step_one(mesh: &TriMesh, corners: Option<[u32; 4]>) -> Result<MeshStepOne
 /// Whether `pins` are provably unreachable on `mesh`, without solving them:
 /// step 1 puts the boundary on the square, then
 /// [`crate::complete::obstruction`] looks for pieces pinned in place (by the
-/// boundary and the targets) that already fold or overlap. `Some(reason)`
+/// targets and, on the square, the boundary) that already fold or overlap. `Some(reason)`
 /// says what would have to happen for every target to be reached; `None`
 /// proves nothing either way.
 ///
@@ -347,6 +347,12 @@ pub fn unreachable_proof(mesh: &TriMesh, pins: &Pins) -> Result<Option<String>, 
     let max_centres = SolverOptions::DEFAULT.max_boundary_centres;
     let problem = chart::step_problem(prepared, session.source(), boundary, max_centres)?;
     let on_outer = boundary.on_loop(prepared.filled.mesh.n_vertices());
-    let certificate = crate::complete::find_obstruction(&prepared.filled, layout, &problem);
+    // A free boundary pins nothing but the targets.
+    let pinned = if prepared.domain.free().is_some() {
+        crate::complete::Pinned::Targets
+    } else {
+        crate::complete::Pinned::BoundaryAndTargets
+    };
+    let certificate = crate::complete::find_obstruction(&prepared.filled, (layout, pinned), &problem);
     Ok(certificate.map(|c| c.describe(report::vertex_namer(prepared, &on_outer))))
 }

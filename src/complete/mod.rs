@@ -69,29 +69,48 @@ pub fn newton_pattern(
     NewtonPattern::new(&filled.mesh.triangles, &free, order)
 }
 
+/// What a certificate may take as fixed ([`find_obstruction`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pinned {
+    /// The outer boundary where the layout has it (on the square), and
+    /// each constraint at its target.
+    BoundaryAndTargets,
+    /// Each constraint at its target only (a free boundary): a triangle
+    /// of landmarks sent to its mirror image, two landmarks on one point,
+    /// a landmark on or in a triangle of landmarks, crossing edges between
+    /// landmarks are obstructions in any one-to-one layout of the chart.
+    Targets,
+}
+
 /// A certificate that no fold-free layout of this chart puts every
-/// constraint of `problem` on its target ([`obstruction`]): the outer
-/// boundary pinned where `layout` has it, each constraint at its target.
+/// constraint of `problem` on its target ([`obstruction`]), with what
+/// `pinned` says fixed (the outer boundary where `layout` has it).
 pub fn find_obstruction(
     filled: &FilledChart,
-    layout: &[DVec2],
+    (layout, pinned): (&[DVec2], Pinned),
     problem: &StepProblem,
 ) -> Option<obstruction::Obstruction> {
     let n = filled.mesh.n_vertices();
-    let mut pins: Vec<Option<DVec2>> = layout.iter().map(|&p| Some(p)).collect();
+    let mut pins: Vec<Option<DVec2>> = match pinned {
+        Pinned::BoundaryAndTargets => layout.iter().map(|&p| Some(p)).collect(),
+        Pinned::Targets => vec![None; n],
+    };
     problem.movable.iter().for_each(|&v| pins[v as usize] = None);
     let mut is_constraint = vec![false; n];
     for (&v, &t) in problem.constraint_vertices.iter().zip(&problem.targets) {
         pins[v as usize] = Some(t);
         is_constraint[v as usize] = true;
     }
-    obstruction::find_obstruction(
+    let found = obstruction::find_obstruction(
         &filled.mesh.triangles,
         &filled.edges,
         &pins,
         &is_constraint,
         filled.n_real_vertices,
-    )
+    );
+    // A boxed vertex is measured inside its neighbours' hull: on a free
+    // boundary the room it needs may lie outside it.
+    found.filter(|o| pinned == Pinned::BoundaryAndTargets || !matches!(o, obstruction::Obstruction::BoxedVertex { .. }))
 }
 
 /// One line on why constraints stay short when the targets are provably

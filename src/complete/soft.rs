@@ -8,7 +8,7 @@ use super::context::{NewtonContext, StepRequest};
 use super::energy::{self, RestTriangle};
 use super::newton::SoftTargets;
 use super::obstruction::Obstruction;
-use super::{POLISH_TOLERANCE, PROGRESSIVE_CAP, REPAIR_STEPS, find_obstruction};
+use super::{POLISH_TOLERANCE, PROGRESSIVE_CAP, Pinned, REPAIR_STEPS, find_obstruction};
 use crate::options::SolverOptions;
 use crate::param::bar_net::FilledChart;
 use crate::rbf::stepping::StepProblem;
@@ -101,9 +101,12 @@ impl SoftCompletion {
         options: &SolverOptions,
     ) -> Self {
         let energy_start = newton.energy(layout);
-        // The certificate pins the outer boundary: it says nothing of a free one.
+        // The certificate pins the outer boundary. A free chart's (the
+        // targets alone, [`Pinned::Targets`]) is left to the report: its
+        // completion keeps every path, which lowers the distortion of a
+        // layout left short.
         let obstruction = (!newton.is_free())
-            .then(|| find_obstruction(filled, layout, problem))
+            .then(|| find_obstruction(filled, (layout, Pinned::BoundaryAndTargets), problem))
             .flatten();
         let stats = SoftStats {
             started_unstorable: !newton.is_storable(),

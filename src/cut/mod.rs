@@ -278,6 +278,21 @@ fn plan(mesh: &TriMesh, graph: &EdgeGraph, landmarks: &[u32], unseamable: &[[u32
             tree.extend(graph.edges[e as usize]);
         }
     }
+    // A seam of one edge opens nothing (its ends stay whole): it goes on
+    // from its cone along the cheapest other edge there.
+    if closed
+        && let [only] = edges[..]
+        && let Some(&c) = cones.first()
+    {
+        let next = graph
+            .around(c)
+            .iter()
+            .filter(|&&(w, e)| !only.contains(&w) && cost[e as usize].is_finite())
+            .min_by(|a, b| cost[a.1 as usize].total_cmp(&cost[b.1 as usize]));
+        if let Some(&(_, e)) = next {
+            edges.push(graph.edges[e as usize]);
+        }
+    }
     let mut all_cones = if closed { vec![root] } else { Vec::new() };
     all_cones.extend(&cones);
     finish(mesh, edges, all_cones, handle_edges.len())
@@ -335,8 +350,21 @@ fn place_cones(
     rules: &SeamRules,
     need_one: bool,
 ) -> Vec<u32> {
+    // A closed surface opens at one cone at least: where no vertex lies
+    // beyond the landmarks' margin (a small part under many landmarks) or
+    // the scale field cannot be had, the vertex farthest from them.
+    let farthest = || {
+        (0..mesh.n_vertices())
+            .filter(|&v| !fixed[v] && around.ring[v] > 0)
+            .max_by_key(|&v| (around.ring[v], std::cmp::Reverse(v)))
+            .map(|v| v as u32)
+    };
     let Ok(mut field) = cones::ScaleField::new(mesh, graph, fixed) else {
-        return Vec::new();
+        return if need_one {
+            farthest().into_iter().collect()
+        } else {
+            Vec::new()
+        };
     };
     let mut placed: Vec<u32> = Vec::new();
     let m = margin(around, rules);
@@ -353,6 +381,9 @@ fn place_cones(
         }
         field.add_cone(v as u32);
         placed.push(v as u32);
+    }
+    if need_one && placed.is_empty() {
+        placed.extend(farthest());
     }
     placed
 }
@@ -415,6 +446,30 @@ mod tests {
         assert_eq!(o.seam.n_handle_edges, 0);
         assert!(o.seam.cones.len() >= 2);
         assert_eq!(o.topology.loops.len(), 1, "one outline: both sides of the seam tree");
+    }
+
+    #[test]
+    fn a_closed_part_of_few_vertices_opens_along_two_edges_at_least() {
+        // An octahedron, with and without landmarks: a seam of one edge
+        // would open nothing.
+        use glam::DVec3;
+        let positions = vec![DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y, DVec3::Z, -DVec3::Z];
+        let triangles = vec![
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ];
+        let mesh = TriMesh { positions, triangles };
+        for landmarks in [vec![], vec![4], vec![4, 0]] {
+            let o = opened(&mesh, &landmarks);
+            assert_disk(&o);
+            assert!(o.seam.edges.len() >= 2, "{:?}", o.seam.edges);
+        }
     }
 
     #[test]

@@ -92,14 +92,19 @@ fn status_and_message(s: &SolveSummary, all_reached: bool) -> (Status, Option<St
 
 /// For unreached constraints: a proof that no fold-free layout reaches
 /// them, if there is one (the soft rounds looked for it when they started;
-/// it depends only on the boundary and the targets), else none.
+/// it depends only on the targets and, on the square, the boundary), else none.
 fn certificate(s: &SolveSummary, any_unreached: bool) -> Option<Obstruction> {
-    if !any_unreached || s.solver.free().is_some() {
+    if !any_unreached {
         return None;
+    }
+    let find =
+        |pinned| crate::complete::find_obstruction(&s.prepared.filled, (s.solver.layout(), pinned), s.solver.problem());
+    if s.solver.free().is_some() {
+        return find(crate::complete::Pinned::Targets);
     }
     match &s.solver.record().soft {
         Some(soft) => soft.obstruction.clone(),
-        None => crate::complete::find_obstruction(&s.prepared.filled, s.solver.layout(), s.solver.problem()),
+        None => find(crate::complete::Pinned::BoundaryAndTargets),
     }
 }
 
