@@ -9,9 +9,9 @@ use crate::mesh::TriMesh;
 use glam::DVec2;
 
 /// A triangle counts as turned towards the camera when its projection
-/// covers more than this share of the squared span of the view: a wall
-/// seen edge-on is no part of the view.
-const MIN_AREA: f64 = 1e-10;
+/// covers more than this share of its longest side squared: a wall seen
+/// edge-on is no part of the view.
+const MIN_AREA: f64 = 1e-6;
 
 /// At most this many grid cells per triangle, on the mean.
 const CELLS_PER_TRIANGLE: usize = 24;
@@ -30,13 +30,24 @@ pub fn seen_whole(mesh: &TriMesh, projected: &[DVec2], depth: &[f64]) -> Vec<boo
     if !(span.is_finite() && span > 0.0) {
         return vec![false; n_t];
     }
+    // Edge-on by its own shape: area against its longest side squared.
     let mut seen: Vec<bool> = (0..n_t)
         .map(|t| {
             let [a, b, c] = corners(t);
-            crate::guard::orientation(a, b, c) > 2.0 * MIN_AREA * span * span
+            let longest = a
+                .distance_squared(b)
+                .max(b.distance_squared(c))
+                .max(c.distance_squared(a));
+            crate::guard::orientation(a, b, c) > 2.0 * MIN_AREA * longest
         })
         .collect();
     let front: Vec<usize> = (0..n_t).filter(|&t| seen[t]).collect();
+    // The grid over the triangles turned towards the camera only: a far
+    // vertex behind would coarsen it for all.
+    let (lo, hi) = front.iter().flat_map(|&t| corners(t)).fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(a, b), p| (a.min(p), b.max(p)),
+    );
     let grid = Grid::new(&front, &corners, (lo, hi));
     let mut hidden = vec![false; n_t];
     grid.for_each_pair(|s, t| {
@@ -142,7 +153,8 @@ fn overlap_point(a: &[DVec2; 3], b: &[DVec2; 3]) -> Option<DVec2> {
             let (r, s) = (b[j], b[(j + 1) % 3]);
             let (d1, d2) = (orient(p, q, r), orient(p, q, s));
             let (d3, d4) = (orient(r, s, p), orient(r, s, q));
-            if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
+            let apart = |x: f64, y: f64| (x < 0.0 && y > 0.0) || (x > 0.0 && y < 0.0);
+            if apart(d1, d2) && apart(d3, d4) {
                 // Just inside both, beside the crossing.
                 let t = d3 / (d3 - d4);
                 return Some(p + (q - p) * t);
@@ -155,9 +167,10 @@ fn overlap_point(a: &[DVec2; 3], b: &[DVec2; 3]) -> Option<DVec2> {
         .or_else(|| b.iter().find(|&&x| inside(x, a)))
         .copied()
         .or_else(|| {
-            // Equal triangles: neither crosses nor holds a corner of the other.
-            let centre = (a[0] + a[1] + a[2]) / 3.0;
-            (inside(centre, a) && inside(centre, b)).then_some(centre)
+            // Nested or equal along shared lines: neither crosses the other
+            // nor holds a corner of it strictly, but holds its centre.
+            let (ca, cb) = ((a[0] + a[1] + a[2]) / 3.0, (b[0] + b[1] + b[2]) / 3.0);
+            [ca, cb].into_iter().find(|&c| inside(c, a) && inside(c, b))
         })
 }
 
@@ -232,6 +245,16 @@ mod tests {
                 assert!(seen[t], "top triangle {t} hidden");
             }
         }
+    }
+
+    #[test]
+    fn a_triangle_nested_in_another_along_its_sides_overlaps_it() {
+        let a = [DVec2::ZERO, DVec2::new(2.0, 0.0), DVec2::new(0.0, 2.0)];
+        let b = [DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0)];
+        assert!(overlap_point(&a, &b).is_some());
+        assert!(overlap_point(&b, &a).is_some());
+        let apart = [DVec2::new(2.0, 0.0), DVec2::new(3.0, 0.0), DVec2::new(2.0, 1.0)];
+        assert_eq!(overlap_point(&a, &apart), None, "touching at a corner");
     }
 
     #[test]

@@ -43,12 +43,17 @@ pub fn unfold_fans(layout: &mut [DVec2], triangles: &[[u32; 3]], kept: &[bool]) 
     }
 }
 
+/// An edge whose box covers more grid cells than this is kept apart.
+const LONG_EDGE_CELLS: usize = 64;
+
 /// The edges of the positive triangles in a grid over the layout: how
 /// near a vertex the nearest edge not its own passes (a CAD part's long
 /// facet passes a fanned-out landmark closer than any vertex does).
 struct Segments {
     edges: Vec<[u32; 2]>,
     cells: Vec<Vec<u32>>,
+    /// Edges across more than [`LONG_EDGE_CELLS`] cells, in none.
+    long: Vec<u32>,
     side: usize,
     lo: DVec2,
     cell: f64,
@@ -78,9 +83,16 @@ impl Segments {
             )
         };
         let mut cells = vec![Vec::new(); side * side];
+        let mut long = Vec::new();
         for (i, e) in edges.iter().enumerate() {
             let (a, b) = (layout[e[0] as usize], layout[e[1] as usize]);
             let ((x0, y0), (x1, y1)) = (at(a.min(b)), at(a.max(b)));
+            // An edge across many cells (a CAD part's long facet) is
+            // looked at on every query instead.
+            if (x1 - x0 + 1) * (y1 - y0 + 1) > LONG_EDGE_CELLS {
+                long.push(i as u32);
+                continue;
+            }
             for y in y0..=y1 {
                 for x in x0..=x1 {
                     cells[y * side + x].push(i as u32);
@@ -90,6 +102,7 @@ impl Segments {
         Segments {
             edges,
             cells,
+            long,
             side,
             lo,
             cell,
@@ -108,21 +121,18 @@ impl Segments {
             )
         };
         let ((x0, y0), (x1, y1)) = (at(p - DVec2::splat(within)), at(p + DVec2::splat(within)));
-        let mut nearest = within;
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                for &i in &self.cells[y * self.side + x] {
-                    let e = self.edges[i as usize];
-                    if e.contains(&v) {
-                        continue;
-                    }
-                    let (a, b) = (layout[e[0] as usize], layout[e[1] as usize]);
-                    let t = ((p - a).dot(b - a) / (b - a).length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
-                    nearest = nearest.min(p.distance(a + (b - a) * t));
-                }
-            }
-        }
-        nearest
+        let cells = (y0..=y1).flat_map(|y| (x0..=x1).map(move |x| &self.cells[y * self.side + x]));
+        cells
+            .chain(std::iter::once(&self.long))
+            .flatten()
+            .map(|&i| self.edges[i as usize])
+            .filter(|e| !e.contains(&v))
+            .map(|e| {
+                let (a, b) = (layout[e[0] as usize], layout[e[1] as usize]);
+                let t = ((p - a).dot(b - a) / (b - a).length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+                p.distance(a + (b - a) * t)
+            })
+            .fold(within, f64::min)
     }
 }
 
@@ -181,6 +191,9 @@ fn open_runs(hub: usize, fan: &[(u32, u32, bool)], (placed, segments): (&[bool],
 /// Rounds of [`settle`] at most.
 const SETTLE_ROUNDS: usize = 16;
 
+/// [`settle`] moves no corner of more triangles than this.
+const MAX_VALENCE: usize = 32;
+
 /// Moves a corner of every non-positive triangle of `layout` (a sliver
 /// seen edge-on between two faces, all its corners placed) to where the
 /// smallest of the triangles around it is largest, among points towards
@@ -208,8 +221,11 @@ pub fn settle(layout: &mut [DVec2], triangles: &[[u32; 3]]) {
             if area(layout, t) > 0.0 {
                 continue;
             }
+            // A corner of many triangles (a pole, a cap's centre) is left
+            // to the untangle: its spots cost its valence squared.
             let best = triangles[t as usize]
                 .iter()
+                .filter(|&&v| around[v as usize].len() <= MAX_VALENCE)
                 .filter_map(|&v| best_spot(v, &around[v as usize], layout, triangles).map(|p| (v, p)))
                 .max_by(|a, b| a.1.1.total_cmp(&b.1.1));
             if let Some((v, (p, _))) = best {
@@ -235,12 +251,14 @@ fn best_spot(v: u32, fan: &[u32], layout: &[DVec2], triangles: &[[u32; 3]]) -> O
             })
             .fold(f64::INFINITY, f64::min)
     };
-    let mut neighbours: Vec<DVec2> = fan
+    let mut ids: Vec<u32> = fan
         .iter()
         .flat_map(|&t| triangles[t as usize])
         .filter(|&w| w != v)
-        .map(|w| layout[w as usize])
         .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut neighbours: Vec<DVec2> = ids.iter().map(|&w| layout[w as usize]).collect();
     let mean = neighbours.iter().sum::<DVec2>() / neighbours.len().max(1) as f64;
     neighbours.push(mean);
     let now = smallest(here);
