@@ -347,12 +347,7 @@ pub fn unreachable_proof(mesh: &TriMesh, pins: &Pins) -> Result<Option<String>, 
     let max_centres = SolverOptions::DEFAULT.max_boundary_centres;
     let problem = chart::step_problem(prepared, session.source(), boundary, max_centres)?;
     let on_outer = boundary.on_loop(prepared.filled.mesh.n_vertices());
-    // A free boundary pins nothing but the targets.
-    let pinned = if prepared.domain.free().is_some() {
-        crate::complete::Pinned::Targets
-    } else {
-        crate::complete::Pinned::BoundaryAndTargets
-    };
+    let pinned = crate::complete::Pinned::for_boundary(prepared.domain.free().is_some());
     let certificate = crate::complete::find_obstruction(&prepared.filled, (layout, pinned), &problem);
     Ok(certificate.map(|c| c.describe(report::vertex_namer(prepared, &on_outer))))
 }

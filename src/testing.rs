@@ -647,6 +647,24 @@ fn covered(mesh: &TriMesh, (right, up, view): (DVec3, DVec3, DVec3), depth: f64)
         .collect()
 }
 
+/// A regular octahedron (6 vertices, 8 triangles, closed), outward and
+/// counter-clockwise: a closed mesh of few vertices.
+pub fn octahedron() -> TriMesh {
+    TriMesh {
+        positions: vec![DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y, DVec3::Z, -DVec3::Z],
+        triangles: vec![
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ],
+    }
+}
+
 /// A square frame as a CAD tool exports it (genus 1): a 3 × 3 square
 /// with a 1 × 1 square hole through it, `height` thick, every face flat
 /// and split into long facets; each facet then split `levels` times at

@@ -3,7 +3,6 @@
 
 mod common;
 use common::*;
-use uvpin::mesh::TriMesh;
 use uvpin::testing::grid_mesh;
 
 /// On a terminal (a pseudo-terminal made by `script`), `uvpin solve`
@@ -316,29 +315,7 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
     let tmp = TempDir::new("topology");
     let ron = tmp.path("t.uvpin.ron");
     // A closed octahedron.
-    let octa = TriMesh {
-        positions: [
-            [1., 0., 0.],
-            [-1., 0., 0.],
-            [0., 1., 0.],
-            [0., -1., 0.],
-            [0., 0., 1.],
-            [0., 0., -1.],
-        ]
-        .iter()
-        .map(|p| glam::DVec3::from_array(*p))
-        .collect(),
-        triangles: vec![
-            [0, 2, 4],
-            [2, 1, 4],
-            [1, 3, 4],
-            [3, 0, 4],
-            [2, 0, 5],
-            [1, 2, 5],
-            [3, 1, 5],
-            [0, 3, 5],
-        ],
-    };
+    let octa = uvpin::testing::octahedron();
     // Given seams that leave it closed are refused by name.
     let asset = tmp.path("closed.glb");
     write_mesh_glb(&asset, &octa);

@@ -267,21 +267,30 @@ fn a_ring_seen_through_its_hole_has_both_parts_it_shows_reached() {
         (2..=10).contains(&far),
         "landmarks on both sides: {far} of 12 on the far one"
     );
-    let tmp = TempDir::new("closed-ring");
-    std::fs::write(tmp.path("ring.obj"), obj_text(&mesh)).unwrap();
-    let ron = tmp.path("ring.uvpin.ron");
-    write_constraints(&ron, Path::new("ring.obj"), &landmarks, "");
-    let out = tmp.path("out.glb");
-    let (o, report) = solve_json(&ron, &out);
-    assert_eq!(o.status.code(), Some(0), "{}{}", stderr(&o), report["explain"]);
-    assert_eq!(report["status"], "reached");
+    let report = solve_obj_reached("ring", &mesh, &landmarks);
     let explain = report["explain"].to_string();
     assert!(explain.contains("more part(s) holding landmarks"), "{explain}");
     let l2 = report["stretch_final"]["l2"].as_f64().unwrap();
     assert!(l2 < 1.5, "stretch L2 {l2}: {explain}");
+}
+
+/// `mesh` written as `NAME.obj` with `landmarks` (`(vertex, u, v)`), solved:
+/// exit 0 and reached, the written set read back one-to-one, and `uvpin
+/// check` finding every landmark on target. The report.
+fn solve_obj_reached(name: &str, mesh: &TriMesh, landmarks: &[(u32, f64, f64)]) -> Value {
+    let tmp = TempDir::new(&format!("closed-{name}"));
+    let obj = format!("{name}.obj");
+    std::fs::write(tmp.path(&obj), obj_text(mesh)).unwrap();
+    let ron = tmp.path(&format!("{name}.uvpin.ron"));
+    write_constraints(&ron, Path::new(&obj), landmarks, "");
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{name}: {}{}", stderr(&o), report["explain"]);
+    assert_eq!(report["status"], "reached", "{name}: {}", report["explain"]);
     assert_read_back_one_to_one(&out, 0, "the written set");
     let check = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
-    assert_eq!(check.status.code(), Some(0), "{}", stderr(&check));
+    assert_eq!(check.status.code(), Some(0), "{name}: {}", stderr(&check));
+    report
 }
 
 /// A square frame as a CAD tool writes it (flat faces in long facets,
@@ -293,17 +302,7 @@ fn a_cad_frame_seen_at_a_slant_lands_on_the_photo() {
     let mesh = uvpin::testing::square_frame(0.6, 2);
     let view = DVec3::new(0.45, 0.6, -1.0).normalize();
     let landmarks = photo_landmarks_unhidden(&mesh, view, DVec3::Y, 12, 0.7);
-    let tmp = TempDir::new("closed-frame");
-    std::fs::write(tmp.path("frame.obj"), obj_text(&mesh)).unwrap();
-    let ron = tmp.path("frame.uvpin.ron");
-    write_constraints(&ron, Path::new("frame.obj"), &landmarks, "");
-    let out = tmp.path("out.glb");
-    let (o, report) = solve_json(&ron, &out);
-    assert_eq!(o.status.code(), Some(0), "{}{}", stderr(&o), report["explain"]);
-    assert_eq!(report["status"], "reached", "{}", report["explain"]);
-    assert_read_back_one_to_one(&out, 0, "the written set");
-    let check = uvpin(&["check", out.to_str().unwrap(), "--constraints", ron.to_str().unwrap()]);
-    assert_eq!(check.status.code(), Some(0), "{}", stderr(&check));
+    solve_obj_reached("frame", &mesh, &landmarks);
 }
 
 fn a_head_is_cut_at_the_back_and_its_face_lands_on_the_photo() {

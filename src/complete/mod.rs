@@ -82,6 +82,18 @@ pub enum Pinned {
     Targets,
 }
 
+impl Pinned {
+    /// What a chart's certificate pins: the boundary too on the square,
+    /// the targets alone when it is `free`.
+    pub fn for_boundary(free: bool) -> Pinned {
+        if free {
+            Pinned::Targets
+        } else {
+            Pinned::BoundaryAndTargets
+        }
+    }
+}
+
 /// A certificate that no fold-free layout of this chart puts every
 /// constraint of `problem` on its target ([`obstruction`]), with what
 /// `pinned` says fixed (the outer boundary where `layout` has it).

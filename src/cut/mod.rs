@@ -452,19 +452,7 @@ mod tests {
     fn a_closed_part_of_few_vertices_opens_along_two_edges_at_least() {
         // An octahedron, with and without landmarks: a seam of one edge
         // would open nothing.
-        use glam::DVec3;
-        let positions = vec![DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y, DVec3::Z, -DVec3::Z];
-        let triangles = vec![
-            [0, 2, 4],
-            [2, 1, 4],
-            [1, 3, 4],
-            [3, 0, 4],
-            [2, 0, 5],
-            [1, 2, 5],
-            [3, 1, 5],
-            [0, 3, 5],
-        ];
-        let mesh = TriMesh { positions, triangles };
+        let mesh = crate::testing::octahedron();
         for landmarks in [vec![], vec![4], vec![4, 0]] {
             let o = opened(&mesh, &landmarks);
             assert_disk(&o);

@@ -134,7 +134,7 @@ pub fn make_solvable(
             let region = super::facing::facing_region(&main.mesh, (camera, *sight), &landmarks, *room, &barred)
                 .ok_or(SolvableError::NoPart { form: form.name() })?;
             Some(
-                super::separate::split_off(&main, &region, &local_landmarks(&main))
+                super::separate::split_off(&main, &region, &landmarks)
                     .ok_or(SolvableError::NoPart { form: form.name() })?,
             )
         }

@@ -20,22 +20,21 @@ const FAN_RADIUS: f64 = 0.4;
 /// corners go evenly across the angular gap between the run's two ends. A
 /// run whose gap leaves a triangle half a turn or more is left as it is.
 pub fn unfold_fans(layout: &mut [DVec2], triangles: &[[u32; 3]], kept: &[bool]) {
-    let positive = kept;
-    if positive.iter().all(|&p| p) {
+    if kept.iter().all(|&k| k) {
         return;
     }
     let mut placed = vec![false; layout.len()];
-    for (t, _) in triangles.iter().zip(positive).filter(|(_, p)| **p) {
+    for (t, _) in triangles.iter().zip(kept).filter(|(_, k)| **k) {
         t.iter().for_each(|&v| placed[v as usize] = true);
     }
     // Each hub's fan as (from, to) corner pairs, counter-clockwise about it.
     let mut around: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); layout.len()];
-    for (t, &p) in triangles.iter().zip(positive) {
+    for (t, &is_kept) in triangles.iter().zip(kept) {
         for k in 0..3 {
-            around[t[k] as usize].push((t[(k + 1) % 3], t[(k + 2) % 3], p));
+            around[t[k] as usize].push((t[(k + 1) % 3], t[(k + 2) % 3], is_kept));
         }
     }
-    let segments = Segments::new(layout, triangles, positive);
+    let segments = Segments::new(layout, triangles, kept);
     for hub in 0..layout.len() {
         if placed[hub] && around[hub].iter().any(|&(_, _, p)| !p) {
             open_runs(hub, &around[hub], (&placed, &segments), layout);
@@ -46,7 +45,7 @@ pub fn unfold_fans(layout: &mut [DVec2], triangles: &[[u32; 3]], kept: &[bool]) 
 /// An edge whose box covers more grid cells than this is kept apart.
 const LONG_EDGE_CELLS: usize = 64;
 
-/// The edges of the positive triangles in a grid over the layout: how
+/// The edges of the kept triangles in a grid over the layout: how
 /// near a vertex the nearest edge not its own passes (a CAD part's long
 /// facet passes a fanned-out landmark closer than any vertex does).
 struct Segments {
@@ -60,11 +59,11 @@ struct Segments {
 }
 
 impl Segments {
-    fn new(layout: &[DVec2], triangles: &[[u32; 3]], positive: &[bool]) -> Segments {
+    fn new(layout: &[DVec2], triangles: &[[u32; 3]], kept: &[bool]) -> Segments {
         let mut edges: Vec<[u32; 2]> = triangles
             .iter()
-            .zip(positive)
-            .filter(|(_, p)| **p)
+            .zip(kept)
+            .filter(|(_, k)| **k)
             .flat_map(|(t, _)| (0..3).map(move |k| [t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])]))
             .collect();
         edges.sort_unstable();
@@ -75,52 +74,47 @@ impl Segments {
         );
         let side = ((edges.len() as f64).sqrt() as usize).clamp(1, 512);
         let cell = ((hi - lo).max_element() / side as f64).max(f64::MIN_POSITIVE);
-        let at = |p: DVec2| {
-            let q = (p - lo) / cell;
-            (
-                (q.x.max(0.0) as usize).min(side - 1),
-                (q.y.max(0.0) as usize).min(side - 1),
-            )
+        let mut segments = Segments {
+            edges,
+            cells: vec![Vec::new(); side * side],
+            long: Vec::new(),
+            side,
+            lo,
+            cell,
         };
-        let mut cells = vec![Vec::new(); side * side];
-        let mut long = Vec::new();
-        for (i, e) in edges.iter().enumerate() {
+        for i in 0..segments.edges.len() {
+            let e = segments.edges[i];
             let (a, b) = (layout[e[0] as usize], layout[e[1] as usize]);
-            let ((x0, y0), (x1, y1)) = (at(a.min(b)), at(a.max(b)));
+            let ((x0, y0), (x1, y1)) = (segments.at(a.min(b)), segments.at(a.max(b)));
             // An edge across many cells (a CAD part's long facet) is
             // looked at on every query instead.
             if (x1 - x0 + 1) * (y1 - y0 + 1) > LONG_EDGE_CELLS {
-                long.push(i as u32);
+                segments.long.push(i as u32);
                 continue;
             }
             for y in y0..=y1 {
                 for x in x0..=x1 {
-                    cells[y * side + x].push(i as u32);
+                    segments.cells[y * side + x].push(i as u32);
                 }
             }
         }
-        Segments {
-            edges,
-            cells,
-            long,
-            side,
-            lo,
-            cell,
-        }
+        segments
+    }
+
+    /// The grid cell (column, row) of `p`, clamped to the grid.
+    fn at(&self, p: DVec2) -> (usize, usize) {
+        let q = (p - self.lo) / self.cell;
+        (
+            (q.x.max(0.0) as usize).min(self.side - 1),
+            (q.y.max(0.0) as usize).min(self.side - 1),
+        )
     }
 
     /// The distance from `v` to the nearest edge not at `v`, looked for
     /// within `within` (`within` itself when none is nearer).
     fn clearance(&self, v: u32, layout: &[DVec2], within: f64) -> f64 {
         let p = layout[v as usize];
-        let at = |q: DVec2| {
-            let c = (q - self.lo) / self.cell;
-            (
-                (c.x.max(0.0) as usize).min(self.side - 1),
-                (c.y.max(0.0) as usize).min(self.side - 1),
-            )
-        };
-        let ((x0, y0), (x1, y1)) = (at(p - DVec2::splat(within)), at(p + DVec2::splat(within)));
+        let ((x0, y0), (x1, y1)) = (self.at(p - DVec2::splat(within)), self.at(p + DVec2::splat(within)));
         let cells = (y0..=y1).flat_map(|y| (x0..=x1).map(move |x| &self.cells[y * self.side + x]));
         cells
             .chain(std::iter::once(&self.long))

@@ -97,14 +97,15 @@ fn certificate(s: &SolveSummary, any_unreached: bool) -> Option<Obstruction> {
     if !any_unreached {
         return None;
     }
-    let find =
-        |pinned| crate::complete::find_obstruction(&s.prepared.filled, (s.solver.layout(), pinned), s.solver.problem());
-    if s.solver.free().is_some() {
-        return find(crate::complete::Pinned::Targets);
-    }
+    // A free chart's completion looks for none (see `complete::soft`).
+    let free = s.solver.free().is_some();
     match &s.solver.record().soft {
-        Some(soft) => soft.obstruction.clone(),
-        None => find(crate::complete::Pinned::BoundaryAndTargets),
+        Some(soft) if !free => soft.obstruction.clone(),
+        _ => crate::complete::find_obstruction(
+            &s.prepared.filled,
+            (s.solver.layout(), crate::complete::Pinned::for_boundary(free)),
+            s.solver.problem(),
+        ),
     }
 }
 
