@@ -114,9 +114,9 @@ pub enum Sight {
     Whole,
 }
 
-/// The triangles of `mesh` (manifold) the camera sees (as `sight` says),
-/// projected inside `room` (a layout box), in the parts joined by edges
-/// that hold landmarks; never across an `unseamable` edge (sorted pairs: a
+/// The triangles of `mesh` (manifold) the camera sees (as `sight` says;
+/// [`Sight::Near`] those projected inside `room`, a layout box), in the
+/// parts joined by edges that hold landmarks; never across an `unseamable` edge (sorted pairs: a
 /// polygon of the file stays whole, on the side away from the chart).
 /// `None` when a landmark is on no such part.
 pub fn facing_region(
@@ -132,11 +132,31 @@ pub fn facing_region(
     let towards = camera.towards();
     let projected: Vec<DVec2> = mesh.positions.iter().map(|&p| camera.project(p)).collect();
     let depth: Vec<f64> = mesh.positions.iter().map(|p| p.dot(towards)).collect();
+    let graph = EdgeGraph::new(mesh);
+    let mut seen = match sight {
+        Sight::Near => {
+            let within = within_room(mesh, &projected, room);
+            let (mut seen, at_centre) = seen_near(mesh, (&projected, &depth), towards, landmarks, &within);
+            fill_pockets(&graph, &mut seen, &at_centre);
+            seen
+        }
+        Sight::Whole => {
+            // All of it, past the room too: the start draws in what
+            // reaches out ([`crate::domain::start`]); a landmark on a long
+            // facet that leaves the room is on no triangle within it.
+            super::occlusion::seen_whole(mesh, &projected, &depth)
+        }
+    };
+    keep_polygons_out(&graph, unseamable, &mut seen);
+    landmarks_part(&graph, mesh, &seen, landmarks)
+}
+
+/// Whether each triangle of `mesh` is `projected` inside `room`, kept
+/// [`ROOM_MARGIN`] off its border.
+fn within_room(mesh: &TriMesh, projected: &[DVec2], room: (DVec2, DVec2)) -> Vec<bool> {
     let margin = (room.1 - room.0) * ROOM_MARGIN;
     let (lo, hi) = (room.0 + margin, room.1 - margin);
-    let graph = EdgeGraph::new(mesh);
-    let within: Vec<bool> = mesh
-        .triangles
+    mesh.triangles
         .iter()
         .map(|tri| {
             tri.iter().all(|&v| {
@@ -144,20 +164,7 @@ pub fn facing_region(
                 p.cmpge(lo).all() && p.cmple(hi).all()
             })
         })
-        .collect();
-    let mut seen = match sight {
-        Sight::Near => {
-            let (mut seen, at_centre) = seen_near(mesh, (&projected, &depth), towards, landmarks, &within);
-            fill_pockets(&graph, &mut seen, &at_centre);
-            seen
-        }
-        Sight::Whole => {
-            let whole = super::occlusion::seen_whole(mesh, &projected, &depth);
-            whole.iter().zip(&within).map(|(w, i)| *w && *i).collect()
-        }
-    };
-    keep_polygons_out(&graph, unseamable, &mut seen);
-    landmarks_part(&graph, mesh, &seen, landmarks)
+        .collect()
 }
 
 /// The triangles [`Sight::Near`] sees, before the dimples they enclose,
@@ -404,6 +411,49 @@ mod tests {
             None,
             "collinear landmarks fix no view"
         );
+    }
+
+    #[test]
+    fn a_view_seen_whole_keeps_what_reaches_past_the_room() {
+        let sphere = uv_sphere(24, 36);
+        // The view spans 0.2..0.8; the room only 0.35..0.65.
+        let camera = Camera {
+            rows: [DVec3::new(0.3, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.3)],
+            offset: DVec2::splat(0.5),
+        };
+        let room = (DVec2::splat(0.35), DVec2::splat(0.65));
+        let projected = projection(&camera, &sphere.positions);
+        let outside = |v: u32| {
+            let p = projected[v as usize];
+            !(p.cmpge(room.0).all() && p.cmple(room.1).all())
+        };
+        // Landmarks in the room on triangles that reach out of it.
+        let landmarks: Vec<u32> = (0..sphere.n_vertices() as u32)
+            .filter(|&v| sphere.positions[v as usize].y < -0.3 && !outside(v))
+            .filter(|&v| {
+                sphere
+                    .triangles
+                    .iter()
+                    .any(|t| t.contains(&v) && t.iter().any(|&w| outside(w)))
+            })
+            .collect();
+        assert!(!landmarks.is_empty());
+        let region = facing_region(&sphere, (&camera, Sight::Whole), &landmarks, room, &[]).expect("a part");
+        let past = sphere
+            .triangles
+            .iter()
+            .zip(&region)
+            .filter(|(t, kept)| **kept && t.iter().any(|&v| outside(v)))
+            .count();
+        assert!(past > sphere.n_triangles() / 8, "{past} triangles past the room");
+        let near = facing_region(&sphere, (&camera, Sight::Near), &landmarks, room, &[]).expect("a part");
+        let near_past = sphere
+            .triangles
+            .iter()
+            .zip(&near)
+            .filter(|(t, kept)| **kept && t.iter().any(|&v| outside(v)))
+            .count();
+        assert!(near_past < past, "the scan's view keeps to the room: {near_past}");
     }
 
     #[test]

@@ -380,9 +380,10 @@ pub fn fit_into_room(
         }
     }
     if kind == StartKind::Projection
-        && let Some(layout) = drawn_in(&placed, (lo, hi))
-        && room.admits(&layout).is_ok()
-        && guard::all_positive_as_stored(&layout, triangles)
+        && let Some(layout) = [boxed_in(&placed, problem, (lo, hi)), drawn_in(&placed, (lo, hi))]
+            .into_iter()
+            .flatten()
+            .find(|layout| room.admits(layout).is_ok() && guard::all_positive_as_stored(layout, triangles))
     {
         return Some(ChosenStart {
             layout,
@@ -429,6 +430,60 @@ pub fn fit_into_room(
         }
     }
     None
+}
+
+/// A camera's view that reaches past its region drawn in about the
+/// targets' centre `c` along rays, by the room's gauge from `c` (1 on the
+/// room's border, kept [`INSIDE_MARGIN`] inside): every point no farther
+/// out than the farthest target stays, so the constrained vertices stay on
+/// their targets, and beyond it the gauge grows logarithmically up to the
+/// border, so that nothing far out is crushed flat (a ray map that grows
+/// with the gauge keeps small triangles' orientation; the caller checks).
+/// `None` when nothing reaches out, or a target is on the border.
+fn boxed_in(layout: &[DVec2], problem: &StepProblem, (lo, hi): (DVec2, DVec2)) -> Option<Vec<DVec2>> {
+    if problem.targets.is_empty() {
+        return None;
+    }
+    let margin = (hi - lo) * INSIDE_MARGIN;
+    let (lo, hi) = (lo + margin, hi - margin);
+    let c = problem.targets.iter().sum::<DVec2>() / problem.targets.len() as f64;
+    let gauge = |p: DVec2| {
+        let d = p - c;
+        let x = if d.x >= 0.0 {
+            d.x / (hi.x - c.x)
+        } else {
+            d.x / (lo.x - c.x)
+        };
+        let y = if d.y >= 0.0 {
+            d.y / (hi.y - c.y)
+        } else {
+            d.y / (lo.y - c.y)
+        };
+        x.max(y)
+    };
+    if !(c.cmpgt(lo).all() && c.cmplt(hi).all()) {
+        return None;
+    }
+    let inner = problem.targets.iter().map(|&t| gauge(t)).fold(0.0, f64::max) * 1.02;
+    let far = layout.iter().map(|&p| gauge(p)).fold(0.0, f64::max);
+    if far < 1.0 || inner >= 1.0 || !far.is_finite() {
+        return None;
+    }
+    let w = 1.0 - inner;
+    let norm = (1.0 + (far - inner) / w).ln().max(1e-300);
+    Some(
+        layout
+            .iter()
+            .map(|&p| {
+                let g = gauge(p);
+                if g <= inner {
+                    p
+                } else {
+                    c + (p - c) * ((inner + w * (1.0 + (g - inner) / w).ln() / norm) / g)
+                }
+            })
+            .collect(),
+    )
 }
 
 /// A camera's view that reaches past its region (a CAD part's long facet
@@ -704,5 +759,38 @@ mod tests {
         }
         let inside: Vec<DVec2> = layout.iter().map(|p| 0.5 + (*p - 0.5) * 0.5).collect();
         assert_eq!(drawn_in(&inside, room), None, "a view inside is left alone");
+    }
+
+    #[test]
+    fn a_view_past_the_texture_on_one_side_is_boxed_in_with_its_targets_kept() {
+        let mesh = grid_mesh(12, 9);
+        // A photo cropped at the bottom and the right: the view reaches to
+        // -0.25 and 1.2 there, and the targets lie 0.15 off the border.
+        let layout: Vec<DVec2> = mesh
+            .positions
+            .iter()
+            .map(|p| DVec2::new(0.1 + 1.1 * p.x, -0.25 + 1.2 * p.y))
+            .collect();
+        let inside = |p: &DVec2, m: f64| p.cmpgt(DVec2::splat(m)).all() && p.cmplt(DVec2::splat(1.0 - m)).all();
+        let constraint_vertices: Vec<u32> = (0..mesh.n_vertices() as u32)
+            .filter(|&v| inside(&layout[v as usize], 0.15))
+            .step_by(7)
+            .collect();
+        let targets = constraint_vertices.iter().map(|&v| layout[v as usize]).collect();
+        let problem = StepProblem {
+            constraint_vertices: constraint_vertices.clone(),
+            targets,
+            anchors: Vec::new(),
+            movable: Vec::new(),
+        };
+        let room = (DVec2::ZERO, DVec2::ONE);
+        let boxed = boxed_in(&layout, &problem, room).expect("it reaches out");
+        assert!(boxed.iter().all(|p| inside(p, 0.0)), "everything inside the texture");
+        assert!(guard::all_positive(&boxed, &mesh.triangles), "no triangle turns over");
+        for &v in &constraint_vertices {
+            assert_eq!(boxed[v as usize], layout[v as usize], "a landmark stays on its target");
+        }
+        let small: Vec<DVec2> = layout.iter().map(|p| 0.5 + (*p - 0.5) * 0.5).collect();
+        assert_eq!(boxed_in(&small, &problem, room), None, "a view inside is left alone");
     }
 }
