@@ -68,6 +68,9 @@ struct Coarsening<'a> {
     /// The fine surface's area-weighted vertex normals (unit).
     normals: Vec<DVec3>,
     role: &'a [Role],
+    /// Whether a vertex is on the outer loop (kept ones too: a corner, a
+    /// landmark): the filled chart's only border.
+    on_outer: Vec<bool>,
     triangles: Vec<[u32; 3]>,
     alive: Vec<bool>,
     incident: Vec<Vec<u32>>,
@@ -143,6 +146,7 @@ pub fn coarsen(mesh: &TriMesh, plan: Plan) -> Hierarchy {
     let mut c = Coarsening {
         positions: &mesh.positions,
         normals,
+        on_outer: border_vertices(mesh),
         role,
         triangles: mesh.triangles.clone(),
         alive: vec![true; mesh.n_triangles()],
@@ -165,6 +169,22 @@ pub fn coarsen(mesh: &TriMesh, plan: Plan) -> Hierarchy {
         collapses: c.collapses,
         star: c.star,
     }
+}
+
+/// Whether each vertex of `mesh` is on an edge of one triangle only.
+fn border_vertices(mesh: &TriMesh) -> Vec<bool> {
+    let mut edges: Vec<(u32, u32)> = mesh
+        .triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+        .collect();
+    edges.sort_unstable();
+    let mut out = vec![false; mesh.n_vertices()];
+    for run in edges.chunk_by(|a, b| a == b).filter(|run| run.len() == 1) {
+        out[run[0].0 as usize] = true;
+        out[run[0].1 as usize] = true;
+    }
+    out
 }
 
 impl Coarsening<'_> {
@@ -292,13 +312,27 @@ impl Coarsening<'_> {
                 return false;
             }
         }
-        self.link_condition(u, v, shared) && self.shapes_kept(u, v) && !(self.square && self.makes_chord(u, v))
+        self.link_condition(u, v, shared)
+            && self.shapes_kept(u, v)
+            && !(self.square && (self.makes_chord(u, v) || self.in_loop_triangle(u)))
+    }
+
+    /// Whether outer-loop vertex `u` is a corner of a triangle with all
+    /// three corners on the outer loop: put back on a side of the square
+    /// between its loop neighbours, it would lay that triangle flat (an
+    /// ear along one side), which no place on the side avoids.
+    fn in_loop_triangle(&self, u: u32) -> bool {
+        let on_outer = |w: u32| self.on_outer[w as usize];
+        on_outer(u)
+            && self
+                .star_of(u)
+                .any(|t| self.real[t as usize] && self.triangles[t as usize].iter().all(|&w| on_outer(w)))
     }
 
     /// Whether `u` going into outer-loop vertex `v` would join `v` to
     /// another outer-loop vertex it is not joined to yet.
     fn makes_chord(&mut self, u: u32, v: u32) -> bool {
-        let on_outer = |w: u32| self.role[w as usize] == Role::Loop(self.outer);
+        let on_outer = |w: u32| self.on_outer[w as usize];
         if !on_outer(v) {
             return false;
         }
@@ -483,5 +517,45 @@ mod tests {
         while h.split_last().is_some() {}
         assert_eq!(h.triangles, mesh.triangles);
         assert!(h.alive.iter().all(|&a| a));
+    }
+
+    #[test]
+    fn on_the_square_a_triangle_with_every_corner_on_the_border_keeps_them() {
+        // A grid with two corner cells cut diagonally: the triangle left in
+        // each has all three corners on the border, one of them a corner of
+        // the square. Put back on a side, a collapsed corner of such a
+        // triangle would lay it flat.
+        let n = 40u32;
+        let mut mesh = grid_mesh(n as usize, n as usize);
+        let v = (n - 2) + (n - 2) * n;
+        mesh.triangles
+            .retain(|t| *t != [0, n + 1, n] && *t != [v, v + 1, v + n + 1]);
+        let border = border_vertices(&mesh);
+        let along: Vec<u32> = mesh
+            .triangles
+            .iter()
+            .filter(|t| t.iter().all(|&w| border[w as usize]))
+            .flatten()
+            .copied()
+            .collect();
+        assert!(along.len() >= 6, "triangles along the border");
+        let (mut role, outer) = roles(&mesh, &[]);
+        let kept_after = |role: &[Role]| {
+            let h = coarsen(
+                &mesh,
+                Plan {
+                    square: true,
+                    ..plan(role, outer, 200)
+                },
+            );
+            assert!(h.n_coarse() < 400, "{} left", h.n_coarse());
+            let (_, fine_of) = h.coarse_mesh(&mesh.positions);
+            along.iter().all(|w| fine_of.contains(w))
+        };
+        assert!(kept_after(&role), "each corner of a triangle along the border stays");
+        // The square's corners kept, as the solve keeps them: still so.
+        role[0] = Role::Kept;
+        role[(n * n - 1) as usize] = Role::Kept;
+        assert!(kept_after(&role), "with the square's corners kept");
     }
 }
