@@ -119,7 +119,7 @@ pub fn unwrap_all(
         };
         match make_solvable(
             &chart,
-            &crate::cut::prepare::Form::Cut,
+            Some(&crate::cut::prepare::Form::Cut),
             &SeamSpec::Auto,
             &[],
             &diagonals,

@@ -2,7 +2,7 @@
 //! constraints and corners in chart-local ids; and the final per-primitive UVs.
 
 use crate::constraints::ConstraintSource;
-use crate::cut::prepare::{Form, SolvableError, make_solvable};
+use crate::cut::prepare::{Form, make_solvable};
 use crate::cut::separate::Budget;
 use crate::cut::{SeamRules, SeamSpec};
 use crate::domain::Domain;
@@ -108,6 +108,9 @@ struct GeometryKey {
     landmarks: Option<Vec<u32>>,
     /// The form asked for (`None`: as given, or cut when it is no disk).
     form: Option<Form>,
+    /// No form was asked for and the chart, no disk, was cut: the same
+    /// geometry as [`Form::Cut`] asked for.
+    cut_by_default: bool,
 }
 
 /// Welds the asset's mesh, resolves the constraints, picks the chart that
@@ -146,6 +149,21 @@ impl PreparedChart {
     /// As [`prepare`].
     pub fn retargeted(&self, source: &ConstraintSource, asset: &SourceAsset) -> Result<PreparedChart, Error> {
         prepare_on(source, asset, self.welded.clone(), Some(self), &Pick::default())
+    }
+
+    /// The same chart and constraints as `pick` makes them (another form
+    /// or boundary), sharing this chart's geometry where `pick`'s form
+    /// makes the same (a cut asked for where the default cut already).
+    ///
+    /// # Errors
+    /// As [`prepare`].
+    pub fn repicked(
+        &self,
+        source: &ConstraintSource,
+        asset: &SourceAsset,
+        pick: &Pick,
+    ) -> Result<PreparedChart, Error> {
+        prepare_on(source, asset, self.welded.clone(), Some(self), pick)
     }
 }
 
@@ -272,6 +290,7 @@ impl GeometryKey {
     fn fits(&self, seams: &crate::pins::SeamsChoice, landmarks: &[u32], form: Option<&Form>) -> bool {
         let same_form = match (&self.form, form) {
             (Some(Form::Around(a)), Some(Form::Around(b))) => scale_step(*a) == scale_step(*b),
+            (None, Some(Form::Cut)) => self.cut_by_default,
             (a, b) => a.as_ref() == b,
         };
         self.seams == *seams && same_form && self.landmarks.as_ref().is_none_or(|l| *l == sorted(landmarks))
@@ -472,22 +491,19 @@ fn chart_geometry(
         }
     };
     let diagonals = polygon_diagonals(asset, welded);
-    let made = |form: &Form| make_solvable(&chart, form, &spec, landmarks, &diagonals, &SeamRules::DEFAULT);
-    let solvable = match form {
-        Some(form) => made(form),
-        None => match made(&Form::AsGiven) {
-            Err(SolvableError::NotADisk(_)) => made(&Form::Cut),
-            other => other,
-        },
-    }
-    .map_err(|source| Error::Topology {
-        path: asset.path.clone(),
-        mesh: asset.mesh_index,
-        chart: chart_id,
-        n_vertices: chart.mesh.n_vertices(),
-        n_triangles: chart.mesh.n_triangles(),
-        source,
-    })?;
+    // No form asked for: as given, cut where it is no disk.
+    let solvable =
+        make_solvable(&chart, form, &spec, landmarks, &diagonals, &SeamRules::DEFAULT).map_err(|source| {
+            Error::Topology {
+                path: asset.path.clone(),
+                mesh: asset.mesh_index,
+                chart: chart_id,
+                n_vertices: chart.mesh.n_vertices(),
+                n_triangles: chart.mesh.n_triangles(),
+                source,
+            }
+        })?;
+    let cut_by_default = form.is_none() && solvable.made == Form::Cut;
     let auto_cut = (solvable.seam.is_some() || !solvable.separation.is_empty()) && matches!(spec, SeamSpec::Auto);
     let opening = Opening {
         rest: solvable.rest.into_iter().map(Arc::new).collect(),
@@ -502,6 +518,7 @@ fn chart_geometry(
             seams: seams.clone(),
             landmarks: auto_cut.then(|| sorted(landmarks)),
             form: form.cloned(),
+            cut_by_default,
         },
     };
     let (chart, topology) = (solvable.chart, solvable.topology);
@@ -983,5 +1000,26 @@ mod tests {
         layout[copy] = layout[split];
         let off = prepared.landmark_copies_off(&layout, &prepared).expect("a copy");
         assert!(off < 1e-12, "copies on the target: {off}");
+    }
+
+    #[test]
+    fn a_cut_asked_of_a_chart_the_default_cut_shares_its_geometry() {
+        let asset = SourceAsset::from_mesh(&crate::testing::uv_sphere(12, 18));
+        let pins = crate::pins::Pins::new(&[(40, DVec2::new(0.5, 0.5))]);
+        let source = ConstraintSource::Memory(Arc::new(pins));
+        let base = prepare(&source, &asset).expect("the sphere, cut open");
+        assert!(base.opening.seam.is_some(), "no disk: cut by default");
+        let pick = |form| Pick {
+            form: Some(form),
+            ..Pick::default()
+        };
+        let cut = base.repicked(&source, &asset, &pick(Form::Cut)).expect("cut");
+        assert!(
+            Arc::ptr_eq(&base.filled, &cut.filled),
+            "the default's cut, not made again"
+        );
+        assert!(Arc::ptr_eq(&base.opening, &cut.opening));
+        // Taken as given, the sphere is no disk: nothing shared, an error.
+        assert!(base.repicked(&source, &asset, &pick(Form::AsGiven)).is_err());
     }
 }

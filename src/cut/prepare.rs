@@ -40,6 +40,9 @@ pub struct Solvable {
     /// Where the landmarks' chart was cut from the rest, welded pairs
     /// (empty when it fitted).
     pub separation: Vec<[u32; 2]>,
+    /// The form it was made in: [`Form::Cut`] where none was asked for and
+    /// it was no disk.
+    pub made: Form,
 }
 
 /// Why a chart cannot be made solvable.
@@ -104,7 +107,7 @@ impl Form {
 /// finds no part holding every landmark.
 pub fn make_solvable(
     chart: &Chart,
-    form: &Form,
+    asked: Option<&Form>,
     spec: &SeamSpec,
     landmarks: &[u32],
     unseamable: &[[u32; 2]],
@@ -121,6 +124,7 @@ pub fn make_solvable(
     }
     let mut separation = Vec::new();
     let local_landmarks = |c: &Chart| -> Vec<u32> { landmarks.iter().filter_map(|w| c.local_of(*w)).collect() };
+    let form = asked.unwrap_or(&Form::AsGiven);
     let split = match form {
         Form::AsGiven | Form::Cut => None,
         Form::Around(budget) => {
@@ -176,12 +180,13 @@ pub fn make_solvable(
         Form::Facing { camera, .. } => t.outermost_in(&super::facing::projection(camera, &main.mesh.positions)),
         _ => t,
     });
-    let cut = match (form, &spec, &topology) {
-        (Form::AsGiven, SeamSpec::Auto, Err(e)) => return Err(SolvableError::NotADisk(e.clone())),
+    let cut = match (asked, &spec, &topology) {
+        (Some(Form::AsGiven), SeamSpec::Auto, Err(e)) => return Err(SolvableError::NotADisk(e.clone())),
         // As given, or split apart around the landmarks: a disk is solved as
         // it is; what is not a disk yet (a handle inside the part) is cut.
-        (Form::AsGiven | Form::Around(_) | Form::Facing { .. }, SeamSpec::Auto, Ok(_)) => None,
-        (Form::Cut, SeamSpec::Auto, _) => {
+        (None | Some(Form::AsGiven | Form::Around(_) | Form::Facing { .. }), SeamSpec::Auto, Ok(_)) => None,
+        // Cut where asked, or where nothing was asked and it is no disk.
+        (Some(Form::Cut), SeamSpec::Auto, _) | (None, SeamSpec::Auto, Err(_)) => {
             let spread = SeamRules {
                 spread_disks: true,
                 ..*rules
@@ -189,6 +194,10 @@ pub fn make_solvable(
             super::open(&main.mesh, &spec, &landmark_ids, &barred, &spread)?
         }
         _ => super::open(&main.mesh, &spec, &landmark_ids, &barred, rules)?,
+    };
+    let made = match (asked, &cut) {
+        (None, Some(_)) if matches!(spec, SeamSpec::Auto) => Form::Cut,
+        _ => form.clone(),
     };
     let (chart, topology, seam, seam_copies) = match cut {
         None => (main, topology?, None, 0),
@@ -209,6 +218,7 @@ pub fn make_solvable(
         rest,
         pieces,
         separation,
+        made,
     })
 }
 
