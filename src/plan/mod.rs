@@ -360,15 +360,37 @@ impl ChartPlan {
 
     /// The session of `key`'s chart and its attempt at the trial level.
     fn start(&self, key: &Candidate) -> Result<(ChartSession, Attempt), Error> {
+        let elapsed = self.elapsed_ms();
+        // Another start of a form and boundary tried on a coarse level
+        // already is solved on that level: it is not made again.
+        if let Some(tried) = self.same_level(key) {
+            let attempt = Attempt::new(
+                tried.chart.clone(),
+                key.start,
+                tried.session.source(),
+                &self.options,
+                elapsed,
+            )?;
+            return Ok((tried.session.clone(), attempt));
+        }
         let mut session = if key.form == Form::AsGiven && key.boundary.is_none() {
             self.base.clone()
         } else {
             self.base.reshaped(&key.form, key.boundary)?
         };
-        let elapsed = self.elapsed_ms();
         let chart = self.trial_level(&mut session, elapsed)?;
         let attempt = Attempt::new(chart, key.start, session.source(), &self.options, elapsed)?;
         Ok((session, attempt))
+    }
+
+    /// A tried candidate of `key`'s form and boundary whose coarse level
+    /// is kept.
+    fn same_level(&self, key: &Candidate) -> Option<&Tried> {
+        self.trials
+            .iter()
+            .filter(|t| t.key.form == key.form && t.key.boundary == key.boundary)
+            .find_map(|t| t.tried.as_ref())
+            .filter(|t| t.chart.level.is_some())
     }
 
     /// The chart a candidate is tried on: its coarse level when it is
