@@ -188,7 +188,8 @@ fn cleared(
         ..session.pick().clone()
     };
     let (source, asset) = (session.source().clone(), session.asset().clone());
-    let prepared = chart::prepare_pick(&source, &asset, session.prepared().welded.clone(), &pick).ok()?;
+    // The same chart with obstacles: its geometry is shared.
+    let prepared = session.prepared().repicked(&source, &asset, &pick).ok()?;
     let mut plan = ChartPlan::new(
         ChartSession::from_prepared(source, asset, prepared, pick),
         *options,
