@@ -749,6 +749,11 @@ fn the_loop_is_freed_only_after_a_stall_and_never_loses_ground() {
 fn main() -> std::process::ExitCode {
     run_cases(&[
         (
+            "a_cut_that_leaves_the_chart_as_it_comes_is_not_solved_again",
+            &[],
+            a_cut_that_leaves_the_chart_as_it_comes_is_not_solved_again,
+        ),
+        (
             "witnessed_free_cases_are_reached_exactly_and_one_to_one",
             &[],
             witnessed_free_cases_are_reached_exactly_and_one_to_one,
@@ -799,4 +804,43 @@ fn main() -> std::process::ExitCode {
             a_disk_open_at_its_neck_reaches_what_it_reaches_as_it_comes,
         ),
     ])
+}
+
+/// A flat disk cut open is the disk as it comes (no cone, no handle): the
+/// planner does not solve that chart twice, and says so.
+fn a_cut_that_leaves_the_chart_as_it_comes_is_not_solved_again() {
+    let mesh = grid_mesh(12, 12);
+    let targets = [(14u32, 0.2), (22, 0.3), (118, 0.7), (130, 0.8)];
+    let constraints: Vec<(u32, DVec2)> = targets.iter().map(|&(v, t)| (v, DVec2::new(t, 1.0 - t))).collect();
+    let pins = uvpin::Pins::new(&constraints).with_boundary(uvpin::pins::BoundaryChoice::Free);
+    // No time to reach anything: every candidate is short, so each is tried.
+    let hurried = uvpin::options::SolverOptions {
+        time_budget_ms: Some(0.0),
+        ..uvpin::options::SolverOptions::DEFAULT
+    };
+    let s = uvpin::solve_mesh(&mesh, &pins, &hurried.into()).expect("a layout");
+    assert!(s.report.orientation.is_clean(), "{:?}", s.report.orientation);
+    let plan = s.report.plan.as_ref().expect("a plan");
+    let lines = plan.lines().join("\n");
+    let as_given = plan
+        .tried
+        .iter()
+        .position(|t| t.candidate == "as given, free")
+        .unwrap_or_else(|| panic!("as given, free tried:\n{lines}"));
+    let cut = plan
+        .tried
+        .iter()
+        .find(|t| t.candidate.starts_with("cut"))
+        .unwrap_or_else(|| panic!("the cut tried:\n{lines}"));
+    let uvpin::report::TrialOutcome::Dropped { why } = &cut.outcome else {
+        panic!("the cut solved again:\n{lines}");
+    };
+    assert!(
+        why.contains(&format!("same chart, boundary and start as candidate {}", as_given + 1)),
+        "{lines}"
+    );
+    assert!(
+        plan.tried.iter().all(|t| !t.candidate.starts_with("cut, free, from")),
+        "{lines}"
+    );
 }

@@ -108,6 +108,13 @@ impl Trial {
     }
 }
 
+/// A candidate opened: its session and attempt at the trial level, or the
+/// tried candidate (its index) whose chart, boundary and start it repeats.
+enum Opened {
+    Trying(Box<(ChartSession, Attempt)>),
+    SameAs(usize),
+}
+
 /// A finished plan: the chart as chosen (its session), the solver with its
 /// final layout, and the report; [`crate::assembly::finish`] adds the other
 /// charts holding landmarks.
@@ -329,7 +336,8 @@ impl ChartPlan {
         };
         let t0 = Instant::now();
         match self.start(&key) {
-            Ok((session, attempt)) => {
+            Ok(Opened::Trying(opened)) => {
+                let (session, attempt) = *opened;
                 self.state = State::Trying {
                     key,
                     session,
@@ -337,29 +345,67 @@ impl ChartPlan {
                     t0,
                 };
             }
+            Ok(Opened::SameAs(k)) => {
+                let why = format!("it makes the same chart, boundary and start as candidate {}", k + 1);
+                self.drop_trial(key, why, t0);
+            }
             Err(e) => {
-                let from = match key.start {
-                    candidates::Start::Own => "",
-                    candidates::Start::Square => ", from its solve on the square",
-                };
-                let candidate = format!("{}, {}{from}", key.form.name(), boundary_word(key.boundary));
-                self.trials.push(Trial {
-                    report: TrialReport {
-                        candidate,
-                        outcome: TrialOutcome::Dropped { why: e.to_string() },
-                        ms: ms(t0),
-                    },
-                    key,
-                    tried: None,
-                });
+                self.drop_trial(key, e.to_string(), t0);
                 self.first_error.get_or_insert(Arc::new(e));
             }
         }
         Ok(())
     }
 
+    /// Records `key` as not solved, and why.
+    fn drop_trial(&mut self, key: Candidate, why: String, t0: Instant) {
+        let from = match key.start {
+            candidates::Start::Own => "",
+            candidates::Start::Square => ", from its solve on the square",
+        };
+        let candidate = format!("{}, {}{from}", key.form.name(), boundary_word(key.boundary));
+        self.trials.push(Trial {
+            report: TrialReport {
+                candidate,
+                outcome: TrialOutcome::Dropped { why },
+                ms: ms(t0),
+            },
+            key,
+            tried: None,
+        });
+    }
+
+    /// The tried candidate (its index) with `key`'s start whose chart
+    /// `session` makes again: as given or cut, the same triangles, the
+    /// same landmarks, the same kind of boundary. Its solve would be the
+    /// same.
+    fn same_chart(&self, key: &Candidate, session: &ChartSession) -> Option<usize> {
+        let plain = |form: &Form| matches!(form, Form::AsGiven | Form::Cut);
+        if !plain(&key.form) {
+            return None;
+        }
+        let (a, opening) = (session.prepared(), &session.prepared().opening);
+        if !(opening.pieces.is_empty() && opening.separation.is_empty()) {
+            return None;
+        }
+        self.trials.iter().position(|t| {
+            t.key.start == key.start
+                && plain(&t.key.form)
+                && t.tried.as_ref().is_some_and(|tried| {
+                    let b = tried.session.prepared();
+                    b.opening.pieces.is_empty()
+                        && b.opening.separation.is_empty()
+                        && a.chart.welded_ids == b.chart.welded_ids
+                        && a.chart.mesh.triangles == b.chart.mesh.triangles
+                        && a.filled.mesh.triangles == b.filled.mesh.triangles
+                        && a.constraint_vertices == b.constraint_vertices
+                        && std::mem::discriminant(&a.domain) == std::mem::discriminant(&b.domain)
+                })
+        })
+    }
+
     /// The session of `key`'s chart and its attempt at the trial level.
-    fn start(&self, key: &Candidate) -> Result<(ChartSession, Attempt), Error> {
+    fn start(&self, key: &Candidate) -> Result<Opened, Error> {
         let elapsed = self.elapsed_ms();
         // Another start of a form and boundary tried on a coarse level
         // already is solved on that level: it is not made again.
@@ -371,16 +417,19 @@ impl ChartPlan {
                 &self.options,
                 elapsed,
             )?;
-            return Ok((tried.session.clone(), attempt));
+            return Ok(Opened::Trying(Box::new((tried.session.clone(), attempt))));
         }
         let mut session = if key.form == Form::AsGiven && key.boundary.is_none() {
             self.base.clone()
         } else {
             self.base.reshaped(&key.form, key.boundary)?
         };
+        if let Some(k) = self.same_chart(key, &session) {
+            return Ok(Opened::SameAs(k));
+        }
         let chart = self.trial_level(&mut session, elapsed)?;
         let attempt = Attempt::new(chart, key.start, session.source(), &self.options, elapsed)?;
-        Ok((session, attempt))
+        Ok(Opened::Trying(Box::new((session, attempt))))
     }
 
     /// A tried candidate of `key`'s form and boundary whose coarse level
