@@ -188,8 +188,9 @@ fn cleared(
         ..session.pick().clone()
     };
     let (source, asset) = (session.source().clone(), session.asset().clone());
-    // The same chart with obstacles: its geometry is shared.
-    let prepared = session.prepared().repicked(&source, &asset, &pick).ok()?;
+    // Made anew: the first solve may have set pieces aside with the rest
+    // of this session's chart, which the second does not inherit.
+    let prepared = chart::prepare_pick(&source, &asset, session.prepared().welded.clone(), &pick).ok()?;
     let mut plan = ChartPlan::new(
         ChartSession::from_prepared(source, asset, prepared, pick),
         *options,

@@ -154,6 +154,7 @@ impl PreparedChart {
     /// The same chart and constraints as `pick` makes them (another form
     /// or boundary), sharing this chart's geometry where `pick`'s form
     /// makes the same (a cut asked for where the default cut already).
+    /// For a whole chart, not a piece: a `pick` of a piece is made anew.
     ///
     /// # Errors
     /// As [`prepare`].
@@ -163,7 +164,8 @@ impl PreparedChart {
         asset: &SourceAsset,
         pick: &Pick,
     ) -> Result<PreparedChart, Error> {
-        prepare_on(source, asset, self.welded.clone(), Some(self), pick)
+        let previous = Some(self).filter(|_| pick.piece.is_none());
+        prepare_on(source, asset, self.welded.clone(), previous, pick)
     }
 }
 

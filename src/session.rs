@@ -169,12 +169,7 @@ impl ChartSession {
             boundary: boundary.or(self.pick.boundary),
             ..self.pick.clone()
         };
-        // A piece's geometry is its own: only a whole chart's is shared.
-        let prepared = if self.pick.piece.is_none() {
-            self.prepared.repicked(&self.source, &self.asset, &pick)?
-        } else {
-            chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick)?
-        };
+        let prepared = self.prepared.repicked(&self.source, &self.asset, &pick)?;
         let mut session = ChartSession::from_prepared(self.source.clone(), self.asset.clone(), prepared, pick);
         session.times = StageTimes {
             load_ms: self.times.load_ms,
