@@ -505,8 +505,9 @@ fn chart_geometry(
                 source,
             }
         })?;
-    let cut_by_default = form.is_none() && solvable.made == Form::Cut;
     let auto_cut = (solvable.seam.is_some() || !solvable.separation.is_empty()) && matches!(spec, SeamSpec::Auto);
+    // Nothing asked and seams automatic: a seam means it was no disk.
+    let cut_by_default = form.is_none() && solvable.seam.is_some() && matches!(spec, SeamSpec::Auto);
     let opening = Opening {
         rest: solvable.rest.into_iter().map(Arc::new).collect(),
         pieces: solvable.pieces.into_iter().map(Arc::new).collect(),

@@ -40,9 +40,6 @@ pub struct Solvable {
     /// Where the landmarks' chart was cut from the rest, welded pairs
     /// (empty when it fitted).
     pub separation: Vec<[u32; 2]>,
-    /// The form it was made in: [`Form::Cut`] where none was asked for and
-    /// it was no disk.
-    pub made: Form,
 }
 
 /// Why a chart cannot be made solvable.
@@ -195,10 +192,6 @@ pub fn make_solvable(
         }
         _ => super::open(&main.mesh, &spec, &landmark_ids, &barred, rules)?,
     };
-    let made = match (asked, &cut) {
-        (None, Some(_)) if matches!(spec, SeamSpec::Auto) => Form::Cut,
-        _ => form.clone(),
-    };
     let (chart, topology, seam, seam_copies) = match cut {
         None => (main, topology?, None, 0),
         Some(opened) => (
@@ -218,7 +211,6 @@ pub fn make_solvable(
         rest,
         pieces,
         separation,
-        made,
     })
 }
 

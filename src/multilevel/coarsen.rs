@@ -171,18 +171,13 @@ pub fn coarsen(mesh: &TriMesh, plan: Plan) -> Hierarchy {
     }
 }
 
-/// Whether each vertex of `mesh` is on an edge of one triangle only.
+/// Whether each vertex of `mesh` is on an edge of one triangle only (the
+/// filled chart is wound one way, so its boundary edges are exactly those).
 fn border_vertices(mesh: &TriMesh) -> Vec<bool> {
-    let mut edges: Vec<(u32, u32)> = mesh
-        .triangles
-        .iter()
-        .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
-        .collect();
-    edges.sort_unstable();
     let mut out = vec![false; mesh.n_vertices()];
-    for run in edges.chunk_by(|a, b| a == b).filter(|run| run.len() == 1) {
-        out[run[0].0 as usize] = true;
-        out[run[0].1 as usize] = true;
+    for [a, b] in crate::injective::boundary_edges(&mesh.triangles) {
+        out[a as usize] = true;
+        out[b as usize] = true;
     }
     out
 }

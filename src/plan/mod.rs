@@ -381,11 +381,9 @@ impl ChartPlan {
     /// same.
     fn same_chart(&self, key: &Candidate, session: &ChartSession) -> Option<usize> {
         let plain = |form: &Form| matches!(form, Form::AsGiven | Form::Cut);
-        if !plain(&key.form) {
-            return None;
-        }
-        let (a, opening) = (session.prepared(), &session.prepared().opening);
-        if !(opening.pieces.is_empty() && opening.separation.is_empty()) {
+        let whole = |p: &crate::chart::PreparedChart| p.opening.pieces.is_empty() && p.opening.separation.is_empty();
+        let a = session.prepared();
+        if !(plain(&key.form) && whole(a)) {
             return None;
         }
         self.trials.iter().position(|t| {
@@ -393,8 +391,7 @@ impl ChartPlan {
                 && plain(&t.key.form)
                 && t.tried.as_ref().is_some_and(|tried| {
                     let b = tried.session.prepared();
-                    b.opening.pieces.is_empty()
-                        && b.opening.separation.is_empty()
+                    whole(b)
                         && a.chart.welded_ids == b.chart.welded_ids
                         && a.chart.mesh.triangles == b.chart.mesh.triangles
                         && a.filled.mesh.triangles == b.filled.mesh.triangles
