@@ -211,7 +211,7 @@ fn prepare_on(
         .into_iter()
         .filter(|c| chart.local_of(c.welded).is_some())
         .collect();
-    let constraint_vertices = constraints
+    let constraint_vertices: Vec<u32> = constraints
         .iter()
         .map(|c| chart.local_of(c.welded).expect("constraint in the chart"))
         .collect();
@@ -242,7 +242,7 @@ fn prepare_on(
         decided_by,
     )?;
     if let (Some(Form::Facing { camera, sight, .. }), Domain::Free(setup)) = (&pick.form, &domain)
-        && let Some(layout) = crate::domain::start::projection_start((camera, *sight), &filled)
+        && let Some(layout) = crate::domain::start::projection_start((camera, *sight), &filled, &constraint_vertices)
     {
         domain = Domain::Free(Arc::new(
             setup.starting_from(layout, crate::domain::start::StartKind::Projection),

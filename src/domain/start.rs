@@ -148,17 +148,23 @@ fn through_targets(
 /// vertex). Seen whole ([`Sight::Whole`]), the triangles around a landmark
 /// that the camera does not see whole (behind it on a silhouette, or half
 /// behind another part) are fanned out across the gap the seen ones leave
-/// ([`super::unfold`]) and slivers nudged positive. A hole seen at a slant
+/// ([`super::unfold`]); slivers are nudged positive in either view. A hole seen at a slant
 /// (a bore's rim and the part of its wall the camera sees) need not be
 /// star-shaped about any point: its fan and the loop are then untangled
-/// with the rest. `None` when a triangle still folds.
+/// with the rest. The landmarks (`landmarks`, local vertices) stay where the
+/// camera puts them — on their targets — while their neighbours can make
+/// room; they move only when nothing else untangles. `None` when a
+/// triangle still folds.
 pub fn projection_start(
     (camera, sight): (&crate::cut::facing::Camera, Sight),
     filled: &FilledChart,
+    landmarks: &[u32],
 ) -> Option<Vec<DVec2>> {
     let n = filled.n_real_vertices;
     let real = &filled.mesh.triangles[..filled.n_real_triangles];
     let mut layout = crate::cut::facing::projection(camera, &filled.mesh.positions[..n]);
+    let mut pinned = vec![false; filled.mesh.n_vertices()];
+    landmarks.iter().for_each(|&v| pinned[v as usize] = true);
     if sight == Sight::Whole {
         let towards = camera.towards();
         let chart = crate::mesh::TriMesh {
@@ -168,9 +174,9 @@ pub fn projection_start(
         let depth: Vec<f64> = chart.positions.iter().map(|p| p.dot(towards)).collect();
         let whole = crate::cut::occlusion::seen_whole(&chart, &layout, &depth);
         super::unfold::unfold_fans(&mut layout, real, &whole);
-        super::unfold::settle(&mut layout, real);
     }
-    untangle(&mut layout, real);
+    super::unfold::settle(&mut layout, real, &pinned);
+    untangle_around(&mut layout, real, &pinned);
     layout.resize(filled.mesh.n_vertices(), DVec2::ZERO);
     let fans = &filled.mesh.triangles[filled.n_real_triangles..];
     for (k, hole) in filled.holes.iter().enumerate() {
@@ -195,7 +201,19 @@ pub fn projection_start(
             .find(|&p| positive(p, &layout))
             .unwrap_or(centroid);
     }
-    untangle(&mut layout, &filled.mesh.triangles).then_some(layout)
+    super::unfold::settle(&mut layout, &filled.mesh.triangles, &pinned);
+    untangle_around(&mut layout, &filled.mesh.triangles, &pinned).then_some(layout)
+}
+
+/// [`untangle`] with the `pinned` vertices kept in place or, when that
+/// leaves a triangle folded, with every vertex free to move.
+fn untangle_around(layout: &mut [DVec2], triangles: &[[u32; 3]], pinned: &[bool]) -> bool {
+    let mut kept = layout.to_vec();
+    if untangle(&mut kept, triangles, pinned) {
+        layout.copy_from_slice(&kept);
+        return true;
+    }
+    untangle(layout, triangles, &vec![false; layout.len()])
 }
 
 /// Rounds of [`untangle`] at most.
@@ -205,23 +223,30 @@ const UNTANGLE_ROUNDS: usize = 64;
 /// (a sliver of the mesh seen edge-on, flat or just turned over) to the
 /// mean of their neighbours, round by round, until none is left or the
 /// rounds run out: the few vertices of a projection that slivers flatten.
-/// Whether every triangle is positive at the end.
-fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]]) -> bool {
-    let bad = |layout: &[DVec2]| -> Vec<u32> {
-        let mut out: Vec<u32> = triangles
+/// The `pinned` vertices stay. Whether every triangle is positive at the end.
+fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]], pinned: &[bool]) -> bool {
+    // The movable corners of the triangles not positive; `None` when none is left.
+    let bad = |layout: &[DVec2]| -> Option<Vec<u32>> {
+        let folded: Vec<&[u32; 3]> = triangles
             .iter()
             .filter(|t| guard::orientation(layout[t[0] as usize], layout[t[1] as usize], layout[t[2] as usize]) <= 0.0)
+            .collect();
+        if folded.is_empty() {
+            return None;
+        }
+        let mut out: Vec<u32> = folded
+            .into_iter()
             .flatten()
             .copied()
+            .filter(|&v| !pinned[v as usize])
             .collect();
         out.sort_unstable();
         out.dedup();
-        out
+        Some(out)
     };
-    let mut vertices = bad(layout);
-    if vertices.is_empty() {
+    let Some(mut vertices) = bad(layout) else {
         return true;
-    }
+    };
     let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); layout.len()];
     for t in triangles {
         for k in 0..3 {
@@ -236,9 +261,10 @@ fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]]) -> bool {
                 layout[v as usize] = around.iter().map(|&w| layout[w as usize]).sum::<DVec2>() / around.len() as f64;
             }
         }
-        vertices = bad(layout);
-        if vertices.is_empty() {
-            return true;
+        match bad(layout) {
+            None => return true,
+            Some(v) if v.is_empty() => return false,
+            Some(v) => vertices = v,
         }
     }
     false
@@ -383,6 +409,7 @@ pub fn fit_into_room(
         && let Some(layout) = [boxed_in(&placed, problem, (lo, hi)), drawn_in(&placed, (lo, hi))]
             .into_iter()
             .flatten()
+            .filter_map(|layout| mended(layout, triangles, &problem.constraint_vertices))
             .find(|layout| room.admits(layout).is_ok() && guard::all_positive_as_stored(layout, triangles))
     {
         return Some(ChosenStart {
@@ -430,6 +457,19 @@ pub fn fit_into_room(
         }
     }
     None
+}
+
+/// `layout` with the few triangles a squeeze turned over nudged positive
+/// ([`super::unfold::settle`], then [`untangle`]), the `landmarks` kept on
+/// their targets; `None` when one still folds.
+fn mended(mut layout: Vec<DVec2>, triangles: &[[u32; 3]], landmarks: &[u32]) -> Option<Vec<DVec2>> {
+    if guard::all_positive(&layout, triangles) {
+        return Some(layout);
+    }
+    let mut pinned = vec![false; layout.len()];
+    landmarks.iter().for_each(|&v| pinned[v as usize] = true);
+    super::unfold::settle(&mut layout, triangles, &pinned);
+    untangle(&mut layout, triangles, &pinned).then_some(layout)
 }
 
 /// A camera's view that reaches past its region drawn in about the
@@ -792,5 +832,25 @@ mod tests {
         }
         let small: Vec<DVec2> = layout.iter().map(|p| 0.5 + (*p - 0.5) * 0.5).collect();
         assert_eq!(boxed_in(&small, &problem, room), None, "a view inside is left alone");
+    }
+
+    #[test]
+    fn a_sliver_next_to_a_landmark_is_untangled_with_the_landmark_kept() {
+        let mesh = grid_mesh(8, 8);
+        let mut layout: Vec<DVec2> = mesh.positions.iter().map(|p| p.truncate()).collect();
+        // A landmark inside and its right-hand neighbour pushed past it: the
+        // triangles between them turn over, as an edge seen side-on does.
+        let (landmark, neighbour) = (3 * 8 + 3, 3 * 8 + 4);
+        layout[neighbour] = layout[landmark] - DVec2::new(0.02, 0.0);
+        assert!(!guard::all_positive(&layout, &mesh.triangles));
+        let mut pinned = vec![false; layout.len()];
+        pinned[landmark] = true;
+        let target = layout[landmark];
+        assert!(untangle_around(&mut layout, &mesh.triangles, &pinned));
+        assert!(
+            guard::all_positive(&layout, &mesh.triangles),
+            "every triangle turned back"
+        );
+        assert_eq!(layout[landmark], target, "the landmark stays on its target");
     }
 }

@@ -193,8 +193,9 @@ const MAX_VALENCE: usize = 32;
 /// smallest of the triangles around it is largest, among points towards
 /// each neighbour and towards their mean: a sliver is turned the right way
 /// by a nudge its neighbours have room for. Round by round, until none is
-/// left or a round moves nothing.
-pub fn settle(layout: &mut [DVec2], triangles: &[[u32; 3]]) {
+/// left or a round moves nothing. The `pinned` vertices (landmarks on
+/// their targets) stay.
+pub fn settle(layout: &mut [DVec2], triangles: &[[u32; 3]], pinned: &[bool]) {
     let mut around: Vec<Vec<u32>> = vec![Vec::new(); layout.len()];
     for (t, tri) in triangles.iter().enumerate() {
         tri.iter().for_each(|&v| around[v as usize].push(t as u32));
@@ -219,7 +220,7 @@ pub fn settle(layout: &mut [DVec2], triangles: &[[u32; 3]]) {
             // to the untangle: its spots cost its valence squared.
             let best = triangles[t as usize]
                 .iter()
-                .filter(|&&v| around[v as usize].len() <= MAX_VALENCE)
+                .filter(|&&v| around[v as usize].len() <= MAX_VALENCE && !pinned[v as usize])
                 .filter_map(|&v| best_spot(v, &around[v as usize], layout, triangles).map(|p| (v, p)))
                 .max_by(|a, b| a.1.1.total_cmp(&b.1.1));
             if let Some((v, (p, _))) = best {
@@ -305,7 +306,7 @@ mod tests {
             DVec2::new(1.0, 1.0),
         ];
         let triangles = [[0, 1, 2], [0, 2, 3], [2, 1, 3]];
-        settle(&mut layout, &triangles);
+        settle(&mut layout, &triangles, &[false; 4]);
         for t in &triangles {
             let [a, b, c] = t.map(|v| layout[v as usize]);
             assert!(guard::orientation(a, b, c) > 0.0, "{t:?} at {layout:?}");
