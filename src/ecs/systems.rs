@@ -110,7 +110,7 @@ pub fn complete_constraints(
 ) {
     for (entity, mut planning) in &mut charts {
         if let Some(solver) = planning.0.solver_mut().filter(|s| !s.is_done()) {
-            let result = solver.newton_tick();
+            let result = solver.newton_tick().or_else(|e| planning.0.solver_failed(e));
             fail_on(&mut commands, entity, result);
         }
     }

@@ -224,9 +224,30 @@ impl ChartPlan {
     /// # Errors
     /// As [`Self::advance`] and [`ChartSolver::tick`].
     pub fn tick(&mut self) -> Result<(), Error> {
-        match self.solver_mut() {
+        let ticked = match self.solver_mut() {
             Some(solver) if !solver.is_done() => solver.tick(),
-            _ => self.advance(),
+            _ => return self.advance(),
+        };
+        ticked.or_else(|e| self.solver_failed(e))
+    }
+
+    /// The running solver failed with `e`: a candidate on trial is dropped
+    /// with why (the plan goes on with the next); the chosen one's failure
+    /// is the plan's.
+    ///
+    /// # Errors
+    /// `e`, when the chosen candidate's solve failed.
+    pub fn solver_failed(&mut self, e: Error) -> Result<(), Error> {
+        match std::mem::replace(&mut self.state, State::Next) {
+            State::Trying { key, t0, .. } => {
+                self.drop_trial(key, e.to_string(), t0);
+                self.first_error.get_or_insert(Arc::new(e));
+                Ok(())
+            }
+            other => {
+                self.state = other;
+                Err(e)
+            }
         }
     }
 
@@ -282,7 +303,17 @@ impl ChartPlan {
                 t0,
             } => {
                 let source = session.source().clone();
-                if !attempt.advance(&source, &self.options)? {
+                // A candidate whose solve fails (no room for it) is dropped
+                // with why; the plan goes on with the next.
+                let advanced = match attempt.advance(&source, &self.options) {
+                    Ok(advanced) => advanced,
+                    Err(e) => {
+                        self.drop_trial(key, e.to_string(), t0);
+                        self.first_error.get_or_insert(Arc::new(e));
+                        return Ok(());
+                    }
+                };
+                if !advanced {
                     self.state = State::Trying {
                         key,
                         session,
@@ -579,6 +610,27 @@ impl ChartPlan {
     /// coarse level can crush what the chart has room for, and a set a
     /// fold-free layout of the chart witnesses is not lost to it.
     fn choose(&mut self, i: usize, why: &'static str) -> Result<(), Error> {
+        match self.start_finishing(i, why) {
+            Ok(()) => {
+                self.trials.iter_mut().for_each(|t| t.tried = None);
+                Ok(())
+            }
+            // Solved on its level but with no start on the chart itself (no
+            // room there): dropped on that evidence, the next best chosen.
+            Err(e) if self.trials.iter().any(|t| t.tried.is_some()) => {
+                self.chosen = None;
+                self.trials[i].report.outcome = TrialOutcome::Dropped {
+                    why: format!("solved on its level, but not on the chart itself: {e}"),
+                };
+                self.choose_best()
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The chosen candidate (`i`) put onto the chart itself, its solve there
+    /// started.
+    fn start_finishing(&mut self, i: usize, why: &'static str) -> Result<(), Error> {
         self.chosen = Some((i, why));
         let Some(Tried {
             mut session,
@@ -588,7 +640,6 @@ impl ChartPlan {
         else {
             return Err(Error::Internal("the chosen candidate was not solved".into()));
         };
-        self.trials.iter_mut().for_each(|t| t.tried = None);
         let Some(level) = chart.level else {
             return self.finish(session, solver);
         };
