@@ -823,3 +823,51 @@ pub fn solve(session: ChartSession, options: &SolverOptions) -> Result<Solution,
     plan.run()?;
     plan.into_solution()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pins::Pins;
+
+    /// A plan on a flat sheet pinned inside: on the square by default, free
+    /// next.
+    fn sheet_plan() -> ChartPlan {
+        let at = |i: u32, j: u32| i + 10 * j;
+        let pins = Pins::new(&[
+            (at(3, 3), DVec2::new(0.3, 0.3)),
+            (at(6, 3), DVec2::new(0.65, 0.3)),
+            (at(5, 6), DVec2::new(0.5, 0.7)),
+        ]);
+        let asset = Arc::new(crate::io::SourceAsset::from_mesh(&crate::testing::grid_mesh(10, 10)));
+        let source = crate::constraints::ConstraintSource::Memory(Arc::new(pins));
+        let session = ChartSession::open(source, asset, 0.0).expect("a session");
+        ChartPlan::new(session, SolverOptions::DEFAULT, StartFrom::StepOne)
+    }
+
+    #[test]
+    fn a_candidate_whose_solve_fails_is_dropped_and_the_plan_goes_on() {
+        let mut plan = sheet_plan();
+        while !matches!(plan.state, State::Trying { .. }) {
+            plan.tick().expect("a tick");
+        }
+        plan.solver_failed(Error::Internal("no room here (a test)".into()))
+            .expect("a candidate on trial is dropped, not the plan's error");
+        plan.run().expect("the next candidate is solved");
+        let report = plan.report();
+        match &report.tried[0].outcome {
+            TrialOutcome::Dropped { why } => assert!(why.contains("no room here"), "{why}"),
+            other => panic!("the failed candidate is reported dropped: {other:?}"),
+        }
+        assert!(
+            report.chosen.is_some_and(|c| c > 0),
+            "another candidate won: {report:?}"
+        );
+        let solution = plan.into_solution().expect("done");
+        assert_eq!(
+            solution.report.status,
+            report::Status::Reached,
+            "{:?}",
+            solution.report.message
+        );
+    }
+}
