@@ -320,7 +320,8 @@ fn account_for_every_constraint(session: &ChartSession, report: &mut Report) {
         |c| !named.contains(&c.index),
         |first| {
             format!(
-                "constraints[{first}] is on a part of the mesh that was laid out without it (set apart by a repair)"
+                "constraints[{first}] is on a part of the mesh that was laid out without it (set apart by a repair, or a \
+                 piece that could not be solved)"
             )
         },
     );

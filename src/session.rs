@@ -304,9 +304,13 @@ impl ChartSession {
     }
 
     /// Lays `pieces` (of the chart, holding landmarks that could not be
-    /// solved) out with the rest from now on.
+    /// solved) out with the rest from now on, and no longer as pieces
+    /// solved beside the chart: a later solve of this session (new
+    /// targets) lays each out once, packed.
     pub fn lay_with_rest(&mut self, pieces: impl IntoIterator<Item = Arc<crate::mesh::weld::Chart>>) {
         let mut opening = (*self.prepared.opening).clone();
+        let pieces: Vec<_> = pieces.into_iter().collect();
+        opening.pieces.retain(|p| !pieces.iter().any(|q| Arc::ptr_eq(p, q)));
         opening.rest.extend(pieces);
         self.prepared.opening = Arc::new(opening);
         self.rest = Arc::default();
@@ -435,4 +439,43 @@ impl ChartSession {
 /// A step asked for before the one it needs (a bug of the caller).
 fn not_yet(what: &str) -> Error {
     Error::Internal(format!("{what} is needed first"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pins::Pins;
+
+    #[test]
+    fn a_piece_laid_out_with_the_rest_is_no_longer_solved_beside_the_chart() {
+        // Two sheets meeting at one corner (a pinched vertex), a landmark
+        // on each: the chart is split there, the second sheet a piece.
+        let grid = crate::testing::grid_mesh(6, 6);
+        let n = grid.n_vertices() as u32;
+        let mut mesh = grid.clone();
+        let corner = grid.positions[(n - 1) as usize];
+        mesh.positions.extend(grid.positions.iter().map(|p| *p + corner));
+        mesh.triangles.extend(
+            grid.triangles
+                .iter()
+                .map(|t| t.map(|v| if v == 0 { n - 1 } else { v + n })),
+        );
+        let pins = Pins::new(&[
+            (7, DVec2::new(0.2, 0.3)),
+            (14, DVec2::new(0.35, 0.45)),
+            (n + 21, DVec2::new(0.7, 0.75)),
+            (n + 28, DVec2::new(0.8, 0.8)),
+        ]);
+        let asset = Arc::new(SourceAsset::from_mesh(&mesh));
+        let source = ConstraintSource::Memory(Arc::new(pins));
+        let mut session = ChartSession::open(source, asset, 0.0).expect("a session");
+        let pieces = session.prepared().opening.pieces.clone();
+        assert_eq!(pieces.len(), 1, "the second sheet is a piece of its own");
+        let rest = session.prepared().opening.rest.len();
+        session.lay_with_rest(pieces.clone());
+        let opening = &session.prepared().opening;
+        assert!(opening.pieces.is_empty(), "it is not solved beside the chart again");
+        assert_eq!(opening.rest.len(), rest + 1, "it is laid out once, with the rest");
+        assert!(opening.rest.iter().any(|p| Arc::ptr_eq(p, &pieces[0])));
+    }
 }
