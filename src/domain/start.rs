@@ -163,8 +163,7 @@ pub fn projection_start(
     let n = filled.n_real_vertices;
     let real = &filled.mesh.triangles[..filled.n_real_triangles];
     let mut layout = crate::cut::facing::projection(camera, &filled.mesh.positions[..n]);
-    let mut pinned = vec![false; filled.mesh.n_vertices()];
-    landmarks.iter().for_each(|&v| pinned[v as usize] = true);
+    let pinned = super::unfold::pinned(filled.mesh.n_vertices(), landmarks);
     if sight == Sight::Whole {
         let towards = camera.towards();
         let chart = crate::mesh::TriMesh {
@@ -466,8 +465,7 @@ fn mended(mut layout: Vec<DVec2>, triangles: &[[u32; 3]], landmarks: &[u32]) -> 
     if guard::all_positive(&layout, triangles) {
         return Some(layout);
     }
-    let mut pinned = vec![false; layout.len()];
-    landmarks.iter().for_each(|&v| pinned[v as usize] = true);
+    let pinned = super::unfold::pinned(layout.len(), landmarks);
     super::unfold::settle(&mut layout, triangles, &pinned);
     untangle(&mut layout, triangles, &pinned).then_some(layout)
 }

@@ -188,6 +188,14 @@ const SETTLE_ROUNDS: usize = 16;
 /// [`settle`] moves no corner of more triangles than this.
 const MAX_VALENCE: usize = 32;
 
+/// Which of `n` vertices are `landmarks`: those [`settle`] and the
+/// untangle keep where they are.
+pub fn pinned(n: usize, landmarks: &[u32]) -> Vec<bool> {
+    let mut out = vec![false; n];
+    landmarks.iter().for_each(|&v| out[v as usize] = true);
+    out
+}
+
 /// Moves a corner of every non-positive triangle of `layout` (a sliver
 /// seen edge-on between two faces, all its corners placed) to where the
 /// smallest of the triangles around it is largest, among points towards

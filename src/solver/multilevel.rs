@@ -359,11 +359,7 @@ fn coarse_domain(prepared: &PreparedChart, fine_ids: &[u32], coarse: &FilledChar
     let mut setup = (**setup).clone();
     if let Some(given) = &setup.given {
         let mut layout: Vec<DVec2> = fine_ids.iter().map(|&f| given.layout[f as usize]).collect();
-        let mut landmark = vec![false; prepared.filled.mesh.n_vertices()];
-        prepared
-            .constraint_vertices
-            .iter()
-            .for_each(|&v| landmark[v as usize] = true);
+        let landmark = crate::domain::unfold::pinned(prepared.filled.mesh.n_vertices(), &prepared.constraint_vertices);
         let pinned: Vec<bool> = fine_ids.iter().map(|&f| landmark[f as usize]).collect();
         crate::domain::unfold::settle(&mut layout, &coarse.mesh.triangles, &pinned);
         setup.given = crate::guard::all_positive(&layout, &coarse.mesh.triangles).then(|| crate::free::GivenStart {
