@@ -240,8 +240,7 @@ impl ChartPlan {
     pub fn solver_failed(&mut self, e: Error) -> Result<(), Error> {
         match std::mem::replace(&mut self.state, State::Next) {
             State::Trying { key, t0, .. } => {
-                self.drop_trial(key, e.to_string(), t0);
-                self.first_error.get_or_insert(Arc::new(e));
+                self.fail_trial(key, e, t0);
                 Ok(())
             }
             other => {
@@ -308,8 +307,7 @@ impl ChartPlan {
                 let advanced = match attempt.advance(&source, &self.options) {
                     Ok(advanced) => advanced,
                     Err(e) => {
-                        self.drop_trial(key, e.to_string(), t0);
-                        self.first_error.get_or_insert(Arc::new(e));
+                        self.fail_trial(key, e, t0);
                         return Ok(());
                     }
                 };
@@ -380,12 +378,16 @@ impl ChartPlan {
                 let why = format!("it makes the same chart, boundary and start as candidate {}", k + 1);
                 self.drop_trial(key, why, t0);
             }
-            Err(e) => {
-                self.drop_trial(key, e.to_string(), t0);
-                self.first_error.get_or_insert(Arc::new(e));
-            }
+            Err(e) => self.fail_trial(key, e, t0),
         }
         Ok(())
+    }
+
+    /// Records `key` as not solved because of `e`, kept as the plan's
+    /// error should no candidate be solved.
+    fn fail_trial(&mut self, key: Candidate, e: Error, t0: Instant) {
+        self.drop_trial(key, e.to_string(), t0);
+        self.first_error.get_or_insert(Arc::new(e));
     }
 
     /// Records `key` as not solved, and why.
@@ -838,9 +840,7 @@ mod tests {
             (at(6, 3), DVec2::new(0.65, 0.3)),
             (at(5, 6), DVec2::new(0.5, 0.7)),
         ]);
-        let asset = Arc::new(crate::io::SourceAsset::from_mesh(&crate::testing::grid_mesh(10, 10)));
-        let source = crate::constraints::ConstraintSource::Memory(Arc::new(pins));
-        let session = ChartSession::open(source, asset, 0.0).expect("a session");
+        let session = ChartSession::of_mesh(&crate::testing::grid_mesh(10, 10), pins).expect("a session");
         ChartPlan::new(session, SolverOptions::DEFAULT, StartFrom::StepOne)
     }
 
