@@ -315,8 +315,7 @@ pub fn step_one(mesh: &TriMesh, corners: Option<[u32; 4]>) -> Result<MeshStepOne
         corners,
         ..Pins::default()
     };
-    let source = ConstraintSource::Memory(Arc::new(pins));
-    let mut session = ChartSession::open(source, Arc::new(SourceAsset::from_mesh(mesh)), 0.0)?;
+    let mut session = ChartSession::of_mesh(mesh, pins)?;
     session.run_step_one()?;
     let step_one = session
         .step_one()
@@ -337,8 +336,7 @@ pub fn step_one(mesh: &TriMesh, corners: Option<[u32; 4]>) -> Result<MeshStepOne
 /// # Errors
 /// As [`solve_mesh`].
 pub fn unreachable_proof(mesh: &TriMesh, pins: &Pins) -> Result<Option<String>, Error> {
-    let source = ConstraintSource::Memory(Arc::new(pins.clone()));
-    let mut session = ChartSession::open(source, Arc::new(SourceAsset::from_mesh(mesh)), 0.0)?;
+    let mut session = ChartSession::of_mesh(mesh, pins.clone())?;
     session.run_step_one()?;
     let (Some(boundary), Some(layout)) = (session.boundary(), session.step_one_layout()) else {
         return Err(Error::Internal("step 1 was not solved".into()));

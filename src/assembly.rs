@@ -426,9 +426,7 @@ mod tests {
             (n + at(4, 5), DVec2::new(0.62, 0.58)),
             (n + at(7, 5), DVec2::new(0.64, 0.58)),
         ]);
-        let asset = Arc::new(crate::io::SourceAsset::from_mesh(&mesh));
-        let source = crate::constraints::ConstraintSource::Memory(Arc::new(pins));
-        let mut session = ChartSession::open(source, asset, 0.0).expect("a session");
+        let mut session = ChartSession::of_mesh(&mesh, pins).expect("a session");
         let solved = solve(&mut session, &SolverOptions::DEFAULT).expect("a solve");
         assert!(
             session.pick().placed.is_empty(),

@@ -98,6 +98,15 @@ fn ms(since: Instant) -> f64 {
 }
 
 impl ChartSession {
+    /// The session of `mesh`, held in memory, with `pins`.
+    ///
+    /// # Errors
+    /// As [`Self::open`].
+    pub fn of_mesh(mesh: &crate::mesh::TriMesh, pins: crate::pins::Pins) -> Result<Self, Error> {
+        let source = ConstraintSource::Memory(Arc::new(pins));
+        ChartSession::open(source, Arc::new(SourceAsset::from_mesh(mesh)), 0.0)
+    }
+
     /// The chart of `asset` that `source`'s constraints pick, prepared
     /// ([`chart::prepare`]); `load_ms` is the time already spent loading.
     ///
@@ -466,9 +475,7 @@ mod tests {
             (n + 21, DVec2::new(0.7, 0.75)),
             (n + 28, DVec2::new(0.8, 0.8)),
         ]);
-        let asset = Arc::new(SourceAsset::from_mesh(&mesh));
-        let source = ConstraintSource::Memory(Arc::new(pins));
-        let mut session = ChartSession::open(source, asset, 0.0).expect("a session");
+        let mut session = ChartSession::of_mesh(&mesh, pins).expect("a session");
         let pieces = session.prepared().opening.pieces.clone();
         assert_eq!(pieces.len(), 1, "the second sheet is a piece of its own");
         let rest = session.prepared().opening.rest.len();
