@@ -142,7 +142,7 @@ pub fn load(
     let loaded = LoadedConstraints::load_within(constraints_path, defaults, input)?;
     let asset_path = loaded.asset_path();
     let asset =
-        io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set, input).map_err(|e| match e {
+        io::load_asset(&asset_path, loaded.file.mesh.as_ref(), loaded.file.uv_set(), input).map_err(|e| match e {
             io::AssetError::Read { source, .. } if source.is_not_found() => loaded
                 .asset_error("asset", format!("{} does not exist", asset_path.display()))
                 .into(),

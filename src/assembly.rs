@@ -124,17 +124,45 @@ fn run(
 /// first when `stop` says so during the second).
 pub fn finish(session: &mut ChartSession, planned: crate::plan::Solution, stop: &dyn Fn() -> bool) -> Solution {
     let options = *planned.solver.options();
-    let first = around(session, planned);
-    if reached(&first.report) == first.report.every_constraint().count() {
-        return first;
+    let mut best = around(session, planned);
+    let all = |s: &Solution| reached(&s.report) == s.report.every_constraint().count();
+    if !all(&best) {
+        let again = cleared(session, &best, &options, stop);
+        best = better_of(session, best, again, |n, first| {
+            format!(
+                "solved again clear of the other pieces' targets: {n} constraints reached, against {first} the first time"
+            )
+        });
     }
-    match cleared(session, &first, &options, stop) {
+    if !all(&best) {
+        let fresh = session
+            .afresh()
+            .and_then(|s| s.ok())
+            .and_then(|s| solved_again(s, &options, stop));
+        best = better_of(session, best, fresh, |n, first| {
+            format!("laid out afresh without the atlas in its set: {n} constraints reached, against {first} keeping it")
+        });
+    }
+    if let Some(note) = session.atlas_note() {
+        best.report.warnings.push(note);
+    }
+    best
+}
+
+/// `first`, or `again` (and its session) when it reaches more constraints,
+/// with `why` (constraints reached again and first) in its explain.
+fn better_of(
+    session: &mut ChartSession,
+    first: Solution,
+    again: Option<(ChartSession, Solution)>,
+    why: impl Fn(usize, usize) -> String,
+) -> Solution {
+    match again {
         Some((again, mut solution)) if reached(&solution.report) > reached(&first.report) => {
-            solution.report.explain.push(format!(
-                "solved again clear of the other pieces' targets: {} constraints reached, against {} the first time",
-                reached(&solution.report),
-                reached(&first.report)
-            ));
+            solution
+                .report
+                .explain
+                .push(why(reached(&solution.report), reached(&first.report)));
             *session = again;
             session.forget_placed();
             solution
@@ -187,15 +215,19 @@ fn cleared(
         placed: Arc::new(kept),
         ..session.pick().clone()
     };
-    let (source, asset) = (session.source().clone(), session.asset().clone());
     // Made anew: the first solve may have set pieces aside with the rest
     // of this session's chart, which the second does not inherit.
-    let prepared = chart::prepare_pick(&source, &asset, session.prepared().welded.clone(), &pick).ok()?;
-    let mut plan = ChartPlan::new(
-        ChartSession::from_prepared(source, asset, prepared, pick),
-        *options,
-        StartFrom::StepOne,
-    );
+    solved_again(session.picked(pick).ok()?, options, stop)
+}
+
+/// `session` planned and finished around (no second solve of its own);
+/// `None` when a solve fails or `stop` says so.
+fn solved_again(
+    session: ChartSession,
+    options: &SolverOptions,
+    stop: &dyn Fn() -> bool,
+) -> Option<(ChartSession, Solution)> {
+    let mut plan = ChartPlan::new(session, *options, StartFrom::StepOne);
     while !plan.is_done() {
         if stop() {
             return None;

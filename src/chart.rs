@@ -571,6 +571,26 @@ impl PreparedChart {
     pub fn same_geometry(&self, other: &PreparedChart) -> bool {
         Arc::ptr_eq(&self.filled, &other.filled)
     }
+
+    /// The constraints (their indices) whose targets lie strictly inside
+    /// a triangle of another chart's island kept in the set written: no
+    /// one-to-one layout of this chart beside that island reaches them.
+    pub fn targets_on_kept_islands(&self) -> Vec<usize> {
+        let Some(free) = self.domain.free().filter(|f| f.island.is_some()) else {
+            return Vec::new();
+        };
+        let o = &free.obstacles;
+        self.constraints
+            .iter()
+            .filter(|c| {
+                let t = uv_to_xy(c.target_uv);
+                o.triangles
+                    .iter()
+                    .any(|tri| crate::injective::strictly_inside(t, tri.map(|v| o.layout[v as usize])))
+            })
+            .map(|c| c.index)
+            .collect()
+    }
 }
 
 /// Tolerance for a constraint on the outer boundary to agree with the boundary map.

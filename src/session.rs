@@ -67,6 +67,25 @@ pub struct ChartSession {
     rest: Arc<std::sync::OnceLock<Arc<crate::atlas::Rest>>>,
     /// How the chart was picked and made ([`Self::reshaped`] keeps it).
     pick: chart::Pick,
+    /// Whether `asset` is the asset as read, or that asset without the
+    /// atlas its targets contradict.
+    atlas: AtlasUse,
+}
+
+/// What a session did with an atlas in the set it writes
+/// ([`crate::constraints::AtlasKeeping`]).
+#[derive(Debug, Clone, Default)]
+enum AtlasUse {
+    /// The session's asset is the asset as read.
+    #[default]
+    AsRead,
+    /// A target lay on another chart's island, and the file left the set
+    /// open: the session lays out `as_read` without its UVs. `chart` is
+    /// the chart prepared on `as_read`, kept to judge new targets cheaply.
+    Dropped {
+        as_read: Arc<SourceAsset>,
+        chart: Box<PreparedChart>,
+    },
 }
 
 /// What a [`ChartSession::retarget`] kept of the session's earlier work.
@@ -97,6 +116,23 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
+/// `asset` without its atlas when `source` leaves the set open and the
+/// chart prepared on it (`on_read`) has targets on other charts' islands
+/// ([`crate::constraints::AtlasKeeping`]); `None` keeps the asset as read.
+fn atlas_against(source: &ConstraintSource, asset: &SourceAsset, on_read: &PreparedChart) -> Option<Arc<SourceAsset>> {
+    let open = source.atlas() == crate::constraints::AtlasKeeping::WhereTargetsAllow;
+    (open && !on_read.targets_on_kept_islands().is_empty()).then(|| Arc::new(asset.without_uvs()))
+}
+
+impl AtlasUse {
+    fn dropped(as_read: Arc<SourceAsset>, chart: PreparedChart) -> Self {
+        AtlasUse::Dropped {
+            as_read,
+            chart: Box::new(chart),
+        }
+    }
+}
+
 impl ChartSession {
     /// The session of `mesh`, held in memory, with `pins`.
     ///
@@ -114,26 +150,22 @@ impl ChartSession {
     /// Constraint and topology errors against the asset.
     pub fn open(source: ConstraintSource, asset: Arc<SourceAsset>, load_ms: f64) -> Result<Self, Error> {
         let t0 = Instant::now();
-        let prepared = chart::prepare(&source, &asset)?;
-        let times = StageTimes {
+        let on_read = chart::prepare(&source, &asset)?;
+        let (asset, prepared, atlas) = match atlas_against(&source, &asset, &on_read) {
+            Some(fresh) => {
+                let prepared = chart::prepare(&source, &fresh)?;
+                (fresh, prepared, AtlasUse::dropped(asset, on_read))
+            }
+            None => (asset, on_read, AtlasUse::AsRead),
+        };
+        let mut session = ChartSession::from_prepared(source, asset, prepared, chart::Pick::default());
+        session.atlas = atlas;
+        session.times = StageTimes {
             load_ms,
             topology_ms: ms(t0),
             ..StageTimes::default()
         };
-        Ok(ChartSession {
-            asset,
-            source,
-            prepared,
-            boundary: None,
-            bar_net: None,
-            step_one: None,
-            pattern: None,
-            last_layout: None,
-            times,
-            revision: 0,
-            rest: Arc::default(),
-            pick: chart::Pick::default(),
-        })
+        Ok(session)
     }
 
     /// A session on a chart already prepared as `pick` says (another form
@@ -157,6 +189,7 @@ impl ChartSession {
             revision: 0,
             rest: Arc::default(),
             pick,
+            atlas: AtlasUse::AsRead,
         }
     }
 
@@ -180,12 +213,26 @@ impl ChartSession {
         };
         let prepared = self.prepared.repicked(&self.source, &self.asset, &pick)?;
         let mut session = ChartSession::from_prepared(self.source.clone(), self.asset.clone(), prepared, pick);
+        session.atlas = self.atlas.clone();
         session.times = StageTimes {
             load_ms: self.times.load_ms,
             topology_ms: self.times.topology_ms + ms(t0),
             ..StageTimes::default()
         };
         session.revision = self.revision;
+        Ok(session)
+    }
+
+    /// The same asset and constraints with the chart prepared anew as
+    /// `pick` says, on this session's weld (made anew: pieces this session
+    /// set aside with the rest are not inherited).
+    ///
+    /// # Errors
+    /// As [`ChartSession::open`].
+    pub fn picked(&self, pick: chart::Pick) -> Result<ChartSession, Error> {
+        let prepared = chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick)?;
+        let mut session = ChartSession::from_prepared(self.source.clone(), self.asset.clone(), prepared, pick);
+        session.atlas = self.atlas.clone();
         Ok(session)
     }
 
@@ -211,7 +258,7 @@ impl ChartSession {
     /// As [`ChartSession::open`]; the session is unchanged then.
     pub fn retarget(&mut self, source: ConstraintSource, load_ms: f64) -> Result<Kept, Error> {
         let t0 = Instant::now();
-        let prepared = self.prepared.retargeted(&source, &self.asset)?;
+        let (asset, prepared, atlas) = self.retargeted(&source)?;
         let kept = if !prepared.same_geometry(&self.prepared) {
             Kept::Weld
         } else if prepared.corners != self.prepared.corners {
@@ -226,8 +273,7 @@ impl ChartSession {
             (self.bar_net, self.pattern) = (None, None);
             self.rest = Arc::default();
         }
-        self.source = source;
-        self.prepared = prepared;
+        (self.asset, self.source, self.prepared, self.atlas) = (asset, source, prepared, atlas);
         self.times = StageTimes {
             load_ms,
             topology_ms: ms(t0),
@@ -235,6 +281,81 @@ impl ChartSession {
         };
         self.revision += 1;
         Ok(kept)
+    }
+
+    /// The asset, chart and atlas use for new constraints `source`: judged
+    /// on the asset as read (its chart retargeted), and on the asset
+    /// without its atlas when the targets contradict it (this session's
+    /// chart retargeted when it was laid out afresh already).
+    fn retargeted(&self, source: &ConstraintSource) -> Result<(Arc<SourceAsset>, PreparedChart, AtlasUse), Error> {
+        let (as_read, on_read) = match &self.atlas {
+            AtlasUse::AsRead => (&self.asset, self.prepared.retargeted(source, &self.asset)?),
+            AtlasUse::Dropped { as_read, chart } => (as_read, chart.retargeted(source, as_read)?),
+        };
+        let Some(fresh) = atlas_against(source, as_read, &on_read) else {
+            return Ok((as_read.clone(), on_read, AtlasUse::AsRead));
+        };
+        let prepared = match &self.atlas {
+            AtlasUse::Dropped { .. } => self.prepared.retargeted(source, &self.asset)?,
+            AtlasUse::AsRead => chart::prepare(source, &fresh)?,
+        };
+        let asset = match &self.atlas {
+            AtlasUse::Dropped { .. } => self.asset.clone(),
+            AtlasUse::AsRead => fresh,
+        };
+        Ok((asset, prepared, AtlasUse::dropped(as_read.clone(), on_read)))
+    }
+
+    /// This session's chart laid out afresh on the asset without its atlas,
+    /// for [`crate::assembly::finish`] to measure against keeping it:
+    /// `None` unless the source leaves the set open, the asset has UVs in
+    /// it and this session keeps them.
+    ///
+    /// # Errors
+    /// As [`ChartSession::open`].
+    pub fn afresh(&self) -> Option<Result<ChartSession, Error>> {
+        let open = self.source.atlas() == crate::constraints::AtlasKeeping::WhereTargetsAllow;
+        let has_atlas = self.asset.primitives.iter().any(|p| p.uvs.is_some());
+        if !(open && has_atlas && matches!(self.atlas, AtlasUse::AsRead)) {
+            return None;
+        }
+        let fresh = Arc::new(self.asset.without_uvs());
+        Some(chart::prepare(&self.source, &fresh).map(|prepared| {
+            let mut session = ChartSession::from_prepared(self.source.clone(), fresh, prepared, chart::Pick::default());
+            session.atlas = AtlasUse::dropped(self.asset.clone(), self.prepared.clone());
+            session.times.load_ms = self.times.load_ms;
+            session
+        }))
+    }
+
+    /// What the report says when the atlas in the set written was laid out
+    /// afresh, and why; `None` when it was kept.
+    pub fn atlas_note(&self) -> Option<String> {
+        let AtlasUse::Dropped { chart, .. } = &self.atlas else {
+            return None;
+        };
+        let set = self.asset.uv_set;
+        let keep = format!(
+            "write `uv_set: {set}` to keep the atlas, or `uv_set: {}` to write the new layout beside it",
+            set + 1
+        );
+        let on: Vec<String> = chart
+            .targets_on_kept_islands()
+            .iter()
+            .map(|i| format!("constraints[{i}]"))
+            .collect();
+        Some(if on.is_empty() {
+            format!(
+                "keeping the atlas in TEXCOORD_{set} reached fewer targets than laying the whole mesh out afresh: it was \
+                 laid out afresh in that set ({keep})"
+            )
+        } else {
+            format!(
+                "{} have targets on other charts' islands of the atlas in TEXCOORD_{set}, so no layout keeping it \
+                 reaches them: the whole mesh was laid out afresh in that set ({keep})",
+                on.join(", ")
+            )
+        })
     }
 
     /// Places the outer loop on the square (§III.B), unless it is placed.
@@ -484,5 +605,66 @@ mod tests {
         assert!(opening.pieces.is_empty(), "it is not solved beside the chart again");
         assert_eq!(opening.rest.len(), rest + 1, "it is laid out once, with the rest");
         assert!(opening.rest.iter().any(|p| Arc::ptr_eq(p, &pieces[0])));
+    }
+
+    /// A .glb of two 5 × 5 grid islands side by side in the texture (A
+    /// over u 0.05..0.45, B over 0.55..0.95) in `dir`, and a constraint
+    /// file leaving the set open with A's vertex 12 (its centre) at `u`.
+    fn two_islands_with_target(dir: &std::path::Path, u: f64) -> ConstraintSource {
+        let grid = crate::testing::grid_mesh(5, 5);
+        let (mut positions, mut indices, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+        for (k, u0) in [0.05f32, 0.55].into_iter().enumerate() {
+            let base = positions.len() as u32;
+            for p in &grid.positions {
+                positions.push([p.x as f32 + 2.0 * k as f32, p.y as f32, 0.0]);
+                uvs.push([u0 + 0.4 * p.x as f32, 0.9 - 0.8 * p.y as f32]);
+            }
+            indices.extend(grid.triangles.iter().flatten().map(|&v| v + base));
+        }
+        let asset = dir.join("islands.glb");
+        let (json, blob) = crate::io::gltf_file::new_document(&positions, &indices, Some(&uvs), "islands");
+        crate::io::gltf_file::write_new_document(&json, &blob, &asset).expect("write glb");
+        let ron = dir.join(format!("at-{u}.uvpin.ron"));
+        let text = format!("(asset: \"islands.glb\", constraints: [(vertex: 12, uv: ({u}, 0.5))])");
+        std::fs::write(&ron, text).expect("write ron");
+        let loaded =
+            crate::constraints::LoadedConstraints::load_within(&ron, &SolverOptions::default(), &Default::default())
+                .expect("the file reads");
+        ConstraintSource::File(Arc::new(loaded))
+    }
+
+    #[test]
+    fn the_atlas_is_dropped_while_a_target_lies_on_another_island_and_kept_again_after() {
+        let dir = crate::testing::fresh_dir("session-atlas");
+        let (inside, over_b) = (two_islands_with_target(&dir, 0.3), two_islands_with_target(&dir, 0.7));
+        let asset = |source: &ConstraintSource| {
+            let ConstraintSource::File(l) = source else {
+                unreachable!()
+            };
+            Arc::new(crate::io::load_asset(&l.asset_path(), None, 0, &Default::default()).expect("the asset"))
+        };
+        let has_uvs = |s: &ChartSession| s.asset().primitives[0].uvs.is_some();
+        let mut session = ChartSession::open(inside.clone(), asset(&inside), 0.0).expect("a session");
+        assert!(
+            has_uvs(&session) && session.atlas_note().is_none(),
+            "kept: the target is on A's own island"
+        );
+        session.retarget(over_b.clone(), 0.0).expect("retargeted");
+        assert!(!has_uvs(&session), "laid out afresh: the target is on B's island");
+        let note = session.atlas_note().expect("a note");
+        assert!(
+            note.starts_with("constraints[0] have targets on other charts' islands"),
+            "{note}"
+        );
+        assert!(session.afresh().is_none(), "nothing more to try afresh");
+        session.retarget(inside, 0.0).expect("retargeted back");
+        assert!(
+            has_uvs(&session) && session.atlas_note().is_none(),
+            "the atlas kept again"
+        );
+        assert!(session.afresh().is_some(), "afresh is still a candidate to measure");
+        let opened = ChartSession::open(over_b.clone(), asset(&over_b), 0.0).expect("a session");
+        assert!(!has_uvs(&opened), "opened on B's island: laid out afresh at once");
+        let _ = std::fs::remove_dir_all(dir);
     }
 }

@@ -341,7 +341,8 @@ fn a_nan_corner_hides_no_overlap_from_check_or_solve() {
         .filter(|&(v, ..)| (v as usize) < grid.positions.len())
         .collect();
     let ron = tmp.path("apart.uvpin.ron");
-    write_constraints(&ron, &apart, &landmarks, "    boundary: Free,\n");
+    // `uv_set` named: the atlas is kept whatever the targets ask.
+    write_constraints(&ron, &apart, &landmarks, "    uv_set: 0,\n    boundary: Free,\n");
     let out = tmp.path("out.glb");
     let (o, report) = solve_json(&ron, &out);
     eprintln!("{}: {}", report["status"], stderr(&o));
@@ -356,12 +357,71 @@ fn a_nan_corner_hides_no_overlap_from_check_or_solve() {
     assert_eq!(checked["atlas"]["crossings"], 0, "{checked}");
 }
 
+/// A's landmarks with targets that stretch A to twice its width, over B's
+/// island: with `uv_set` left out, the targets prove the atlas cannot be
+/// kept, so the whole mesh is laid out afresh in set 0 (reached, one-to-one,
+/// and said so); with `uv_set: 0` named, the atlas is kept (B bit for bit)
+/// and the report says how to reach them.
+fn targets_on_another_island_lay_the_atlas_out_afresh_unless_the_set_is_named() {
+    let tmp = TempDir::new("atlas-afresh");
+    let islands = tmp.path("islands.glb");
+    two_islands(&islands, (0.05, 0.45), (0.55, 0.95), false);
+    let grid = uvpin::testing::grid_mesh(9, 9);
+    let landmarks: Vec<(u32, f64, f64)> = [20u32, 24, 42, 56, 60, 61]
+        .into_iter()
+        .map(|v| {
+            let p = grid.positions[v as usize];
+            (v, 0.05 + 0.8 * p.x, 0.9 - 0.8 * p.y)
+        })
+        .collect();
+    assert!(landmarks.iter().any(|&(_, u, _)| u > 0.6), "a target on B's island");
+    let (open, named) = (tmp.path("open.uvpin.ron"), tmp.path("named.uvpin.ron"));
+    write_constraints(&open, &islands, &landmarks, "");
+    write_constraints(&named, &islands, &landmarks, "    uv_set: 0,\n");
+
+    let out = tmp.path("open.glb");
+    let (o, report) = solve_json(&open, &out);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stderr(&o), report["explain"]);
+    assert!(report["max_residual"].as_f64().unwrap() < 1e-9, "{report}");
+    let warned = report["warnings"].as_array().unwrap().iter().any(|w| {
+        let w = w.as_str().unwrap();
+        w.contains("laid out afresh") && w.contains("uv_set: 0")
+    });
+    assert!(
+        warned,
+        "the report says the atlas was laid out afresh: {}",
+        report["warnings"]
+    );
+    let o = uvpin(&["check", out.to_str().unwrap(), "--json"]);
+    let checked: Value = serde_json::from_slice(&o.stdout).expect("check --json");
+    assert_eq!(checked["atlas"]["injective"], true, "{checked}");
+    assert_one_to_one_and_valid(&out, 0);
+
+    let out = tmp.path("named.glb");
+    let (o, report) = solve_json(&named, &out);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let hint = report["hint"].as_str().unwrap_or_default();
+    assert!(hint.contains("leave `uv_set` out"), "{hint}");
+    let (before, after) = (python_corner_values(&islands), python_corner_values(&out));
+    let (uv_in, uv_out) = (
+        before[0]["TEXCOORD_0"].as_array().unwrap(),
+        after[0]["TEXCOORD_0"].as_array().unwrap(),
+    );
+    let b_corners = 3 * grid.triangles.len();
+    assert_eq!(uv_in[b_corners..], uv_out[b_corners..], "B keeps its UVs bit for bit");
+}
+
 fn main() -> std::process::ExitCode {
     run_cases(&[
         (
             "a_nan_corner_hides_no_overlap_from_check_or_solve",
             &[],
             a_nan_corner_hides_no_overlap_from_check_or_solve,
+        ),
+        (
+            "targets_on_another_island_lay_the_atlas_out_afresh_unless_the_set_is_named",
+            &[Needs::Validator],
+            targets_on_another_island_lay_the_atlas_out_afresh_unless_the_set_is_named,
         ),
         (
             "landmarks_on_two_charts_of_an_atlas_are_solved_each_in_its_island",

@@ -21,7 +21,7 @@ mod parse;
 mod resolve;
 pub mod schema;
 
-pub use schema::{ConstraintFile, ConstraintSpec, CornerSpec, Corners};
+pub use schema::{AtlasKeeping, ConstraintFile, ConstraintSpec, CornerSpec, Corners};
 
 use crate::mesh::weld::{PrimitiveGeometry, WeldedMesh};
 use crate::options::SolverOptions;
@@ -92,6 +92,16 @@ pub enum ConstraintSource {
 }
 
 impl ConstraintSource {
+    /// What becomes of an atlas in the set written: a file decides by its
+    /// `uv_set` ([`ConstraintFile::atlas`]); pins in memory keep it (the
+    /// library's atlas solve passes it to be kept).
+    pub fn atlas(&self) -> AtlasKeeping {
+        match self {
+            ConstraintSource::File(loaded) => loaded.file.atlas(),
+            ConstraintSource::Memory(_) => AtlasKeeping::Always,
+        }
+    }
+
     /// The constraint file's `image:`, if it names one.
     pub fn image_path(&self) -> Option<PathBuf> {
         match self {

@@ -124,9 +124,11 @@ pub struct ConstraintFile {
     /// Primitive that `vertex` ids and `corners` refer to (default 0).
     #[serde(default)]
     pub primitive: usize,
-    /// The UV set written, TEXCOORD_<uv_set> (default 0).
-    #[serde(default)]
-    pub uv_set: u32,
+    /// The UV set written, TEXCOORD_<uv_set> (default 0). Left out, an
+    /// atlas already in set 0 is kept only where the targets allow it
+    /// ([`AtlasKeeping`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uv_set: Option<u32>,
     /// Image size in pixels (width, height), for `px` targets.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub image_size: Option<(u32, u32)>,
@@ -158,4 +160,33 @@ pub struct ConstraintFile {
     /// configuration file's `solver` applies when this is absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solver: Option<SolverOptions>,
+}
+
+/// What becomes of an atlas already in the UV set written, when the chart
+/// holding the landmarks is laid out again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AtlasKeeping {
+    /// Every other chart keeps its UVs (the file names the set, or a
+    /// library call passes the atlas): a target on another chart's island
+    /// cannot be reached.
+    Always,
+    /// Kept unless a target lies on another chart's island, which proves
+    /// that no layout keeping it reaches the targets: then the whole mesh
+    /// is laid out afresh in the set (the file names no `uv_set`).
+    WhereTargetsAllow,
+}
+
+impl ConstraintFile {
+    /// The UV set written (0 when the file names none).
+    pub fn uv_set(&self) -> u32 {
+        self.uv_set.unwrap_or(0)
+    }
+
+    /// What becomes of an atlas in the set written ([`AtlasKeeping`]).
+    pub fn atlas(&self) -> AtlasKeeping {
+        match self.uv_set {
+            Some(_) => AtlasKeeping::Always,
+            None => AtlasKeeping::WhereTargetsAllow,
+        }
+    }
 }

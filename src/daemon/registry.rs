@@ -545,7 +545,7 @@ impl Registry {
     ) -> Result<Arc<SourceAsset>, Error> {
         let selection = AssetSelection {
             mesh: loaded.file.mesh.clone(),
-            uv_set: loaded.file.uv_set,
+            uv_set: loaded.file.uv_set(),
         };
         let missing = || {
             let message = format!("{} does not exist", display(asset_path, &settings.cwd));

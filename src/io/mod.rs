@@ -290,6 +290,14 @@ impl SourceAsset {
         files
     }
 
+    /// The same asset with no UVs in its set: laid out afresh, the whole
+    /// mesh is unwrapped and the atlas there written over.
+    pub fn without_uvs(&self) -> SourceAsset {
+        let mut asset = self.clone();
+        asset.primitives.iter_mut().for_each(|p| p.uvs = None);
+        asset
+    }
+
     /// An in-memory asset holding `mesh` as one primitive (f32 positions), for
     /// the library API; it cannot be written back as a file.
     pub fn from_mesh(mesh: &crate::mesh::TriMesh) -> Self {

@@ -137,25 +137,17 @@ fn hint_and_proof(
 /// targets that lie on other charts' islands: those keep their UVs in the
 /// set written, so the chart cannot reach them however it is laid out.
 fn on_other_islands(p: &PreparedChart, unreached: &[(usize, u32)]) -> Option<String> {
-    let free = p.domain.free().filter(|f| f.island.is_some())?;
-    let o = &free.obstacles;
     let covered: Vec<String> = p
-        .constraints
-        .iter()
-        .filter(|c| unreached.iter().any(|(index, _)| *index == c.index))
-        .filter(|c| {
-            let t = crate::param::uv_to_xy(c.target_uv);
-            o.triangles
-                .iter()
-                .any(|tri| crate::injective::strictly_inside(t, tri.map(|v| o.layout[v as usize])))
-        })
-        .map(|c| format!("constraints[{}]", c.index))
+        .targets_on_kept_islands()
+        .into_iter()
+        .filter(|index| unreached.iter().any(|(i, _)| i == index))
+        .map(|index| format!("constraints[{index}]"))
         .collect();
     (!covered.is_empty()).then(|| {
         format!(
-            "{} have targets on other charts' islands, which keep their UVs in this set: write the layout as a new UV \
-             set (`uv_set: 1` beside an atlas in set 0) to lay the whole mesh out afresh, or keep the targets inside \
-             this chart's island",
+            "{} have targets on other charts' islands, which keep their UVs in this set: leave `uv_set` out to lay the \
+             whole mesh out afresh in this set, write the layout as a new UV set (`uv_set: 1` beside an atlas in set \
+             0), or keep the targets inside this chart's island",
             covered.join(", ")
         )
     })
