@@ -593,6 +593,67 @@ impl PreparedChart {
     }
 }
 
+/// The constraints (their indices) whose targets lie strictly inside a
+/// triangle, as stored in the set, of a chart that holds no constraint:
+/// its island is kept when the atlas is, so no one-to-one layout beside it
+/// reaches them. `None` when the asset has no UVs in the set.
+pub fn on_kept_islands(
+    asset: &SourceAsset,
+    welded: &WeldedMesh,
+    constraints: &[ResolvedConstraint],
+) -> Option<Vec<usize>> {
+    let uvs = crate::domain::setup::welded_uvs(asset, welded);
+    if uvs.iter().all(Option::is_none) {
+        return None;
+    }
+    let mut landmarked = vec![false; welded.n_charts];
+    for c in constraints {
+        if let Some(k) = welded.chart_of_vertex[c.welded as usize] {
+            landmarked[k as usize] = true;
+        }
+    }
+    let kept: Vec<[DVec2; 3]> = welded
+        .mesh
+        .triangles
+        .iter()
+        .filter(|t| welded.chart_of_vertex[t[0] as usize].is_some_and(|k| !landmarked[k as usize]))
+        .filter_map(|t| {
+            let [a, b, c] = t.map(|v| uvs[v as usize]);
+            Some([a?, b?, c?].map(|uv| DVec2::new(uv[0] as f64, uv[1] as f64)))
+        })
+        .collect();
+    let inside = |p: DVec2, [a, b, c]: &[DVec2; 3]| {
+        let s = [(a, b), (b, c), (c, a)].map(|(x, y)| (*y - *x).perp_dot(p - *x));
+        s.iter().all(|&d| d > 0.0) || s.iter().all(|&d| d < 0.0)
+    };
+    // The targets by u: each triangle tests those within its u span only.
+    let mut by_u: Vec<&ResolvedConstraint> = constraints.iter().collect();
+    by_u.sort_by(|a, b| a.target_uv.x.total_cmp(&b.target_uv.x));
+    let mut on = vec![false; by_u.len()];
+    for t in &kept {
+        let (lo, hi) = t
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.x), h.max(p.x)));
+        let first = by_u.partition_point(|c| c.target_uv.x <= lo);
+        for (k, c) in by_u
+            .iter()
+            .enumerate()
+            .skip(first)
+            .take_while(|(_, c)| c.target_uv.x < hi)
+        {
+            on[k] |= inside(c.target_uv, t);
+        }
+    }
+    let mut indices: Vec<usize> = by_u
+        .iter()
+        .zip(&on)
+        .filter(|(_, on)| **on)
+        .map(|(c, _)| c.index)
+        .collect();
+    indices.sort_unstable();
+    Some(indices)
+}
+
 /// Tolerance for a constraint on the outer boundary to agree with the boundary map.
 pub const BOUNDARY_TOLERANCE: f64 = 1e-6;
 

@@ -79,12 +79,15 @@ enum AtlasUse {
     /// The session's asset is the asset as read.
     #[default]
     AsRead,
-    /// A target lay on another chart's island, and the file left the set
-    /// open: the session lays out `as_read` without its UVs. `chart` is
-    /// the chart prepared on `as_read`, kept to judge new targets cheaply.
+    /// The file left the set open, and keeping the atlas was proven short
+    /// (`on_islands`: the constraints whose targets lie on the islands of
+    /// charts without landmarks) or measured short: the session lays out
+    /// `as_read` without its UVs. `chart` is the chart prepared on
+    /// `as_read`, kept to judge new targets cheaply.
     Dropped {
         as_read: Arc<SourceAsset>,
         chart: Box<PreparedChart>,
+        on_islands: Vec<usize>,
     },
 }
 
@@ -116,19 +119,29 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-/// `asset` without its atlas when `source` leaves the set open and the
-/// chart prepared on it (`on_read`) has targets on other charts' islands
-/// ([`crate::constraints::AtlasKeeping`]); `None` keeps the asset as read.
-fn atlas_against(source: &ConstraintSource, asset: &SourceAsset, on_read: &PreparedChart) -> Option<Arc<SourceAsset>> {
-    let open = source.atlas() == crate::constraints::AtlasKeeping::WhereTargetsAllow;
-    (open && !on_read.targets_on_kept_islands().is_empty()).then(|| Arc::new(asset.without_uvs()))
+/// `asset` without its atlas, and the constraints that prove it cannot be
+/// kept, when `source` leaves the set open and targets lie on the islands
+/// of charts without landmarks ([`chart::on_kept_islands`], the weld of
+/// `on_read`, the chart prepared on `asset`); `None` keeps the asset as read.
+fn atlas_against(
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+    on_read: &PreparedChart,
+) -> Option<(Arc<SourceAsset>, Vec<usize>)> {
+    if source.atlas() != crate::constraints::AtlasKeeping::WhereTargetsAllow {
+        return None;
+    }
+    let (all, _) = source.resolve(&asset.primitives, &on_read.welded).ok()?;
+    let on = chart::on_kept_islands(asset, &on_read.welded, &all).filter(|on| !on.is_empty())?;
+    Some((Arc::new(asset.without_uvs()), on))
 }
 
 impl AtlasUse {
-    fn dropped(as_read: Arc<SourceAsset>, chart: PreparedChart) -> Self {
+    fn dropped(as_read: Arc<SourceAsset>, chart: PreparedChart, on_islands: Vec<usize>) -> Self {
         AtlasUse::Dropped {
             as_read,
             chart: Box::new(chart),
+            on_islands,
         }
     }
 }
@@ -152,9 +165,9 @@ impl ChartSession {
         let t0 = Instant::now();
         let on_read = chart::prepare(&source, &asset)?;
         let (asset, prepared, atlas) = match atlas_against(&source, &asset, &on_read) {
-            Some(fresh) => {
+            Some((fresh, on)) => {
                 let prepared = chart::prepare(&source, &fresh)?;
-                (fresh, prepared, AtlasUse::dropped(asset, on_read))
+                (fresh, prepared, AtlasUse::dropped(asset, on_read, on))
             }
             None => (asset, on_read, AtlasUse::AsRead),
         };
@@ -290,9 +303,9 @@ impl ChartSession {
     fn retargeted(&self, source: &ConstraintSource) -> Result<(Arc<SourceAsset>, PreparedChart, AtlasUse), Error> {
         let (as_read, on_read) = match &self.atlas {
             AtlasUse::AsRead => (&self.asset, self.prepared.retargeted(source, &self.asset)?),
-            AtlasUse::Dropped { as_read, chart } => (as_read, chart.retargeted(source, as_read)?),
+            AtlasUse::Dropped { as_read, chart, .. } => (as_read, chart.retargeted(source, as_read)?),
         };
-        let Some(fresh) = atlas_against(source, as_read, &on_read) else {
+        let Some((fresh, on)) = atlas_against(source, as_read, &on_read) else {
             return Ok((as_read.clone(), on_read, AtlasUse::AsRead));
         };
         let prepared = match &self.atlas {
@@ -303,7 +316,7 @@ impl ChartSession {
             AtlasUse::Dropped { .. } => self.asset.clone(),
             AtlasUse::AsRead => fresh,
         };
-        Ok((asset, prepared, AtlasUse::dropped(as_read.clone(), on_read)))
+        Ok((asset, prepared, AtlasUse::dropped(as_read.clone(), on_read, on)))
     }
 
     /// This session's chart laid out afresh on the asset without its atlas,
@@ -322,7 +335,7 @@ impl ChartSession {
         let fresh = Arc::new(self.asset.without_uvs());
         Some(chart::prepare(&self.source, &fresh).map(|prepared| {
             let mut session = ChartSession::from_prepared(self.source.clone(), fresh, prepared, chart::Pick::default());
-            session.atlas = AtlasUse::dropped(self.asset.clone(), self.prepared.clone());
+            session.atlas = AtlasUse::dropped(self.asset.clone(), self.prepared.clone(), Vec::new());
             session.times.load_ms = self.times.load_ms;
             session
         }))
@@ -331,7 +344,7 @@ impl ChartSession {
     /// What the report says when the atlas in the set written was laid out
     /// afresh, and why; `None` when it was kept.
     pub fn atlas_note(&self) -> Option<String> {
-        let AtlasUse::Dropped { chart, .. } = &self.atlas else {
+        let AtlasUse::Dropped { on_islands, .. } = &self.atlas else {
             return None;
         };
         let set = self.asset.uv_set;
@@ -339,11 +352,7 @@ impl ChartSession {
             "write `uv_set: {set}` to keep the atlas, or `uv_set: {}` to write the new layout beside it",
             set + 1
         );
-        let on: Vec<String> = chart
-            .targets_on_kept_islands()
-            .iter()
-            .map(|i| format!("constraints[{i}]"))
-            .collect();
+        let on: Vec<String> = on_islands.iter().map(|i| format!("constraints[{i}]")).collect();
         Some(if on.is_empty() {
             format!(
                 "keeping the atlas in TEXCOORD_{set} reached fewer targets than laying the whole mesh out afresh: it was \
@@ -351,8 +360,8 @@ impl ChartSession {
             )
         } else {
             format!(
-                "{} have targets on other charts' islands of the atlas in TEXCOORD_{set}, so no layout keeping it \
-                 reaches them: the whole mesh was laid out afresh in that set ({keep})",
+                "{} have targets on the islands of charts without landmarks in TEXCOORD_{set}, so no layout keeping the \
+                 atlas reaches them: the whole mesh was laid out afresh in that set ({keep})",
                 on.join(", ")
             )
         })
@@ -609,8 +618,9 @@ mod tests {
 
     /// A .glb of two 5 × 5 grid islands side by side in the texture (A
     /// over u 0.05..0.45, B over 0.55..0.95) in `dir`, and a constraint
-    /// file leaving the set open with A's vertex 12 (its centre) at `u`.
-    fn two_islands_with_target(dir: &std::path::Path, u: f64) -> ConstraintSource {
+    /// file leaving the set open with A's vertex 12 (its centre) at `u`,
+    /// and B's (vertex 37) at `b` if given.
+    fn two_islands_with_target(dir: &std::path::Path, u: f64, b: Option<f64>) -> ConstraintSource {
         let grid = crate::testing::grid_mesh(5, 5);
         let (mut positions, mut indices, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
         for (k, u0) in [0.05f32, 0.55].into_iter().enumerate() {
@@ -624,8 +634,9 @@ mod tests {
         let asset = dir.join("islands.glb");
         let (json, blob) = crate::io::gltf_file::new_document(&positions, &indices, Some(&uvs), "islands");
         crate::io::gltf_file::write_new_document(&json, &blob, &asset).expect("write glb");
-        let ron = dir.join(format!("at-{u}.uvpin.ron"));
-        let text = format!("(asset: \"islands.glb\", constraints: [(vertex: 12, uv: ({u}, 0.5))])");
+        let ron = dir.join(format!("at-{u}-{b:?}.uvpin.ron"));
+        let on_b = b.map_or(String::new(), |b| format!(", (vertex: 37, uv: ({b}, 0.5))"));
+        let text = format!("(asset: \"islands.glb\", constraints: [(vertex: 12, uv: ({u}, 0.5)){on_b}])");
         std::fs::write(&ron, text).expect("write ron");
         let loaded =
             crate::constraints::LoadedConstraints::load_within(&ron, &SolverOptions::default(), &Default::default())
@@ -636,7 +647,10 @@ mod tests {
     #[test]
     fn the_atlas_is_dropped_while_a_target_lies_on_another_island_and_kept_again_after() {
         let dir = crate::testing::fresh_dir("session-atlas");
-        let (inside, over_b) = (two_islands_with_target(&dir, 0.3), two_islands_with_target(&dir, 0.7));
+        let (inside, over_b) = (
+            two_islands_with_target(&dir, 0.3, None),
+            two_islands_with_target(&dir, 0.7, None),
+        );
         let asset = |source: &ConstraintSource| {
             let ConstraintSource::File(l) = source else {
                 unreachable!()
@@ -653,7 +667,7 @@ mod tests {
         assert!(!has_uvs(&session), "laid out afresh: the target is on B's island");
         let note = session.atlas_note().expect("a note");
         assert!(
-            note.starts_with("constraints[0] have targets on other charts' islands"),
+            note.starts_with("constraints[0] have targets on the islands of charts without landmarks"),
             "{note}"
         );
         assert!(session.afresh().is_none(), "nothing more to try afresh");
@@ -665,6 +679,14 @@ mod tests {
         assert!(session.afresh().is_some(), "afresh is still a candidate to measure");
         let opened = ChartSession::open(over_b.clone(), asset(&over_b), 0.0).expect("a session");
         assert!(!has_uvs(&opened), "opened on B's island: laid out afresh at once");
+        // B holds a landmark too: its island is laid out again, so a target
+        // on it proves nothing (keeping the atlas is measured instead).
+        let both = two_islands_with_target(&dir, 0.7, Some(0.3));
+        let opened = ChartSession::open(both.clone(), asset(&both), 0.0).expect("a session");
+        assert!(
+            has_uvs(&opened) && opened.afresh().is_some(),
+            "kept, afresh left to measure"
+        );
         let _ = std::fs::remove_dir_all(dir);
     }
 }

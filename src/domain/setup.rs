@@ -174,7 +174,7 @@ fn leave_room(whole: Region, constraints: &[ResolvedConstraint], share: f64) -> 
 }
 
 /// Each welded vertex's stored UV (glTF convention), if its primitive has them.
-fn welded_uvs(asset: &SourceAsset, welded: &WeldedMesh) -> Vec<Option<[f32; 2]>> {
+pub fn welded_uvs(asset: &SourceAsset, welded: &WeldedMesh) -> Vec<Option<[f32; 2]>> {
     let mut out = vec![None; welded.mesh.n_vertices()];
     for (prim, map) in asset.primitives.iter().zip(&welded.vertex_of) {
         if let Some(uvs) = &prim.uvs {
