@@ -81,7 +81,8 @@ enum AtlasUse {
     AsRead,
     /// The file left the set open, and keeping the atlas was proven short
     /// (`on_islands`: the constraints whose targets lie on the islands of
-    /// charts without landmarks) or measured short: the session lays out
+    /// charts without landmarks) or measured short (`on_islands` empty;
+    /// that holds for later targets of the session): the session lays out
     /// `as_read` without its UVs. `chart` is the chart prepared on
     /// `as_read`, kept to judge new targets cheaply.
     Dropped {
@@ -119,21 +120,18 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-/// `asset` without its atlas, and the constraints that prove it cannot be
-/// kept, when `source` leaves the set open and targets lie on the islands
-/// of charts without landmarks ([`chart::on_kept_islands`], the weld of
-/// `on_read`, the chart prepared on `asset`); `None` keeps the asset as read.
-fn atlas_against(
-    source: &ConstraintSource,
-    asset: &SourceAsset,
-    on_read: &PreparedChart,
-) -> Option<(Arc<SourceAsset>, Vec<usize>)> {
-    if source.atlas() != crate::constraints::AtlasKeeping::WhereTargetsAllow {
+/// The constraints that prove the atlas of `asset` cannot be kept, when
+/// `source` leaves the set open, the chart prepared on it (`on_read`) is
+/// free (kept clear of the other islands; on the square it is not, and a
+/// mesh laid out afresh on the square leaves no room for the rest) and
+/// targets lie on the islands of charts without landmarks
+/// ([`chart::on_kept_islands`]); `None` keeps the asset as read.
+fn atlas_against(source: &ConstraintSource, asset: &SourceAsset, on_read: &PreparedChart) -> Option<Vec<usize>> {
+    if source.atlas() != crate::constraints::AtlasKeeping::WhereTargetsAllow || on_read.domain.free().is_none() {
         return None;
     }
     let (all, _) = source.resolve(&asset.primitives, &on_read.welded).ok()?;
-    let on = chart::on_kept_islands(asset, &on_read.welded, &all).filter(|on| !on.is_empty())?;
-    Some((Arc::new(asset.without_uvs()), on))
+    chart::on_kept_islands(asset, &on_read.welded, &all).filter(|on| !on.is_empty())
 }
 
 impl AtlasUse {
@@ -165,7 +163,8 @@ impl ChartSession {
         let t0 = Instant::now();
         let on_read = chart::prepare(&source, &asset)?;
         let (asset, prepared, atlas) = match atlas_against(&source, &asset, &on_read) {
-            Some((fresh, on)) => {
+            Some(on) => {
+                let fresh = Arc::new(asset.without_uvs());
                 let prepared = chart::prepare(&source, &fresh)?;
                 (fresh, prepared, AtlasUse::dropped(asset, on_read, on))
             }
@@ -246,6 +245,7 @@ impl ChartSession {
         let prepared = chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick)?;
         let mut session = ChartSession::from_prepared(self.source.clone(), self.asset.clone(), prepared, pick);
         session.atlas = self.atlas.clone();
+        session.revision = self.revision;
         Ok(session)
     }
 
@@ -298,23 +298,30 @@ impl ChartSession {
 
     /// The asset, chart and atlas use for new constraints `source`: judged
     /// on the asset as read (its chart retargeted), and on the asset
-    /// without its atlas when the targets contradict it (this session's
-    /// chart retargeted when it was laid out afresh already).
+    /// without its atlas when the targets contradict it, or when this
+    /// session measured keeping it short and the file still leaves the set
+    /// open (a decision measured holds for the session's later targets:
+    /// an editor's drag is not solved twice a frame). This session's chart
+    /// is retargeted when it was laid out afresh already.
     fn retargeted(&self, source: &ConstraintSource) -> Result<(Arc<SourceAsset>, PreparedChart, AtlasUse), Error> {
         let (as_read, on_read) = match &self.atlas {
             AtlasUse::AsRead => (&self.asset, self.prepared.retargeted(source, &self.asset)?),
             AtlasUse::Dropped { as_read, chart, .. } => (as_read, chart.retargeted(source, as_read)?),
         };
-        let Some((fresh, on)) = atlas_against(source, as_read, &on_read) else {
-            return Ok((as_read.clone(), on_read, AtlasUse::AsRead));
+        let measured = matches!(&self.atlas, AtlasUse::Dropped { on_islands, .. } if on_islands.is_empty())
+            && source.atlas() == crate::constraints::AtlasKeeping::WhereTargetsAllow;
+        let on = match atlas_against(source, as_read, &on_read) {
+            Some(on) => on,
+            None if measured => Vec::new(),
+            None => return Ok((as_read.clone(), on_read, AtlasUse::AsRead)),
         };
-        let prepared = match &self.atlas {
-            AtlasUse::Dropped { .. } => self.prepared.retargeted(source, &self.asset)?,
-            AtlasUse::AsRead => chart::prepare(source, &fresh)?,
-        };
-        let asset = match &self.atlas {
-            AtlasUse::Dropped { .. } => self.asset.clone(),
-            AtlasUse::AsRead => fresh,
+        let (asset, prepared) = match &self.atlas {
+            AtlasUse::Dropped { .. } => (self.asset.clone(), self.prepared.retargeted(source, &self.asset)?),
+            AtlasUse::AsRead => {
+                let fresh = Arc::new(as_read.without_uvs());
+                let prepared = chart::prepare(source, &fresh)?;
+                (fresh, prepared)
+            }
         };
         Ok((asset, prepared, AtlasUse::dropped(as_read.clone(), on_read, on)))
     }
@@ -322,14 +329,19 @@ impl ChartSession {
     /// This session's chart laid out afresh on the asset without its atlas,
     /// for [`crate::assembly::finish`] to measure against keeping it:
     /// `None` unless the source leaves the set open, the asset has UVs in
-    /// it and this session keeps them.
+    /// it, this session keeps them, its chart is free (on the square, a
+    /// mesh laid out afresh leaves no room for the rest) and it is the
+    /// solve's first chart (another chart or piece solved beside it is not
+    /// the whole mesh's to lay out again).
     ///
     /// # Errors
     /// As [`ChartSession::open`].
     pub fn afresh(&self) -> Option<Result<ChartSession, Error>> {
         let open = self.source.atlas() == crate::constraints::AtlasKeeping::WhereTargetsAllow;
         let has_atlas = self.asset.primitives.iter().any(|p| p.uvs.is_some());
-        if !(open && has_atlas && matches!(self.atlas, AtlasUse::AsRead)) {
+        let first = self.pick.chart.is_none() && self.pick.piece.is_none();
+        let free = self.prepared.domain.free().is_some();
+        if !(open && has_atlas && first && free && matches!(self.atlas, AtlasUse::AsRead)) {
             return None;
         }
         let fresh = Arc::new(self.asset.without_uvs());
@@ -337,6 +349,7 @@ impl ChartSession {
             let mut session = ChartSession::from_prepared(self.source.clone(), fresh, prepared, chart::Pick::default());
             session.atlas = AtlasUse::dropped(self.asset.clone(), self.prepared.clone(), Vec::new());
             session.times.load_ms = self.times.load_ms;
+            session.revision = self.revision;
             session
         }))
     }
@@ -621,6 +634,11 @@ mod tests {
     /// file leaving the set open with A's vertex 12 (its centre) at `u`,
     /// and B's (vertex 37) at `b` if given.
     fn two_islands_with_target(dir: &std::path::Path, u: f64, b: Option<f64>) -> ConstraintSource {
+        two_islands_file(dir, u, b, "")
+    }
+
+    /// As [`two_islands_with_target`], with `extra` fields in the file.
+    fn two_islands_file(dir: &std::path::Path, u: f64, b: Option<f64>, extra: &str) -> ConstraintSource {
         let grid = crate::testing::grid_mesh(5, 5);
         let (mut positions, mut indices, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
         for (k, u0) in [0.05f32, 0.55].into_iter().enumerate() {
@@ -634,9 +652,9 @@ mod tests {
         let asset = dir.join("islands.glb");
         let (json, blob) = crate::io::gltf_file::new_document(&positions, &indices, Some(&uvs), "islands");
         crate::io::gltf_file::write_new_document(&json, &blob, &asset).expect("write glb");
-        let ron = dir.join(format!("at-{u}-{b:?}.uvpin.ron"));
+        let ron = dir.join(format!("at-{u}-{b:?}-{}.uvpin.ron", extra.len()));
         let on_b = b.map_or(String::new(), |b| format!(", (vertex: 37, uv: ({b}, 0.5))"));
-        let text = format!("(asset: \"islands.glb\", constraints: [(vertex: 12, uv: ({u}, 0.5)){on_b}])");
+        let text = format!("(asset: \"islands.glb\", {extra} constraints: [(vertex: 12, uv: ({u}, 0.5)){on_b}])");
         std::fs::write(&ron, text).expect("write ron");
         let loaded =
             crate::constraints::LoadedConstraints::load_within(&ron, &SolverOptions::default(), &Default::default())
@@ -687,6 +705,12 @@ mod tests {
             has_uvs(&opened) && opened.afresh().is_some(),
             "kept, afresh left to measure"
         );
+        // On the square the chart does not keep clear of B's island: the
+        // target proves nothing, and a mesh laid out afresh on the square
+        // would leave no room for the rest.
+        let square = two_islands_file(&dir, 0.7, None, "boundary: Square,");
+        let opened = ChartSession::open(square.clone(), asset(&square), 0.0).expect("a session");
+        assert!(has_uvs(&opened) && opened.afresh().is_none(), "kept on the square");
         let _ = std::fs::remove_dir_all(dir);
     }
 }

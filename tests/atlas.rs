@@ -401,7 +401,7 @@ fn targets_on_another_island_lay_the_atlas_out_afresh_unless_the_set_is_named() 
     let (o, report) = solve_json(&named, &out);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let hint = report["hint"].as_str().unwrap_or_default();
-    assert!(hint.contains("leave `uv_set` out"), "{hint}");
+    assert!(hint.contains("with `uv_set` left out"), "{hint}");
     let (before, after) = (python_corner_values(&islands), python_corner_values(&out));
     let (uv_in, uv_out) = (
         before[0]["TEXCOORD_0"].as_array().unwrap(),
@@ -411,12 +411,55 @@ fn targets_on_another_island_lay_the_atlas_out_afresh_unless_the_set_is_named() 
     assert_eq!(uv_in[b_corners..], uv_out[b_corners..], "B keeps its UVs bit for bit");
 }
 
+/// Landmarks on both islands, one of B's targets over A's island, `uv_set`
+/// left out: B is solved beside A as a chart of its own (its targets on a
+/// landmarked chart's old island prove nothing), never by laying the whole
+/// mesh out again from inside B's solve; the file is one-to-one.
+fn a_second_landmarked_chart_is_never_laid_out_afresh_on_its_own() {
+    let tmp = TempDir::new("atlas-second-chart");
+    let islands = tmp.path("islands.glb");
+    two_islands(&islands, (0.05, 0.45), (0.55, 0.95), false);
+    let grid = uvpin::testing::grid_mesh(9, 9);
+    let n = grid.positions.len() as u32;
+    let own = |v: u32, u0: f64| {
+        let p = grid.positions[(v % n) as usize];
+        (v, u0 + 0.4 * p.x, 0.9 - 0.8 * p.y)
+    };
+    let landmarks = vec![
+        own(20, 0.05),
+        own(24, 0.05),
+        own(60, 0.05),
+        own(n + 40, 0.55),
+        (n + 20, 0.3, 0.35),
+    ];
+    let ron = tmp.path("both.uvpin.ron");
+    write_constraints(&ron, &islands, &landmarks, "");
+    let out = tmp.path("both.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert!(matches!(o.status.code(), Some(0 | 2)), "{}", stderr(&o));
+    let text = report.to_string();
+    assert!(!text.contains("internal error"), "{text}");
+    assert_eq!(
+        report["charts"].as_array().map(Vec::len),
+        Some(1),
+        "B has its own section: {text}"
+    );
+    let o = uvpin(&["check", out.to_str().unwrap(), "--json"]);
+    let checked: Value = serde_json::from_slice(&o.stdout).expect("check --json");
+    assert_eq!(checked["atlas"]["injective"], true, "{checked}");
+}
+
 fn main() -> std::process::ExitCode {
     run_cases(&[
         (
             "a_nan_corner_hides_no_overlap_from_check_or_solve",
             &[],
             a_nan_corner_hides_no_overlap_from_check_or_solve,
+        ),
+        (
+            "a_second_landmarked_chart_is_never_laid_out_afresh_on_its_own",
+            &[],
+            a_second_landmarked_chart_is_never_laid_out_afresh_on_its_own,
         ),
         (
             "targets_on_another_island_lay_the_atlas_out_afresh_unless_the_set_is_named",

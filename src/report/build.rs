@@ -145,9 +145,10 @@ fn on_other_islands(p: &PreparedChart, unreached: &[(usize, u32)]) -> Option<Str
         .collect();
     (!covered.is_empty()).then(|| {
         format!(
-            "{} have targets on other charts' islands, which keep their UVs in this set: leave `uv_set` out to lay the \
-             whole mesh out afresh in this set, write the layout as a new UV set (`uv_set: 1` beside an atlas in set \
-             0), or keep the targets inside this chart's island",
+            "{} have targets on other charts' islands, which keep their UVs in this set: write the layout as a new UV \
+             set (`uv_set: 1` beside an atlas in set 0; with `uv_set` left out, the whole mesh is laid out afresh in \
+             this set when a target lies on the island of a chart without landmarks, or when that reaches more), or \
+             keep the targets inside this chart's island",
             covered.join(", ")
         )
     })
