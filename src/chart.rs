@@ -602,10 +602,10 @@ pub fn on_kept_islands(
     welded: &WeldedMesh,
     constraints: &[ResolvedConstraint],
 ) -> Option<Vec<usize>> {
-    let uvs = crate::domain::setup::welded_uvs(asset, welded);
-    if uvs.iter().all(Option::is_none) {
+    if !asset.has_uvs() {
         return None;
     }
+    let uvs = crate::domain::setup::welded_uvs(asset, welded);
     let mut landmarked = vec![false; welded.n_charts];
     for c in constraints {
         if let Some(k) = welded.chart_of_vertex[c.welded as usize] {
@@ -622,10 +622,6 @@ pub fn on_kept_islands(
             Some([a?, b?, c?].map(|uv| DVec2::new(uv[0] as f64, uv[1] as f64)))
         })
         .collect();
-    let inside = |p: DVec2, [a, b, c]: &[DVec2; 3]| {
-        let s = [(a, b), (b, c), (c, a)].map(|(x, y)| (*y - *x).perp_dot(p - *x));
-        s.iter().all(|&d| d > 0.0) || s.iter().all(|&d| d < 0.0)
-    };
     // The targets by u: each triangle tests those within its u span only.
     let mut by_u: Vec<&ResolvedConstraint> = constraints.iter().collect();
     by_u.sort_by(|a, b| a.target_uv.x.total_cmp(&b.target_uv.x));
@@ -641,7 +637,7 @@ pub fn on_kept_islands(
             .skip(first)
             .take_while(|(_, c)| c.target_uv.x < hi)
         {
-            on[k] |= inside(c.target_uv, t);
+            on[k] |= crate::injective::strictly_inside(c.target_uv, *t);
         }
     }
     let mut indices: Vec<usize> = by_u

@@ -127,7 +127,8 @@ fn ms(since: Instant) -> f64 {
 /// targets lie on the islands of charts without landmarks
 /// ([`chart::on_kept_islands`]); `None` keeps the asset as read.
 fn atlas_against(source: &ConstraintSource, asset: &SourceAsset, on_read: &PreparedChart) -> Option<Vec<usize>> {
-    if source.atlas() != crate::constraints::AtlasKeeping::WhereTargetsAllow || on_read.domain.free().is_none() {
+    let open = source.atlas() == crate::constraints::AtlasKeeping::WhereTargetsAllow;
+    if !(open && asset.has_uvs() && on_read.domain.free().is_some()) {
         return None;
     }
     let (all, _) = source.resolve(&asset.primitives, &on_read.welded).ok()?;
@@ -338,7 +339,7 @@ impl ChartSession {
     /// As [`ChartSession::open`].
     pub fn afresh(&self) -> Option<Result<ChartSession, Error>> {
         let open = self.source.atlas() == crate::constraints::AtlasKeeping::WhereTargetsAllow;
-        let has_atlas = self.asset.primitives.iter().any(|p| p.uvs.is_some());
+        let has_atlas = self.asset.has_uvs();
         let first = self.pick.chart.is_none() && self.pick.piece.is_none();
         let free = self.prepared.domain.free().is_some();
         if !(open && has_atlas && first && free && matches!(self.atlas, AtlasUse::AsRead)) {

@@ -290,6 +290,11 @@ impl SourceAsset {
         files
     }
 
+    /// Whether any primitive has UVs in the set read (an atlas there).
+    pub fn has_uvs(&self) -> bool {
+        self.primitives.iter().any(|p| p.uvs.is_some())
+    }
+
     /// The same asset with no UVs in its set: laid out afresh, the whole
     /// mesh is unwrapped and the atlas there written over.
     pub fn without_uvs(&self) -> SourceAsset {
