@@ -61,6 +61,21 @@ pub fn all_positive_as_stored(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool 
     })
 }
 
+/// How many of `triangles` are not positive in double precision or lose
+/// their orientation as some output format stores them: what a repair of a
+/// layout too thin for f32 has left to do.
+pub fn count_unstorable(layout: &[DVec2], triangles: &[[u32; 3]]) -> usize {
+    triangles
+        .iter()
+        .filter(|&&t| {
+            let [a, b, c] = t.map(|v| layout[v as usize]);
+            !(orientation(a, b, c) > 0.0
+                && kept_as_stored(layout, t, stored_uv, -1.0)
+                && kept_as_stored(layout, t, stored_vt, 1.0))
+        })
+        .count()
+}
+
 /// Triangle count above which a check is split over rayon's threads.
 const PARALLEL_TRIANGLES: usize = 50_000;
 

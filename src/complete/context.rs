@@ -305,6 +305,11 @@ impl NewtonContext {
         self.rebuild_scaffold(layout);
     }
 
+    /// The chart's triangles (the scaffold's left out).
+    pub fn chart_triangles(&self) -> &[[u32; 3]] {
+        &self.triangles[..self.n_chart]
+    }
+
     fn count_storable(&self, layout: &[DVec2]) -> bool {
         guard::all_positive_as_stored(layout, &self.triangles[..self.n_chart])
             && self.free.as_ref().is_none_or(|d| d.room.admits(layout).is_ok())

@@ -43,6 +43,49 @@ const POLISH_TOLERANCE: f64 = 1e-3;
 /// Newton steps at most while repairing a layout that f32 cannot store yet.
 pub const REPAIR_STEPS: u32 = 2000;
 
+/// A repair gives up after this many Newton steps in a row that leave no
+/// fewer triangles unstorable than its best so far: the energy still falls,
+/// but towards rest shapes (slivers of a CAD part) that f32 cannot hold.
+const REPAIR_PATIENCE: u32 = 200;
+
+/// Whether a repair of a layout f32 cannot store yet still gains: the least
+/// count of triangles it could not store, and the steps since.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RepairWatch {
+    best: usize,
+    since: u32,
+}
+
+impl Default for RepairWatch {
+    fn default() -> Self {
+        RepairWatch {
+            best: usize::MAX,
+            since: 0,
+        }
+    }
+}
+
+impl RepairWatch {
+    /// Notes the triangles still unstorable after a repair step of
+    /// `newton`'s chart (`layout`); `true` once [`REPAIR_PATIENCE`] steps in
+    /// a row brought no new least count. A storable layout never stalls.
+    pub fn stalled(&mut self, newton: &context::NewtonContext, layout: &[DVec2]) -> bool {
+        !newton.is_storable() && self.note(crate::guard::count_unstorable(layout, newton.chart_triangles()))
+    }
+
+    /// Notes `left` triangles unstorable after a step; `true` once
+    /// [`REPAIR_PATIENCE`] steps in a row brought no new least count.
+    fn note(&mut self, left: usize) -> bool {
+        if left < self.best {
+            self.best = left;
+            self.since = 0;
+        } else {
+            self.since += 1;
+        }
+        self.since >= REPAIR_PATIENCE
+    }
+}
+
 /// In the soft rounds, no triangle's energy counts for more than this (ψ
 /// per unit area, 4 = isometry): one squeezed harder against its rest shape
 /// is measured against a progressive reference instead
@@ -200,4 +243,30 @@ pub fn partial_hint(
             .map(|(i, _)| format!(", next to constraints[{i}]"))
             .unwrap_or_default()
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_repair_stalls_only_after_a_run_of_steps_without_a_new_least_count() {
+        let mut watch = RepairWatch::default();
+        // Falling, with ups and downs: never stalled.
+        for k in 0..(3 * REPAIR_PATIENCE as usize) {
+            let left = 1000 - k / 2 + (k % 7);
+            assert!(!watch.note(left), "stalled at step {k} while still gaining");
+        }
+        // A new least count, then none lower: stalled exactly when the
+        // patience runs out.
+        assert!(!watch.note(1));
+        let mut stalled_at = None;
+        for k in 0..(2 * REPAIR_PATIENCE) {
+            if watch.note(5000) {
+                stalled_at = Some(k + 1);
+                break;
+            }
+        }
+        assert_eq!(stalled_at, Some(REPAIR_PATIENCE));
+    }
 }

@@ -4,7 +4,7 @@
 //! can be stored.
 
 use super::context::{NewtonContext, StepRequest};
-use super::{POLISH_TOLERANCE, REPAIR_STEPS};
+use super::{POLISH_TOLERANCE, REPAIR_STEPS, RepairWatch};
 use crate::options::SolverOptions;
 use crate::rbf::stepping::StepProblem;
 use glam::DVec2;
@@ -75,6 +75,7 @@ pub struct Polish {
     held: Vec<bool>,
     slivers: Slivers,
     energy_now: f64,
+    repair: RepairWatch,
     pub stats: PolishStats,
 }
 
@@ -111,6 +112,7 @@ impl Polish {
             held,
             slivers,
             energy_now: energy_start,
+            repair: RepairWatch::default(),
         }
     }
 
@@ -143,7 +145,8 @@ impl Polish {
         let out_of_steps = steps + 1 - self.stats.repair_steps >= options.polish_iterations;
         let finished =
             self.stats.goal == PolishGoal::Storable || step.converged || gain < POLISH_TOLERANCE || out_of_steps;
-        let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
+        let stuck =
+            step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS || (repairing && self.repair.stalled(&self.newton, layout));
         if finished && !out_of_steps && self.newton.is_storable() {
             match self.slivers {
                 // Stopped by a sliver: on with the slivers pushing back.

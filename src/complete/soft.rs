@@ -8,7 +8,7 @@ use super::context::{NewtonContext, StepRequest};
 use super::energy::{self, RestTriangle};
 use super::newton::SoftTargets;
 use super::obstruction::Obstruction;
-use super::{POLISH_TOLERANCE, PROGRESSIVE_CAP, Pinned, REPAIR_STEPS, find_obstruction};
+use super::{POLISH_TOLERANCE, PROGRESSIVE_CAP, Pinned, REPAIR_STEPS, RepairWatch, find_obstruction};
 use crate::options::SolverOptions;
 use crate::param::bar_net::FilledChart;
 use crate::rbf::stepping::StepProblem;
@@ -87,6 +87,7 @@ pub struct SoftCompletion {
     /// has energy ~1e20 and must not drown it).
     energy_now: f64,
     budget: PathBudget,
+    repair_watch: RepairWatch,
     pub stats: SoftStats,
 }
 
@@ -127,6 +128,7 @@ impl SoftCompletion {
             reference: Vec::new(),
             energy_now: energy_start,
             budget,
+            repair_watch: RepairWatch::default(),
             stats,
         }
     }
@@ -170,7 +172,7 @@ impl SoftCompletion {
         };
         let step = self.newton.step(layout, request);
         self.stats.repair_steps += 1;
-        let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS;
+        let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS || self.repair_watch.stalled(&self.newton, layout);
         let settled = step.converged || step.energy_after > (1.0 - REPAIR_GAIN) * step.energy_before;
         self.stage = if (settled && self.newton.is_storable()) || stuck {
             first_round(options)
