@@ -227,21 +227,24 @@ fn every_copy_on_target(
 ) {
     // Reached ones, and set-aside ones whose place is not known yet.
     let measured = |c: &&crate::report::ConstraintReport| c.reached || !c.residual.is_finite();
-    let mut farthest: std::collections::HashMap<u32, (f64, DVec2)> = report
+    // Per constrained vertex: its farthest copy's distance and place.
+    let mut farthest: std::collections::HashMap<u32, (f64, DVec2, DVec2)> = report
         .every_constraint()
         .filter(measured)
-        .map(|c| (c.welded, (0.0, c.target)))
+        .map(|c| (c.welded, (0.0, c.target, DVec2::NAN)))
         .collect();
     for (p, (prim, corners)) in asset.primitives.iter().zip(uvs).enumerate() {
         for (&v, uv) in prim.indices.iter().zip(&corners.corners) {
-            if let Some((far, target)) = farthest.get_mut(&welded.vertex_of[p][v as usize]) {
+            if let Some((far, target, place)) = farthest.get_mut(&welded.vertex_of[p][v as usize]) {
                 let at = DVec2::new(f64::from(uv[0]), f64::from(uv[1]));
                 let d = if at.is_finite() {
                     at.distance(*target)
                 } else {
                     f64::INFINITY
                 };
-                *far = far.max(d);
+                if d > *far || place.is_nan() {
+                    (*far, *place) = (d, at);
+                }
             }
         }
     }
@@ -249,12 +252,13 @@ fn every_copy_on_target(
     let mut set_aside = false;
     let lists = std::iter::once(&mut report.constraints).chain(report.charts.iter_mut().map(|r| &mut r.constraints));
     for list in lists {
+        // A set-aside constraint is where its farthest copy was written.
         for c in list.iter_mut().filter(|c| !c.reached && !c.residual.is_finite()) {
-            c.residual = farthest[&c.welded].0;
+            (c.residual, _, c.result) = farthest[&c.welded];
             set_aside = true;
         }
         for c in list.iter_mut().filter(|c| c.reached) {
-            let (far, _) = farthest[&c.welded];
+            let (far, _, _) = farthest[&c.welded];
             if far > COPY_TOLERANCE {
                 (c.reached, c.residual) = (false, far);
                 missed.push((c.index, far));

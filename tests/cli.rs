@@ -351,6 +351,52 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
 }
 
 #[test]
+fn a_landmark_on_a_piece_laid_out_without_it_is_reported_where_it_was_written() {
+    let tmp = TempDir::new("set-aside");
+    // A grid, and apart from it a flat triangle (its corners on one line)
+    // that no layout can keep: the landmark on it is laid out with the rest.
+    let mut mesh = grid_mesh(6, 6);
+    let n = mesh.positions.len() as u32;
+    for x in [2.0, 3.0, 4.0] {
+        mesh.positions.push(glam::DVec3::new(x, 0.0, 0.0));
+    }
+    mesh.triangles.push([n, n + 1, n + 2]);
+    let asset = tmp.path("flat.glb");
+    write_mesh_glb(&asset, &mesh);
+    let ron = tmp.path("flat.uvpin.ron");
+    let marks = [(7, 0.3, 0.3), (10, 0.7, 0.3), (25, 0.5, 0.7), (n + 1, 0.9, 0.9)];
+    write_constraints(&ron, &asset, &marks, "");
+    let (o, report) = solve_json(&ron, &tmp.path("flat-out.glb"));
+    assert_eq!(o.status.code(), Some(2), "{} {report}", stderr(&o));
+    let every: Vec<&serde_json::Value> = report["constraints"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .chain(
+            report["charts"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .flat_map(|c| c["constraints"].as_array().into_iter().flatten()),
+        )
+        .collect();
+    let apart = every.iter().find(|c| c["index"] == 3).expect("constraints[3] reported");
+    assert_eq!(apart["reached"], false, "{apart}");
+    // Its place as written, not NaN, and its residual measured from there.
+    let at = [apart["result"][0].as_f64(), apart["result"][1].as_f64()];
+    let [Some(u), Some(v)] = at else {
+        panic!("no place reported for the landmark set aside: {apart}");
+    };
+    let residual = apart["residual"].as_f64().expect("residual");
+    let d = ((u - 0.9).powi(2) + (v - 0.9).powi(2)).sqrt();
+    assert!((d - residual).abs() < 1e-6, "at ({u}, {v}), residual {residual}");
+    assert!(
+        residual > 0.0 && (0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v),
+        "{apart}"
+    );
+}
+
+#[test]
 fn non_triangle_primitives_and_missing_meshes_are_named_errors() {
     let tmp = TempDir::new("lines");
     let mesh = grid_mesh(4, 4);
