@@ -613,10 +613,9 @@ impl ChartPlan {
     /// fold-free layout of the chart witnesses is not lost to it.
     fn choose(&mut self, i: usize, why: &'static str) -> Result<(), Error> {
         match self.start_finishing(i, why) {
-            Ok(()) => {
-                self.trials.iter_mut().for_each(|t| t.tried = None);
-                Ok(())
-            }
+            // The others are kept until the chosen one's layout is known to
+            // be storable ([`Self::finish`]).
+            Ok(()) => Ok(()),
             // Solved on its level but with no start on the chart itself (no
             // room there): dropped on that evidence, the next best chosen.
             Err(e) if self.trials.iter().any(|t| t.tried.is_some()) => {
@@ -686,10 +685,26 @@ impl ChartPlan {
         Ok(())
     }
 
-    /// The end: a short layout settled, the report built with what was tried.
+    /// The end: a short layout settled, the report built with what was
+    /// tried. A layout f32 cannot store (no file could be written) first
+    /// drops its candidate for the next best one solved, while there is
+    /// one; the last is settled.
     fn finish(&mut self, mut session: ChartSession, mut solver: ChartSolver) -> Result<(), Error> {
         session.map_boundary()?;
+        if let Some((i, _)) = self.chosen
+            && !storable(&session, &solver)
+            && self.trials.iter().enumerate().any(|(k, t)| k != i && t.tried.is_some())
+        {
+            self.chosen = None;
+            self.trials[i].report.outcome = TrialOutcome::Dropped {
+                why: "solved on its level, but its layout on the chart itself cannot be stored as f32 texture \
+                      coordinates (triangles too thin)"
+                    .into(),
+            };
+            return self.choose_best();
+        }
         settle::settle(session.prepared(), session.step_one_layout(), &mut solver);
+        self.trials.iter_mut().for_each(|t| t.tried = None);
         session.keep(&solver);
         let mut times = session.times().with_solver(solver.times());
         times.detour_ms = (times.load_ms + times.topology_ms + self.elapsed_ms() - times.total_ms()).max(0.0);
@@ -726,6 +741,13 @@ impl ChartPlan {
     fn elapsed_ms(&self) -> f64 {
         self.base.times().load_ms + self.base.times().topology_ms + ms(self.started)
     }
+}
+
+/// Whether `solver`'s layout of `session`'s chart keeps every real
+/// triangle as f32 stores it (what the export checks before it writes).
+fn storable(session: &ChartSession, solver: &ChartSolver) -> bool {
+    let filled = &session.prepared().filled;
+    crate::guard::all_positive_as_stored(solver.layout(), &filled.mesh.triangles[..filled.n_real_triangles])
 }
 
 /// The chart of `session` itself as a level, its step 1 run (`warm` in
