@@ -46,7 +46,7 @@ pub const REPAIR_STEPS: u32 = 2000;
 /// A repair gives up after this many Newton steps in a row that leave no
 /// fewer triangles unstorable than its best so far: the energy still falls,
 /// but towards rest shapes (slivers of a CAD part) that f32 cannot hold.
-const REPAIR_PATIENCE: u32 = 200;
+pub const REPAIR_PATIENCE: u32 = 200;
 
 /// Whether a repair of a layout f32 cannot store yet still gains: the least
 /// count of triangles it could not store, and the steps since.
