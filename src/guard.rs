@@ -48,16 +48,20 @@ fn kept_as_stored(layout: &[DVec2], t: [u32; 3], store: fn(DVec2) -> [f32; 2], s
     sign * orientation(a, b, c) > 0.0
 }
 
+/// Whether triangle `t` keeps its orientation as every output format
+/// stores it (f32 glTF texture coordinates, f32 OBJ `vt`).
+#[inline]
+fn kept_in_every_format(layout: &[DVec2], t: [u32; 3]) -> bool {
+    kept_as_stored(layout, t, stored_uv, -1.0) && kept_as_stored(layout, t, stored_vt, 1.0)
+}
+
 /// `true` when every triangle keeps its orientation in double precision and
 /// as every output format stores it (f32 glTF texture coordinates, f32 OBJ
 /// `vt`): the guard every accepted layout must pass, so anything accepted can
 /// be written in any format.
 pub fn all_positive_as_stored(layout: &[DVec2], triangles: &[[u32; 3]]) -> bool {
     in_parallel(triangles, |part| {
-        all_positive(layout, part)
-            && part
-                .iter()
-                .all(|&t| kept_as_stored(layout, t, stored_uv, -1.0) && kept_as_stored(layout, t, stored_vt, 1.0))
+        all_positive(layout, part) && part.iter().all(|&t| kept_in_every_format(layout, t))
     })
 }
 
@@ -69,9 +73,7 @@ pub fn count_unstorable(layout: &[DVec2], triangles: &[[u32; 3]]) -> usize {
         .iter()
         .filter(|&&t| {
             let [a, b, c] = t.map(|v| layout[v as usize]);
-            !(orientation(a, b, c) > 0.0
-                && kept_as_stored(layout, t, stored_uv, -1.0)
-                && kept_as_stored(layout, t, stored_vt, 1.0))
+            !(orientation(a, b, c) > 0.0 && kept_in_every_format(layout, t))
         })
         .count()
 }

@@ -145,8 +145,7 @@ impl Polish {
         let out_of_steps = steps + 1 - self.stats.repair_steps >= options.polish_iterations;
         let finished =
             self.stats.goal == PolishGoal::Storable || step.converged || gain < POLISH_TOLERANCE || out_of_steps;
-        let stuck =
-            step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS || (repairing && self.repair.stalled(&self.newton, layout));
+        let stuck = step.alpha == 0.0 || steps + 1 >= REPAIR_STEPS || self.repair.stalled(&self.newton, layout);
         if finished && !out_of_steps && self.newton.is_storable() {
             match self.slivers {
                 // Stopped by a sliver: on with the slivers pushing back.

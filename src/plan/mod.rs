@@ -693,7 +693,7 @@ impl ChartPlan {
         session.map_boundary()?;
         if let Some((i, _)) = self.chosen
             && !storable(&session, &solver)
-            && self.trials.iter().enumerate().any(|(k, t)| k != i && t.tried.is_some())
+            && self.trials.iter().any(|t| t.tried.is_some())
         {
             self.chosen = None;
             self.trials[i].report.outcome = TrialOutcome::Dropped {
