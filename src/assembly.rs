@@ -21,6 +21,7 @@
 #![warn(missing_docs)]
 
 use crate::chart;
+use crate::complete::obstruction::{Obstruction, find_obstruction};
 use crate::error::Error;
 use crate::export::{self, Outputs, Secondary, Written};
 use crate::io::corners::CornerUvs;
@@ -301,10 +302,14 @@ fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries 
             }
             // A chart or piece that cannot be solved is laid out with the
             // rest, its landmarks unreached: partial, never an error.
-            Err(e) => match piece {
-                Some(piece) => unsolved.push((piece, e.to_string())),
-                None => unsolved.push((Arc::new(prepared.welded.chart(id)), format!("chart {id}: {e}"))),
-            },
+            Err(e) => {
+                let (piece, why) = match piece {
+                    Some(piece) => (piece, e.to_string()),
+                    None => (Arc::new(prepared.welded.chart(id)), format!("chart {id}: {e}")),
+                };
+                let why = proof_for(session, &piece).unwrap_or(why);
+                unsolved.push((piece, why));
+            }
         }
     }
     Secondaries {
@@ -312,6 +317,41 @@ fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries 
         reports,
         unsolved,
     }
+}
+
+/// Why `piece`'s landmarks cannot all be in place, when their targets
+/// alone prove it (three on a triangle mirror it, one lies inside a
+/// triangle of others, ...): the reason a user can act on, rather than
+/// how the piece's solve failed.
+fn proof_for(session: &ChartSession, piece: &Chart) -> Option<String> {
+    let (resolved, _) = session
+        .source()
+        .resolve(&session.asset().primitives, &session.prepared().welded)
+        .ok()?;
+    let n = piece.mesh.n_vertices();
+    let (mut pins, mut index_of) = (vec![None; n], vec![None; n]);
+    for c in &resolved {
+        if let Some(v) = piece.local_of(c.welded) {
+            pins[v as usize] = Some(crate::param::uv_to_xy(c.target_uv));
+            index_of[v as usize] = Some(c.index);
+        }
+    }
+    let is_constraint: Vec<bool> = index_of.iter().map(Option::is_some).collect();
+    let mut edges: Vec<[u32; 2]> = (piece.mesh.triangles.iter())
+        .flat_map(|t| [0, 1, 2].map(|k| [t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])]))
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    // A boxed vertex is judged inside its neighbours' hull: a free piece
+    // may have room outside it.
+    let found = find_obstruction(&piece.mesh.triangles, &edges, &pins, &is_constraint, n)
+        .filter(|o| !matches!(o, Obstruction::BoxedVertex { .. }))?;
+    let name = |v: u32| index_of[v as usize].map_or(format!("vertex {v}"), |i| format!("constraints[{i}]"));
+    Some(crate::complete::obstruction_hint(
+        &found,
+        |v| index_of[v as usize],
+        name,
+    ))
 }
 
 /// Pieces holding landmarks that could not be solved are laid out with the

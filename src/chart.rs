@@ -218,7 +218,9 @@ fn prepare_on(
     let corners = welded_corners.map(|w| local_corners(w, &chart, source)).transpose()?;
     let mut warnings: Vec<String> = Vec::new();
     warnings.extend(repair_warnings(&opening));
-    let cut = opening.seam.is_some() || !opening.separation.is_empty();
+    // A chart cut open, or with an outer loop of 3 (no 4 corners), has no
+    // shape the square would suit.
+    let cut = opening.seam.is_some() || !opening.separation.is_empty() || topology.outer_loop().len() < 4;
     let rest_share = kept_share.unwrap_or_else(|| rest_share(asset, &welded, &chart, &opening));
     // What the camera sees of the other pieces is theirs: the chart keeps
     // off it (each piece keeps off the ones after it, [`PreparedChart::reserved_after`]).

@@ -90,6 +90,12 @@ pub enum PinError {
         /// What is wrong.
         message: String,
     },
+    /// The boundary cannot be laid out as asked.
+    #[error("boundary: {message}")]
+    Boundary {
+        /// What is wrong.
+        message: String,
+    },
     /// The seams are wrong.
     #[error("seams: {message}")]
     Seams {

@@ -350,11 +350,27 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
     assert_read_back_one_to_one(&out, 0, "the written set");
 }
 
+/// The report's message and hint, and every chart's hint.
+fn reasons(report: &serde_json::Value) -> Vec<&str> {
+    let mut out = vec![
+        report["message"].as_str().unwrap_or_default(),
+        report["hint"].as_str().unwrap_or_default(),
+    ];
+    out.extend(
+        report["charts"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|c| c["hint"].as_str()),
+    );
+    out
+}
+
 #[test]
-fn a_landmark_on_a_piece_laid_out_without_it_is_reported_where_it_was_written() {
+fn a_landmark_short_of_its_target_on_another_piece_is_reported_where_it_was_written() {
     let tmp = TempDir::new("set-aside");
-    // A grid, and apart from it a flat triangle (its corners on one line)
-    // that no layout can keep: the landmark on it is laid out with the rest.
+    // A grid, and apart from it a flat triangle (its corners on one line):
+    // laid out with area all the same, its landmark reached.
     let mut mesh = grid_mesh(6, 6);
     let n = mesh.positions.len() as u32;
     for x in [2.0, 3.0, 4.0] {
@@ -364,10 +380,32 @@ fn a_landmark_on_a_piece_laid_out_without_it_is_reported_where_it_was_written() 
     let asset = tmp.path("flat.glb");
     write_mesh_glb(&asset, &mesh);
     let ron = tmp.path("flat.uvpin.ron");
-    let marks = [(7, 0.3, 0.3), (10, 0.7, 0.3), (25, 0.5, 0.7), (n + 1, 0.9, 0.9)];
+    let grid_marks = [(7, 0.3, 0.3), (10, 0.7, 0.3), (25, 0.5, 0.7)];
+    let out = tmp.path("flat-out.glb");
+    write_constraints(
+        &ron,
+        &asset,
+        &[grid_marks[0], grid_marks[1], grid_marks[2], (n + 1, 0.9, 0.9)],
+        "",
+    );
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{} {report}", stderr(&o));
+    let check = uvpin(&["check", out.to_str().unwrap()]);
+    assert_eq!(check.status.code(), Some(0), "{}", stdout(&check));
+    // Three landmarks that mirror the triangle: each is reported where it
+    // was written.
+    let mirrored = [(n, 0.1, 0.85), (n + 1, 0.3, 0.85), (n + 2, 0.2, 0.95)];
+    let marks: Vec<(u32, f64, f64)> = grid_marks.iter().chain(&mirrored).copied().collect();
     write_constraints(&ron, &asset, &marks, "");
-    let (o, report) = solve_json(&ron, &tmp.path("flat-out.glb"));
+    let (o, report) = solve_json(&ron, &out);
     assert_eq!(o.status.code(), Some(2), "{} {report}", stderr(&o));
+    // The reason names the mirrored triangle, not how a solve failed:
+    // in the message when the piece is laid out without its landmarks,
+    // else in its chart's hint.
+    assert!(
+        reasons(&report).iter().any(|r| r.contains("flipped or flat")),
+        "{report}"
+    );
     let every: Vec<&serde_json::Value> = report["constraints"]
         .as_array()
         .into_iter()
@@ -380,20 +418,24 @@ fn a_landmark_on_a_piece_laid_out_without_it_is_reported_where_it_was_written() 
                 .flat_map(|c| c["constraints"].as_array().into_iter().flatten()),
         )
         .collect();
-    let apart = every.iter().find(|c| c["index"] == 3).expect("constraints[3] reported");
-    assert_eq!(apart["reached"], false, "{apart}");
-    // Its place as written, not NaN, and its residual measured from there.
-    let at = [apart["result"][0].as_f64(), apart["result"][1].as_f64()];
-    let [Some(u), Some(v)] = at else {
-        panic!("no place reported for the landmark set aside: {apart}");
-    };
-    let residual = apart["residual"].as_f64().expect("residual");
-    let d = ((u - 0.9).powi(2) + (v - 0.9).powi(2)).sqrt();
-    assert!((d - residual).abs() < 1e-6, "at ({u}, {v}), residual {residual}");
-    assert!(
-        residual > 0.0 && (0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v),
-        "{apart}"
-    );
+    let unreached: Vec<_> = every.iter().filter(|c| c["reached"] == false).collect();
+    assert!(!unreached.is_empty(), "{report}");
+    for c in unreached {
+        // Its place as written, not NaN, and its residual measured from there.
+        let index = c["index"].as_u64().expect("index") as usize;
+        let (_, tu, tv) = marks[index];
+        let at = [c["result"][0].as_f64(), c["result"][1].as_f64()];
+        let [Some(u), Some(v)] = at else {
+            panic!("no place reported for the landmark short of its target: {c}");
+        };
+        let residual = c["residual"].as_f64().expect("residual");
+        let d = ((u - tu).powi(2) + (v - tv).powi(2)).sqrt();
+        assert!((d - residual).abs() < 1e-6, "at ({u}, {v}), residual {residual}");
+        assert!(
+            residual > 0.0 && (0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v),
+            "{c}"
+        );
+    }
 }
 
 #[test]
@@ -771,7 +813,7 @@ fn a_closed_mesh_with_a_three_vertex_hole_is_cut_like_a_closed_one() {
 }
 
 #[test]
-fn a_one_triangle_piece_holding_a_landmark_makes_the_solve_partial_not_an_error() {
+fn a_one_triangle_piece_holding_landmarks_is_solved_as_its_own_chart() {
     let tmp = TempDir::new("one-triangle-piece");
     let mut grid = grid_mesh(10, 10);
     let base = grid.positions.len() as u32;
@@ -782,29 +824,81 @@ fn a_one_triangle_piece_holding_a_landmark_makes_the_solve_partial_not_an_error(
     ]);
     grid.triangles.push([base, base + 1, base + 2]);
     std::fs::write(tmp.path("soup.obj"), obj_text(&grid)).unwrap();
-    for extra in ["", "    boundary: Free,\n"] {
+    let solve = |landmarks: &[(u32, f64, f64)], extra: &str| {
         let ron = tmp.path("soup.uvpin.ron");
-        let landmarks = [(44, 0.45, 0.5), (base, 0.1, 0.1)];
-        write_constraints(&ron, std::path::Path::new("soup.obj"), &landmarks, extra);
+        write_constraints(&ron, std::path::Path::new("soup.obj"), landmarks, extra);
         let out = tmp.path("out.glb");
         let (o, report) = solve_json(&ron, &out);
-        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-        assert_eq!(report["status"], "partial");
-        assert!(
-            report["message"].as_str().unwrap().contains("laid out without them"),
-            "{report}"
-        );
-        // The set-aside landmark's residual is where the file has it.
-        let residual = report["max_residual"].as_f64();
-        assert!(residual.is_some_and(|r| r.is_finite() && r > 0.1), "{report}");
-        let o = uvpin(&["check", out.to_str().unwrap()]);
+        let check = uvpin(&["check", out.to_str().unwrap()]);
         assert_eq!(
-            o.status.code(),
+            check.status.code(),
             Some(0),
-            "written fold-free and one-to-one: {}",
-            stdout(&o)
+            "fold-free, one-to-one: {}",
+            stdout(&check)
         );
+        (o, report)
+    };
+    // One landmark or two on the triangle (its outer loop has 3 vertices,
+    // no 4 corners for the square): reached, by default and free.
+    for extra in ["", "    boundary: Free,\n"] {
+        for on_triangle in [&[(base, 0.1, 0.1)][..], &[(base, 0.05, 0.1), (base + 1, 0.15, 0.1)]] {
+            let mut landmarks = vec![(44, 0.45, 0.5)];
+            landmarks.extend_from_slice(on_triangle);
+            let (o, report) = solve(&landmarks, extra);
+            assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+            assert_eq!(report["status"], "reached", "{report}");
+        }
     }
+    // Three landmarks whose targets mirror the triangle: partial, with the
+    // triangle named as the proof, written fold-free.
+    let mirrored = [
+        (44, 0.45, 0.5),
+        (base, 0.05, 0.1),
+        (base + 1, 0.15, 0.1),
+        (base + 2, 0.1, 0.15),
+    ];
+    let (o, report) = solve(&mirrored, "");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(report["status"], "partial", "{report}");
+    assert!(
+        reasons(&report).iter().any(|r| r.contains("flipped or flat")),
+        "{report}"
+    );
+    let (mut held, _) = solve(&mirrored[..3], "");
+    assert_eq!(held.status.code(), Some(0), "{}", stderr(&held));
+    held = solve(
+        &[
+            (44, 0.45, 0.5),
+            (base, 0.05, 0.1),
+            (base + 1, 0.15, 0.1),
+            (base + 2, 0.1, 0.05),
+        ],
+        "",
+    )
+    .0;
+    assert_eq!(
+        held.status.code(),
+        Some(0),
+        "the same three, not mirrored: {}",
+        stderr(&held)
+    );
+}
+
+#[test]
+fn a_one_triangle_mesh_on_the_square_is_an_error_at_the_boundary_field() {
+    let tmp = TempDir::new("one-triangle-square");
+    std::fs::write(tmp.path("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let ron = tmp.path("tri.uvpin.ron");
+    write_constraints(&ron, std::path::Path::new("tri.obj"), &[(0, 0.5, 0.5)], "");
+    let (o, report) = solve_json(&ron, &tmp.path("tri.glb"));
+    assert_eq!(o.status.code(), Some(0), "free by default: {} {report}", stderr(&o));
+    write_constraints(
+        &ron,
+        std::path::Path::new("tri.obj"),
+        &[(0, 0.5, 0.5)],
+        "    boundary: Square,\n",
+    );
+    assert_fails_writing_nothing(&ron, &tmp, &["tri.uvpin.ron:", "boundary:", "only 3 vertices"]);
 }
 
 #[test]

@@ -68,6 +68,8 @@ pub struct LoadedConstraints {
     pub region_position: (usize, usize),
     /// (line, column) of the `seams` value, or of the file start.
     pub seams_position: (usize, usize),
+    /// Where the `boundary` value starts (1-based line and column).
+    pub boundary_position: (usize, usize),
     /// The solver options in force: the file's `solver`, else the defaults given at load.
     pub solver: SolverOptions,
 }
@@ -147,6 +149,14 @@ impl ConstraintSource {
         match self {
             ConstraintSource::File(l) => l.corners_error(message).into(),
             ConstraintSource::Memory(_) => PinError::Corners { message }.into(),
+        }
+    }
+
+    /// An error about the boundary.
+    pub fn boundary_error(&self, message: String) -> ConstraintError {
+        match self {
+            ConstraintSource::File(l) => l.boundary_error(message).into(),
+            ConstraintSource::Memory(_) => PinError::Boundary { message }.into(),
         }
     }
 

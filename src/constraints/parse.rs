@@ -59,6 +59,7 @@ impl LoadedConstraints {
             asset_position: (1, 1),
             region_position: (1, 1),
             seams_position: (1, 1),
+            boundary_position: (1, 1),
             file,
         };
         loaded.validate()?;
@@ -100,6 +101,7 @@ impl LoadedConstraints {
             asset_position: scan.asset.unwrap_or((1, 1)),
             region_position: scan.region.unwrap_or((1, 1)),
             seams_position: scan.seams.unwrap_or((1, 1)),
+            boundary_position: scan.boundary.unwrap_or((1, 1)),
             file,
         };
         loaded.validate()?;
@@ -159,6 +161,18 @@ impl LoadedConstraints {
             line,
             column,
             field: "seams".into(),
+            message: message.into(),
+        }
+    }
+
+    /// An error located at the `boundary` value.
+    pub fn boundary_error(&self, message: impl Into<String>) -> ConstraintFileError {
+        let (line, column) = self.boundary_position;
+        ConstraintFileError::Invalid {
+            path: self.path.clone(),
+            line,
+            column,
+            field: "boundary".into(),
             message: message.into(),
         }
     }
@@ -246,7 +260,7 @@ impl LoadedConstraints {
 }
 
 /// Where the top-level `asset`, `constraints` (and each of its items),
-/// `corners` and `region` values start (1-based line and column).
+/// `corners`, `region`, `seams` and `boundary` values start (1-based line and column).
 #[derive(Debug, Default)]
 struct Positions {
     asset: Option<(usize, usize)>,
@@ -255,6 +269,7 @@ struct Positions {
     corners: Option<(usize, usize)>,
     region: Option<(usize, usize)>,
     seams: Option<(usize, usize)>,
+    boundary: Option<(usize, usize)>,
 }
 
 /// Locates the parts of constraint-file text the RON parser accepted.
@@ -269,6 +284,7 @@ fn positions(text: &str) -> Positions {
             "corners" => out.corners = here,
             "region" => out.region = here,
             "seams" => out.seams = here,
+            "boundary" => out.boundary = here,
             "constraints" => {
                 out.constraints = here;
                 if &text[tokens[value.start].span.clone()] == "[" {

@@ -36,8 +36,6 @@ pub enum TopologyError {
     Closed,
     #[error("the chart is not a disk: genus {genus} with {n_loops} boundary loops; cut handles open first")]
     NotADisk { genus: i64, n_loops: usize },
-    #[error("the outer boundary has only {n} vertices; at least 4 are needed for the square's corners")]
-    TooFewBoundaryVertices { n: usize },
     #[error("the chart has no triangles")]
     Empty,
 }
@@ -66,7 +64,7 @@ impl Topology {
     /// # Errors
     /// Any [`TopologyError`]: repeated vertex in a triangle, edge with > 2
     /// triangles or inconsistent winding, bow-tie vertex, closed surface, genus
-    /// > 0, outer loop with fewer than 4 vertices.
+    /// > 0.
     pub fn build(mesh: &TriMesh) -> Result<Self, TopologyError> {
         check_triangles(mesh)?;
         let half = HalfEdges::new(mesh);
@@ -89,9 +87,6 @@ impl Topology {
                 n_loops: loops.len(),
             });
         }
-        if loops[outer].len() < 4 {
-            return Err(TopologyError::TooFewBoundaryVertices { n: loops[outer].len() });
-        }
         Ok(Topology {
             loops,
             outer,
@@ -108,8 +103,7 @@ impl Topology {
 
     /// Takes as the outer loop the one that encloses the most area where
     /// `layout` puts the vertices (a chart seen by a camera, whose longest
-    /// loop in 3D may be a bore's rim inside its outline), when that loop
-    /// has at least 4 vertices.
+    /// loop in 3D may be a bore's rim inside its outline).
     pub fn outermost_in(mut self, layout: &[glam::DVec2]) -> Self {
         let area = |l: &[u32]| {
             (0..l.len())
@@ -117,7 +111,7 @@ impl Topology {
                 .sum::<f64>()
         };
         let widest = (0..self.loops.len()).max_by(|&a, &b| area(&self.loops[a]).total_cmp(&area(&self.loops[b])));
-        if let Some(k) = widest.filter(|&k| self.loops[k].len() >= 4) {
+        if let Some(k) = widest {
             self.outer = k;
         }
         self

@@ -48,6 +48,11 @@ pub enum BoundaryError {
          they must come top_left → bottom_left → bottom_right → top_right{mirror}"
     )]
     CornerOrder { found: String, mirror: &'static str },
+    #[error(
+        "the outer boundary has only 3 vertices, and the square needs 4 for its corners: give `boundary: Free`, or \
+         `seams` that open the chart"
+    )]
+    ThreeCorneredLoop,
 }
 
 /// How the boundary was laid out.
@@ -59,6 +64,11 @@ pub enum BoundaryShape {
     /// Sides bowed outward (strictly convex), fitted inside the unit square:
     /// used only when every corner choice would give zero-area triangles.
     BulgedSquare,
+    /// An outer loop of 3 vertices on three of the square's corners (top
+    /// left, bottom left, bottom right; the top-right corner repeats the
+    /// bottom-right one): a start for a free chart only, since it leaves
+    /// part of the square empty.
+    Triangle,
 }
 
 /// Where the corners came from.
@@ -272,6 +282,9 @@ pub fn map_outer_boundary(
         triangles: traps.triangles.iter().map(|t| t.map(rotate)).collect(),
         chords: traps.chords.iter().map(|e| e.map(rotate)).collect(),
     };
+    if n == 3 {
+        return three_cornered(loop_vertices, given);
+    }
     let (arc, total) = arc_lengths(mesh, &loop_vertices);
 
     let (corners, source, trapped) = match given {
@@ -325,6 +338,24 @@ pub fn map_outer_boundary(
         shape,
         corner_source: source,
         trapped_on_square: trapped,
+    })
+}
+
+/// An outer loop of 3 vertices (a chart of one triangle, a fan of three)
+/// on three of the square's corners, counter-clockwise as its winding: a
+/// convex polygon, so the bar-net of Eq. 1 keeps every triangle inside
+/// positive. The square cannot take it ([`BoundaryShape::Triangle`]).
+fn three_cornered(loop_vertices: Vec<u32>, given: Option<[u32; 4]>) -> Result<BoundaryMap, BoundaryError> {
+    if given.is_some() {
+        return Err(BoundaryError::ThreeCorneredLoop);
+    }
+    Ok(BoundaryMap {
+        loop_vertices,
+        positions: SQUARE_CORNERS[..3].to_vec(),
+        corners: [0, 1, 2, 2],
+        shape: BoundaryShape::Triangle,
+        corner_source: CornerSource::Automatic { shift: 0 },
+        trapped_on_square: 0,
     })
 }
 
@@ -455,6 +486,29 @@ mod tests {
                 b.positions[i]
             );
         }
+    }
+
+    #[test]
+    fn a_loop_of_three_goes_on_three_corners_counter_clockwise() {
+        // Three triangles around an apex: the outer loop has 3 vertices.
+        let m = TriMesh {
+            positions: vec![
+                glam::DVec3::ZERO,
+                glam::DVec3::X,
+                glam::DVec3::Y,
+                glam::DVec3::new(0.3, 0.3, 0.5),
+            ],
+            triangles: vec![[0, 1, 3], [1, 2, 3], [2, 0, 3]],
+        };
+        let t = Topology::build(&m).unwrap();
+        assert_eq!(t.outer_loop().len(), 3);
+        let c = TrapCandidates::find(&m, &t);
+        let b = map_outer_boundary(&m, &t, &c, None).unwrap();
+        assert_eq!(b.shape, BoundaryShape::Triangle);
+        let p = &b.positions;
+        assert!((p[1] - p[0]).perp_dot(p[2] - p[0]) > 0.0, "counter-clockwise: {p:?}");
+        let e = map_outer_boundary(&m, &t, &c, Some([0, 1, 2, 3])).unwrap_err();
+        assert_eq!(e, BoundaryError::ThreeCorneredLoop);
     }
 
     #[test]

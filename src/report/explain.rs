@@ -120,10 +120,10 @@ fn step1_line(s: &SolveSummary, step1: &Stretch) -> String {
         "step 1 (bar-net, Eq. 1-2): outer loop of {} vertices on the {} (corners {}); {} holes fan-filled; \
          {} free vertices solved; stretch L2 {:.4}, L∞ {:.4}; {:.2} ms",
         s.boundary.loop_vertices.len(),
-        if s.boundary.shape == BoundaryShape::Square {
-            "square"
-        } else {
-            "bulged square (zero-area trap)"
+        match s.boundary.shape {
+            BoundaryShape::Square => "square",
+            BoundaryShape::BulgedSquare => "bulged square (zero-area trap)",
+            BoundaryShape::Triangle => "square's lower-left half (a loop of 3)",
         },
         match s.boundary.corner_source {
             CornerSource::Given => "given".to_string(),

@@ -7,7 +7,7 @@ use crate::chart::PreparedChart;
 use crate::constraints::ConstraintSource;
 use crate::error::Error;
 use crate::param::bar_net::BarNet;
-use crate::param::boundary::{BoundaryMap, map_outer_boundary};
+use crate::param::boundary::{BoundaryError, BoundaryMap, BoundaryShape, map_outer_boundary};
 use glam::DVec2;
 use std::path::Path;
 use std::sync::Arc;
@@ -35,11 +35,21 @@ pub struct StepOneTimes {
 ///
 /// # Errors
 /// Corners that are not on the outer loop, are mirrored, or trap a triangle
-/// with no way out (located at the `corners` field).
+/// with no way out (located at the `corners` field); a chart on the square
+/// whose outer loop has only 3 vertices.
 pub fn map_boundary(prepared: &PreparedChart, source: &ConstraintSource) -> Result<BoundaryMap, Error> {
     let c = prepared;
-    map_outer_boundary(&c.chart.mesh, &c.topology, &c.traps, c.corners)
-        .map_err(|e| source.corners_error(e.to_string()).into())
+    let on_square = c.domain.free().is_none();
+    let boundary = map_outer_boundary(&c.chart.mesh, &c.topology, &c.traps, c.corners).map_err(|e| match e {
+        BoundaryError::ThreeCorneredLoop if c.corners.is_none() => source.boundary_error(e.to_string()),
+        _ => source.corners_error(e.to_string()),
+    })?;
+    match boundary.shape {
+        BoundaryShape::Triangle if on_square => Err(source
+            .boundary_error(BoundaryError::ThreeCorneredLoop.to_string())
+            .into()),
+        _ => Ok(boundary),
+    }
 }
 
 /// `D = Cᵀ Q C` of Eq. 1 (force densities of Eq. 2) over the nodes off the
