@@ -428,31 +428,43 @@ pub fn fit_into_room(
             shrink: 1.0,
         });
     }
-    for &shrink in &SHRINKS {
+    // Tried in turn: with one target, the largest shrink about it that
+    // keeps the box inside the region (a landmark near the region's border
+    // starts on its target); then each of `SHRINKS` about the targets'
+    // centre, moved the least into the region, and about the anchors.
+    let one_target = (problem.targets.len() == 1).then_some(targets_centre).flatten();
+    let widest = one_target.and_then(|c| Some((widest_shrink_inside((blo, bhi), c, (lo, hi))?, c, c)));
+    let tries = widest.into_iter().chain(SHRINKS.iter().flat_map(|&shrink| {
         let near = targets_centre.map_or(Vec::new(), |c| {
             vec![(c, c), (c, c + least_move_inside((blo, bhi), c, shrink, (lo, hi)))]
         });
-        for &(from, to) in near.iter().chain(&anchors) {
-            let layout: Vec<DVec2> = placed.iter().map(|&p| to + (p - from) * shrink).collect();
-            if (bhi - blo).length() * shrink < MIN_SPAN * (hi - lo).length() {
-                return None;
+        near.into_iter()
+            .chain(anchors.clone())
+            .map(move |(from, to)| (shrink, from, to))
+    }));
+    for (shrink, from, to) in tries {
+        if (bhi - blo).length() * shrink < MIN_SPAN * (hi - lo).length() {
+            if to == from && Some((shrink, from, to)) == widest {
+                continue;
             }
-            // The room first: it looks at the boundary only. Step 1 where it
-            // lies is relaxed before anything is stored: double precision
-            // is enough (its thinnest triangles may be too thin for f32).
-            let fits = if kind == StartKind::StepOne && fit == Fit::InPlace {
-                inside_region(room, &layout) && room.embeds(&layout) && guard::all_positive(&layout, triangles)
-            } else {
-                room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles)
-            };
-            if fits {
-                return Some(ChosenStart {
-                    layout,
-                    kind,
-                    rest_area,
-                    shrink,
-                });
-            }
+            return None;
+        }
+        let layout: Vec<DVec2> = placed.iter().map(|&p| to + (p - from) * shrink).collect();
+        // The room first: it looks at the boundary only. Step 1 where it
+        // lies is relaxed before anything is stored: double precision
+        // is enough (its thinnest triangles may be too thin for f32).
+        let fits = if kind == StartKind::StepOne && fit == Fit::InPlace {
+            inside_region(room, &layout) && room.embeds(&layout) && guard::all_positive(&layout, triangles)
+        } else {
+            room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles)
+        };
+        if fits {
+            return Some(ChosenStart {
+                layout,
+                kind,
+                rest_area,
+                shrink,
+            });
         }
     }
     None
@@ -661,6 +673,27 @@ fn least_move_inside((lo, hi): (DVec2, DVec2), centre: DVec2, shrink: f64, regio
     d
 }
 
+/// The largest shrink below 1 of the box `lo..hi` about `centre` that
+/// brings it inside `region` ([`INSIDE_MARGIN`] from its border); `None`
+/// when `centre` is outside that or no shrink below 1 is needed.
+fn widest_shrink_inside((lo, hi): (DVec2, DVec2), centre: DVec2, region: (DVec2, DVec2)) -> Option<f64> {
+    let margin = (region.1 - region.0) * INSIDE_MARGIN;
+    let (min, max) = (region.0 + margin, region.1 - margin);
+    if !(centre.cmpgt(min).all() && centre.cmplt(max).all()) {
+        return None;
+    }
+    let mut s: f64 = 1.0;
+    for k in 0..2 {
+        if lo[k] < min[k] {
+            s = s.min((centre[k] - min[k]) / (centre[k] - lo[k]));
+        }
+        if hi[k] > max[k] {
+            s = s.min((max[k] - centre[k]) / (hi[k] - centre[k]));
+        }
+    }
+    (s > 0.0 && s < 1.0).then_some(s * (1.0 - 1e-9))
+}
+
 /// Total signed area of the triangles in `layout`.
 pub fn layout_area(layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
     triangles
@@ -776,6 +809,20 @@ pub fn fill_region(room: &Room, layout: &mut [DVec2], triangles: &[[u32; 3]], pi
 mod tests {
     use super::*;
     use crate::testing::grid_mesh;
+
+    #[test]
+    fn the_widest_shrink_about_a_target_near_the_border_just_fits() {
+        let region = (DVec2::ZERO, DVec2::new(0.5, 1.0));
+        let (lo, hi) = (DVec2::new(0.3, 0.35), DVec2::new(0.6, 0.65));
+        let centre = DVec2::new(0.45, 0.5);
+        let s = widest_shrink_inside((lo, hi), centre, region).expect("a shrink");
+        let right = centre.x + (hi.x - centre.x) * s;
+        assert!((right - 0.495).abs() < 1e-6, "the right side on the margin: {right}");
+        assert!(centre.x + (lo.x - centre.x) * s > 0.0);
+        // Inside already: no shrink; the centre outside the region: none.
+        assert_eq!(widest_shrink_inside((lo, DVec2::new(0.49, 0.6)), centre, region), None);
+        assert_eq!(widest_shrink_inside((lo, hi), DVec2::new(0.499, 0.5), region), None);
+    }
 
     #[test]
     fn a_view_past_the_texture_is_drawn_in_near_the_border_only() {
