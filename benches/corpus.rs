@@ -432,9 +432,13 @@ impl Tables {
         }
         let mut common_reasons: Vec<(&String, &usize)> = self.reasons.iter().collect();
         common_reasons.sort_by(|a, b| b.1.cmp(a.1));
-        body += "\nThe commonest refusals:\n\n";
-        for (r, n) in common_reasons.iter().take(5) {
-            body += &format!("- {n} × `{r}`\n");
+        if common_reasons.is_empty() {
+            body += "\nNo case was refused.\n";
+        } else {
+            body += "\nThe commonest refusals:\n\n";
+            for (r, n) in common_reasons.iter().take(5) {
+                body += &format!("- {n} × `{r}`\n");
+            }
         }
         if !self.notable.is_empty() {
             body += &format!("\nCrashes and false exits:\n\n{}", self.notable);
