@@ -204,9 +204,7 @@ fn cleared(
         .filter(|r| r.constraints.iter().any(|c| !c.reached))
         .flat_map(|r| {
             let (lo, hi) = crate::injective::bounds(r.constraints.iter().map(|c| crate::param::uv_to_xy(c.target)));
-            let (lo, hi) = (lo - KEPT_FOR_OTHERS, hi + KEPT_FOR_OTHERS);
-            let (a, b, c, d) = (lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y));
-            [[a, b, c], [a, c, d]]
+            box_triangles(lo - KEPT_FOR_OTHERS, hi + KEPT_FOR_OTHERS)
         })
         .collect();
     if kept.is_empty() {
@@ -273,11 +271,18 @@ fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries 
     let (mut solved, mut reports, mut unsolved) = (Vec::new(), Vec::new(), Vec::new());
     let charts = prepared.secondary.iter().map(|&id| (id, None));
     let pieces = prepared.opening.pieces.iter().map(|p| (p.id, Some(p.clone())));
-    for (k, (id, piece)) in pieces.chain(charts).enumerate() {
-        let outcome = session.beside(k, (id, piece.clone()), &placed).and_then(|mut other| {
-            let solution = solve(&mut other, solver.options())?;
-            Ok((other.prepared().clone(), solution))
-        });
+    let items: Vec<(u32, Option<Arc<Chart>>)> = pieces.chain(charts).collect();
+    let density = prepared.density(solver.layout());
+    let kept = KeptForLater::new(session, &items);
+    for (k, (id, piece)) in items.into_iter().enumerate() {
+        let mut room = placed.clone();
+        room.extend(kept.after(k));
+        let outcome = session
+            .beside(k, (id, piece.clone()), (&room, density))
+            .and_then(|mut other| {
+                let solution = solve(&mut other, solver.options())?;
+                Ok((other.prepared().clone(), solution))
+            });
         // Solved clear of what was laid out before it, as the scaffold
         // promises; checked as stored all the same.
         let outcome = outcome.and_then(|(piece, solution)| {
@@ -317,6 +322,59 @@ fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries 
         reports,
         unsolved,
     }
+}
+
+/// The room kept about the targets of the charts and pieces solved after
+/// each one, which a piece laid out before them would otherwise spread
+/// over.
+struct KeptForLater {
+    /// Per chart or piece in solving order, its targets' box grown by
+    /// [`KEPT_FOR_OTHERS`] (`None` without targets, or for a piece that a
+    /// camera's view keeps room for already,
+    /// [`chart::PreparedChart::reserved_after`]).
+    boxes: Vec<Option<(DVec2, DVec2)>>,
+    /// Per chart or piece, its own targets.
+    targets: Vec<Vec<DVec2>>,
+}
+
+impl KeptForLater {
+    fn new(session: &ChartSession, items: &[(u32, Option<Arc<Chart>>)]) -> Self {
+        let prepared = session.prepared();
+        let resolved = (session.source())
+            .resolve(&session.asset().primitives, &prepared.welded)
+            .map(|(all, _)| all)
+            .unwrap_or_default();
+        let facing = matches!(session.pick().form, Some(crate::cut::prepare::Form::Facing { .. }));
+        let (mut targets, mut boxes) = (Vec::new(), Vec::new());
+        for (id, piece) in items {
+            let chart = piece.clone().unwrap_or_else(|| Arc::new(prepared.welded.chart(*id)));
+            let on: Vec<&ResolvedConstraint> = resolved.iter().filter(|c| chart.local_of(c.welded).is_some()).collect();
+            let t: Vec<DVec2> = on.iter().map(|c| crate::param::uv_to_xy(c.target_uv)).collect();
+            let seen = facing && piece.is_some();
+            boxes.push((!t.is_empty() && !seen).then(|| {
+                let (lo, hi) = crate::injective::bounds(&t);
+                (lo - KEPT_FOR_OTHERS, hi + KEPT_FOR_OTHERS)
+            }));
+            targets.push(t);
+        }
+        KeptForLater { boxes, targets }
+    }
+
+    /// The boxes of those after the `k`-th that hold none of its targets.
+    fn after(&self, k: usize) -> Vec<[DVec2; 3]> {
+        let own = &self.targets[k];
+        let clear = |(lo, hi): &(DVec2, DVec2)| !own.iter().any(|t| t.cmpge(*lo).all() && t.cmple(*hi).all());
+        (self.boxes[k + 1..].iter().flatten())
+            .filter(|b| clear(b))
+            .flat_map(|&(lo, hi)| box_triangles(lo, hi))
+            .collect()
+    }
+}
+
+/// The rectangle `lo..hi` as two counter-clockwise triangles.
+fn box_triangles(lo: DVec2, hi: DVec2) -> [[DVec2; 3]; 2] {
+    let (a, b, c, d) = (lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y));
+    [[a, b, c], [a, c, d]]
 }
 
 /// Why `piece`'s landmarks cannot all be in place, when their targets

@@ -249,6 +249,13 @@ fn prepare_on(
         domain = Domain::Free(Arc::new(
             setup.starting_from(layout, crate::domain::start::StartKind::Projection),
         ));
+    } else if let (None, Domain::Free(setup), [landmark]) = (&pick.form, &domain, &constraint_vertices[..])
+        && setup.island.is_none()
+        && let Some(layout) = photo_start(source, asset, &welded, &filled, (*landmark, constraints[0].target_uv))
+    {
+        domain = Domain::Free(Arc::new(
+            setup.starting_from(layout, crate::domain::start::StartKind::Projection),
+        ));
     }
     if corners.is_some() && matches!(domain, Domain::Free(_)) {
         warnings.push("corners are ignored: the boundary is free".into());
@@ -269,6 +276,29 @@ fn prepare_on(
         rest_share,
         whole: source.boundary().1.unwrap_or(Region::TEXTURE),
     })
+}
+
+/// A chart with one landmark as the camera that the file's landmarks fit
+/// sees it (a photo's of the whole mesh), moved so that its landmark is
+/// on its target (`landmark`, `target` in texture coordinates): its size
+/// and turn as the photo shows it, where one target gives neither. `None`
+/// without three landmarks that fix a view, or when the view folds.
+fn photo_start(
+    source: &ConstraintSource,
+    asset: &SourceAsset,
+    welded: &WeldedMesh,
+    filled: &FilledChart,
+    (landmark, target): (u32, DVec2),
+) -> Option<Vec<DVec2>> {
+    let (all, _) = source.resolve(&asset.primitives, welded).ok()?;
+    let points: Vec<glam::DVec3> = all.iter().map(|c| welded.mesh.positions[c.welded as usize]).collect();
+    let targets: Vec<DVec2> = all.iter().map(|c| uv_to_xy(c.target_uv)).collect();
+    let camera = crate::cut::facing::Camera::fit(&points, &targets)?;
+    let sight = (&camera, crate::cut::facing::Sight::Near);
+    let mut layout = crate::domain::start::projection_start(sight, filled, &[landmark])?;
+    let shift = uv_to_xy(target) - layout[landmark as usize];
+    layout.iter_mut().for_each(|p| *p += shift);
+    Some(layout)
 }
 
 /// The triangles of `pieces` where the camera of a chart made as it sees
@@ -858,6 +888,13 @@ impl PreparedChart {
         off
     }
 
+    /// Texture length per mesh length of the chart laid out as `layout`
+    /// (its texel density).
+    pub fn density(&self, layout: &[DVec2]) -> f64 {
+        let mesh = &self.chart.mesh;
+        crate::metrics::texture_per_mesh_length(&mesh.positions, &layout[..mesh.n_vertices()], &mesh.triangles)
+    }
+
     /// Where a camera's view puts the pieces after the `k`-th when the
     /// chart is made as the camera sees it (`form`): the room they are
     /// kept, so that no chart or piece laid out before them spreads over
@@ -869,13 +906,14 @@ impl PreparedChart {
 
     /// How another chart or piece holding landmarks is picked to be solved
     /// beside this one (`piece` of chart `id`, or chart `id` itself), free,
-    /// clear of the `placed` triangles; a piece is made as `form` says.
+    /// clear of the `placed` triangles, at most at `density` without two
+    /// targets; a piece is made as `form` says.
     pub fn pick_beside(
         &self,
-        id: u32,
-        piece: Option<Arc<Chart>>,
+        (id, piece): (u32, Option<Arc<Chart>>),
         form: Option<&Form>,
         placed: Vec<[DVec2; 3]>,
+        density: Option<f64>,
     ) -> Pick {
         let mut replaced = vec![self.chart.id];
         replaced.extend(&self.secondary);
@@ -886,6 +924,7 @@ impl PreparedChart {
             form: piece.as_ref().and(form.cloned()),
             boundary: piece.as_ref().map(|_| crate::pins::BoundaryChoice::Free),
             piece,
+            density,
         }
     }
 }

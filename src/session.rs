@@ -479,13 +479,14 @@ impl ChartSession {
     pub fn beside(
         &self,
         k: usize,
-        (id, piece): (u32, Option<Arc<crate::mesh::weld::Chart>>),
-        placed: &[[DVec2; 3]],
+        item: (u32, Option<Arc<crate::mesh::weld::Chart>>),
+        (placed, density): (&[[DVec2; 3]], f64),
     ) -> Result<ChartSession, Error> {
         let form = self.pick.form.as_ref();
         let mut obstacles = placed.to_vec();
         obstacles.extend(self.prepared.reserved_after(form, k));
-        let pick = self.prepared.pick_beside(id, piece, form, obstacles);
+        let density = (density.is_finite() && density > 0.0).then_some(density);
+        let pick = self.prepared.pick_beside(item, form, obstacles, density);
         let prepared = chart::prepare_pick(&self.source, &self.asset, self.prepared.welded.clone(), &pick)?;
         Ok(ChartSession::from_prepared(
             self.source.clone(),

@@ -350,6 +350,17 @@ fn closed_and_non_manifold_meshes_are_named_errors() {
     assert_read_back_one_to_one(&out, 0, "the written set");
 }
 
+/// `uvpin check` finds `out` fold-free and one-to-one.
+fn assert_checks_clean(out: &std::path::Path) {
+    let check = uvpin(&["check", out.to_str().unwrap()]);
+    assert_eq!(
+        check.status.code(),
+        Some(0),
+        "fold-free, one-to-one: {}",
+        stdout(&check)
+    );
+}
+
 /// The report's message and hint, and every chart's hint.
 fn reasons(report: &serde_json::Value) -> Vec<&str> {
     let mut out = vec![
@@ -390,8 +401,7 @@ fn a_landmark_short_of_its_target_on_another_piece_is_reported_where_it_was_writ
     );
     let (o, report) = solve_json(&ron, &out);
     assert_eq!(o.status.code(), Some(0), "{} {report}", stderr(&o));
-    let check = uvpin(&["check", out.to_str().unwrap()]);
-    assert_eq!(check.status.code(), Some(0), "{}", stdout(&check));
+    assert_checks_clean(&out);
     // Three landmarks that mirror the triangle: each is reported where it
     // was written.
     let mirrored = [(n, 0.1, 0.85), (n + 1, 0.3, 0.85), (n + 2, 0.2, 0.95)];
@@ -829,13 +839,7 @@ fn a_one_triangle_piece_holding_landmarks_is_solved_as_its_own_chart() {
         write_constraints(&ron, std::path::Path::new("soup.obj"), landmarks, extra);
         let out = tmp.path("out.glb");
         let (o, report) = solve_json(&ron, &out);
-        let check = uvpin(&["check", out.to_str().unwrap()]);
-        assert_eq!(
-            check.status.code(),
-            Some(0),
-            "fold-free, one-to-one: {}",
-            stdout(&check)
-        );
+        assert_checks_clean(&out);
         (o, report)
     };
     // One landmark or two on the triangle (its outer loop has 3 vertices,
@@ -882,6 +886,45 @@ fn a_one_triangle_piece_holding_landmarks_is_solved_as_its_own_chart() {
         "the same three, not mirrored: {}",
         stderr(&held)
     );
+}
+
+#[test]
+fn a_photo_over_a_soup_of_triangles_reaches_every_piece_it_lands_on() {
+    // Thirty separate triangles, turned every way, spread over a plane and
+    // tilted a little out of it; a photo from above lands one or two
+    // landmarks on ten of them. Each piece is solved beside the others at
+    // the photo's scale, clear of what is laid out before it.
+    let tmp = TempDir::new("photo-soup");
+    let mut rng = uvpin::testing::Rng::new(7);
+    let mut mesh = uvpin::mesh::TriMesh {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+    };
+    for k in 0..30u32 {
+        let centre = glam::DVec2::new((k % 6) as f64 * 2.0, (k / 6) as f64 * 2.0);
+        let (size, turn) = (0.4 + rng.f64(), std::f64::consts::TAU * rng.f64());
+        for j in 0..3 {
+            let a = turn + j as f64 * std::f64::consts::TAU / 3.0;
+            let p = centre + 0.6 * size * glam::DVec2::new(a.cos(), a.sin());
+            mesh.positions.push(glam::DVec3::new(p.x, p.y, 0.2 * (rng.f64() - 0.5)));
+        }
+        mesh.triangles.push([3 * k, 3 * k + 1, 3 * k + 2]);
+    }
+    std::fs::write(tmp.path("soup.obj"), obj_text(&mesh)).unwrap();
+    let photo = |v: u32| {
+        let p = mesh.positions[v as usize];
+        (v, 0.05 + 0.08 * (p.x + 1.0), 0.95 - 0.08 * (p.y + 1.0))
+    };
+    let on: Vec<u32> = [0, 4, 7, 11, 15, 19, 22, 26].iter().map(|k| 3 * k).collect();
+    let mut landmarks: Vec<(u32, f64, f64)> = on.iter().map(|&v| photo(v)).collect();
+    landmarks.extend([photo(3 * 7 + 1), photo(3 * 19 + 2)]);
+    let ron = tmp.path("soup.uvpin.ron");
+    write_constraints(&ron, std::path::Path::new("soup.obj"), &landmarks, "");
+    let out = tmp.path("out.glb");
+    let (o, report) = solve_json(&ron, &out);
+    assert_eq!(o.status.code(), Some(0), "{} {report}", stderr(&o));
+    assert_eq!(report["status"], "reached", "{report}");
+    assert_checks_clean(&out);
 }
 
 #[test]

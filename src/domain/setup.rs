@@ -35,6 +35,34 @@ pub struct Pick {
     /// solve's chart ([`crate::chart::Opening::pieces`]): solved with its own landmarks
     /// instead of the whole chart.
     pub piece: Option<Arc<Chart>>,
+    /// For the pieces and charts solved beside a first chart, its texel
+    /// density (texture length per mesh length): one with fewer than two
+    /// targets is laid out at most at it, and none leaves a strip for the
+    /// rest. `None` for a first chart.
+    pub density: Option<f64>,
+}
+
+/// At most this many constraints are paired for [`photo_scale`].
+const SCALE_SAMPLE: usize = 64;
+
+/// Texture length per mesh length that the file's targets give the mesh:
+/// the median over pairs of constraints (the first [`SCALE_SAMPLE`]) of
+/// their targets' distance over their vertices'. `None` with fewer than
+/// two constraints apart.
+fn photo_scale(source: &ConstraintSource, asset: &SourceAsset, welded: &WeldedMesh) -> Option<f64> {
+    let (all, _) = source.resolve(&asset.primitives, welded).ok()?;
+    let all = &all[..all.len().min(SCALE_SAMPLE)];
+    let at = |c: &ResolvedConstraint| welded.mesh.positions[c.welded as usize];
+    let mut ratios: Vec<f64> = (0..all.len())
+        .flat_map(|i| (i + 1..all.len()).map(move |j| (i, j)))
+        .filter_map(|(i, j)| {
+            let d = at(&all[i]).distance(at(&all[j]));
+            let r = all[i].target_uv.distance(all[j].target_uv) / d;
+            (r.is_finite() && r > 0.0).then_some(r)
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    ratios.get(ratios.len() / 2).copied()
 }
 
 /// How far an island's region is grown past a target outside it, relative
@@ -63,6 +91,10 @@ pub fn decide(
     // The solve's own choice stands where the file makes none.
     let choice = choice.or(pick.boundary.filter(|_| given.is_none()));
     let facing = matches!(pick.form, Some(Form::Facing { .. }));
+    // A chart solved beside a first one leaves no strip for the rest: the
+    // rest is packed around them all, and the strip would cut its room
+    // short of the size the targets give it.
+    let strip = if pick.density.is_some() { 0.0 } else { rest_share };
     let uvs = welded_uvs(asset, welded);
     let island: Option<Vec<DVec2>> = chart
         .welded_ids
@@ -88,22 +120,16 @@ pub fn decide(
     };
     let (region, source_kind) = match (choice, given) {
         (Some(BoundaryChoice::Square), _) => return Ok(on_square()?),
-        (_, Some(region)) => (leave_room(region, constraints, rest_share), RegionSource::Given),
+        (_, Some(region)) => (leave_room(region, constraints, strip), RegionSource::Given),
         // A chart as the camera sees it keeps the place the targets give it.
         (_, None) if facing => (Region::TEXTURE, RegionSource::Texture),
-        (Some(BoundaryChoice::Free), None) => (
-            leave_room(Region::TEXTURE, constraints, rest_share),
-            RegionSource::Texture,
-        ),
+        (Some(BoundaryChoice::Free), None) => (leave_room(Region::TEXTURE, constraints, strip), RegionSource::Texture),
         (None, None) => match &island {
             Some(layout) if !cut => (island_region(layout, constraints), RegionSource::Island),
             // A chart cut open has no shape a square would suit, and one
             // that shares the texture with charts laid out beside it
             // cannot fill it: free in the texture.
-            _ if cut || rest_share > 0.0 => (
-                leave_room(Region::TEXTURE, constraints, rest_share),
-                RegionSource::Texture,
-            ),
+            _ if cut || rest_share > 0.0 => (leave_room(Region::TEXTURE, constraints, strip), RegionSource::Texture),
             _ => return Ok(on_square()?),
         },
     };
@@ -126,12 +152,19 @@ pub fn decide(
         }
     }
     let obstacles = other_islands(welded, chart.id, &uvs, region, pick);
+    // Without two targets of its own, the scale the file's targets give
+    // all the mesh (a photo's), else the first chart's.
+    let density = (constraints.len() < 2)
+        .then(|| photo_scale(source, asset, welded))
+        .flatten()
+        .or(pick.density);
     Ok(Domain::Free(Arc::new(FreeSetup {
         region,
         source: source_kind,
         obstacles: Arc::new(obstacles),
         island,
         given: None,
+        density,
     })))
 }
 

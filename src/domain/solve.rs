@@ -103,7 +103,7 @@ impl SolveDomain {
     /// Once the solve is done: a free chart that no two targets size is
     /// scaled up to the largest that fits its room
     /// ([`super::start::fill_region`]); an island keeps its size.
-    pub fn finish(&self, layout: &mut [DVec2], triangles: &[[u32; 3]], problem: &StepProblem) {
+    pub fn finish(&self, layout: &mut [DVec2], shape: &super::start::Shape, problem: &StepProblem) {
         let SolveDomain::Free(free) = self else {
             return;
         };
@@ -111,7 +111,7 @@ impl SolveDomain {
             return;
         }
         let pivot = problem.targets.first().copied();
-        super::start::fill_region(&free.domain.room, layout, triangles, pivot);
+        super::start::fill_region(&free.domain.room, layout, shape, pivot);
     }
 }
 

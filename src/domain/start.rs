@@ -383,7 +383,7 @@ pub fn fit_into_room(
     let placed: Vec<DVec2> = if fit == Fit::InPlace {
         base.to_vec()
     } else {
-        let t = similarity(room, base, problem);
+        let t = similarity(room, base, problem, shape);
         base.iter().map(|&p| t.apply(p)).collect()
     };
     let estimate = (fit == Fit::ToTargets).then(|| target_scale(problem, shape)).flatten();
@@ -442,8 +442,16 @@ pub fn fit_into_room(
             .chain(anchors.clone())
             .map(move |(from, to)| (shrink, from, to))
     }));
+    // A chart held to a texel density is as small as that makes it: it
+    // may not shrink below half of it.
+    let held = room.setup().density.is_some() && problem.targets.len() < 2;
+    let least = if held {
+        (MIN_SPAN * (hi - lo).length()).min(0.5 * (bhi - blo).length())
+    } else {
+        MIN_SPAN * (hi - lo).length()
+    };
     for (shrink, from, to) in tries {
-        if (bhi - blo).length() * shrink < MIN_SPAN * (hi - lo).length() {
+        if (bhi - blo).length() * shrink < least {
             if to == from && Some((shrink, from, to)) == widest {
                 continue;
             }
@@ -705,11 +713,21 @@ pub fn layout_area(layout: &[DVec2], triangles: &[[u32; 3]]) -> f64 {
         .sum()
 }
 
+/// The scale that brings `layout` to its room's texel density
+/// ([`crate::free::FreeSetup::density`]), when the room holds it to one.
+fn density_scale(room: &Room, layout: &[DVec2], shape: &Shape) -> Option<f64> {
+    let density = room.setup().density?;
+    let now = (layout_area(layout, &shape.triangles[..shape.n_real_triangles]) / shape.area()).sqrt();
+    let s = density / now;
+    (s.is_finite() && s > 0.0).then_some(s)
+}
+
 /// The similarity (rotation, uniform scale, translation) taking the
 /// constrained vertices of `layout` closest to their targets; with fewer
-/// than two distinct ones, the scale that fills [`FIRST_FILL`] of the region and the
+/// than two distinct ones, the scale that fills [`FIRST_FILL`] of the region
+/// (or, smaller, brings it to the room's texel density) and the
 /// translation onto the one target (or the region's centre).
-fn similarity(room: &Room, layout: &[DVec2], problem: &StepProblem) -> Similarity {
+fn similarity(room: &Room, layout: &[DVec2], problem: &StepProblem, shape: &Shape) -> Similarity {
     let from: Vec<DVec2> = problem
         .constraint_vertices
         .iter()
@@ -739,7 +757,8 @@ fn similarity(room: &Room, layout: &[DVec2], problem: &StepProblem) -> Similarit
         };
     }
     let (lo, hi) = room.setup().region.layout_box();
-    let s = FIRST_FILL * ((hi - lo) / size).min_element();
+    let filled = FIRST_FILL * ((hi - lo) / size).min_element();
+    let s = density_scale(room, layout, shape).map_or(filled, |d| d.min(filled));
     let centre = 0.5 * (blo + bhi);
     let (pivot, at) = if from.is_empty() {
         (centre, 0.5 * (lo + hi))
@@ -770,12 +789,15 @@ impl Similarity {
 
 /// A finished layout without two targets to set its size, scaled up about
 /// `pivot` (its one target, or its own centre) as far as its room admits,
-/// up to [`FINAL_FILL`] of the region: the largest island that fits.
-pub fn fill_region(room: &Room, layout: &mut [DVec2], triangles: &[[u32; 3]], pivot: Option<DVec2>) {
+/// up to [`FINAL_FILL`] of the region and the room's texel density: the
+/// largest island that fits.
+pub fn fill_region(room: &Room, layout: &mut [DVec2], shape: &Shape, pivot: Option<DVec2>) {
+    let triangles = shape.triangles;
     let (lo, hi) = room.setup().region.layout_box();
     let (blo, bhi) = bounds(&*layout);
     let size = (bhi - blo).max(DVec2::splat(1e-300));
-    let most = FINAL_FILL * ((hi - lo) / size).min_element();
+    let filled = FINAL_FILL * ((hi - lo) / size).min_element();
+    let most = density_scale(room, layout, shape).map_or(filled, |d| d.min(filled));
     if most.is_nan() || most <= 1.0 {
         return;
     }

@@ -153,6 +153,9 @@ pub struct FreeSetup {
     /// a coarse level's solve prolonged): the start, shrunk just enough to
     /// fit the room.
     pub given: Option<GivenStart>,
+    /// The texel density a chart with fewer than two targets is held to
+    /// ([`crate::domain::setup::Pick::density`]).
+    pub density: Option<f64>,
 }
 
 impl FreeSetup {
@@ -164,6 +167,7 @@ impl FreeSetup {
             source: RegionSource::Texture,
             obstacles: Arc::new(Obstacles::default()),
             island: None,
+            density: None,
             given: None,
         }
     }

@@ -338,6 +338,7 @@ mod tests {
             obstacles: Arc::new(obstacles),
             island: None,
             given: None,
+            density: None,
         };
         (Room::new(Arc::new(setup), &topology, &mesh.triangles), mesh)
     }

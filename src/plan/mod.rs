@@ -508,7 +508,11 @@ impl ChartPlan {
         let mut residual = solver.max_residual();
         let pieces = session.prepared().opening.pieces.len();
         if pieces > 0 && residual <= tolerance {
-            residual = residual.max(self.pieces_residual(&session, chart.prepared.placed(solver.layout())));
+            let beside = (
+                chart.prepared.placed(solver.layout()),
+                chart.prepared.density(solver.layout()),
+            );
+            residual = residual.max(self.pieces_residual(&session, beside));
         }
         // A seam or separation through a landmark leaves a copy of it off
         // its target, however the chart is laid out.
@@ -543,13 +547,14 @@ impl ChartPlan {
 
     /// The farthest a landmark on `session`'s other pieces ends from its
     /// target, each piece solved free beside the `placed` triangles and
-    /// those before it (as [`crate::assembly`] solves them); infinite when
+    /// those before it, at most at the chart's texel density `density` (as
+    /// [`crate::assembly`] solves them); infinite when
     /// one cannot be solved.
-    fn pieces_residual(&self, session: &ChartSession, mut placed: Vec<[DVec2; 3]>) -> f64 {
+    fn pieces_residual(&self, session: &ChartSession, (mut placed, density): (Vec<[DVec2; 3]>, f64)) -> f64 {
         let mut worst = 0.0f64;
         for (k, piece) in session.prepared().opening.pieces.iter().enumerate() {
             let solved = session
-                .beside(k, (piece.id, Some(piece.clone())), &placed)
+                .beside(k, (piece.id, Some(piece.clone())), (&placed, density))
                 .and_then(|other| solve(other, &self.options));
             let Ok(solved) = solved else {
                 return f64::INFINITY;

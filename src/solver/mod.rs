@@ -640,8 +640,8 @@ impl ChartSolver {
     /// ([`SolveDomain::finish`]).
     fn finish_in_domain(&mut self) {
         let n = self.filled.mesh.n_vertices();
-        self.domain
-            .finish(&mut self.layout[..n], &self.filled.mesh.triangles, &self.problem);
+        let shape = crate::domain::start::Shape::of(&self.filled);
+        self.domain.finish(&mut self.layout[..n], &shape, &self.problem);
     }
 
     /// Polishes a reached layout more stretched than `l2` (Sander L2)
