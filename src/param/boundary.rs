@@ -145,6 +145,15 @@ impl TrapCandidates {
         TrapCandidates { triangles, chords }
     }
 
+    /// Whether a triangle or chord would be flattened with these corners on
+    /// the square ([`TrapCandidates::count_trapped`] above zero), stopping
+    /// at the first.
+    pub fn any_trapped(&self, n_loop: usize, corners: &[usize; 4]) -> bool {
+        let sides = |i: usize| side_mask(i, n_loop, corners);
+        self.triangles.iter().any(|t| sides(t[0]) & sides(t[1]) & sides(t[2]) != 0)
+            || self.chords.iter().any(|e| sides(e[0]) & sides(e[1]) != 0)
+    }
+
     /// How many triangles/chords would be flattened with these corners on the square.
     pub fn count_trapped(&self, n_loop: usize, corners: &[usize; 4]) -> usize {
         let sides = |i: usize| side_mask(i, n_loop, corners);
@@ -302,11 +311,17 @@ pub fn map_outer_boundary(
                 let Some(c) = quarter_corners(&arc, total, s).map(|c| snap_to_ear_tips(c, &ear_tips, n)) else {
                     continue;
                 };
-                let trapped = traps.count_trapped(n, &c);
-                if first.is_none() {
-                    first = Some((c, trapped));
-                }
-                if trapped == 0 {
+                // Counted for the first corners only (the fallback's);
+                // the others need only whether one is trapped.
+                let trapped = match first {
+                    None => {
+                        let count = traps.count_trapped(n, &c);
+                        first = Some((c, count));
+                        count > 0
+                    }
+                    Some(_) => traps.any_trapped(n, &c),
+                };
+                if !trapped {
                     found = Some((c, CornerSource::Automatic { shift }, 0));
                     break;
                 }
