@@ -388,91 +388,98 @@ pub fn fit_into_room(
     };
     let estimate = (fit == Fit::ToTargets).then(|| target_scale(problem, shape)).flatten();
     let rest_area = estimate.unwrap_or_else(|| layout_area(&placed, &triangles[..shape.n_real_triangles]));
-    let (lo, hi) = room.setup().region.layout_box();
-    let targets_centre =
-        (!problem.targets.is_empty()).then(|| problem.targets.iter().sum::<DVec2>() / problem.targets.len() as f64);
-    let (blo, bhi) = bounds(&placed);
-    let mut anchors: Vec<(DVec2, DVec2)> = Vec::new();
-    // Shrink about the targets' centre, in place or moved the least that
-    // brings the bounding box inside the region (constrained vertices stay
-    // near their targets), then about the layout's own centre placed at
-    // points spread over the region.
-    anchors.push((0.5 * (blo + bhi), 0.5 * (lo + hi)));
-    for j in 0..5 {
-        for i in 0..5 {
-            let at = lo + (hi - lo) * DVec2::new((2 * i + 1) as f64, (2 * j + 1) as f64) / 10.0;
-            anchors.push((0.5 * (blo + bhi), at));
-        }
-    }
+    let start = |layout, shrink| ChosenStart {
+        layout,
+        kind,
+        rest_area,
+        shrink,
+    };
+    let region = room.setup().region.layout_box();
     if kind == StartKind::Projection
-        && let Some(layout) = [boxed_in(&placed, problem, (lo, hi)), drawn_in(&placed, (lo, hi))]
+        && let Some(layout) = [boxed_in(&placed, problem, region), drawn_in(&placed, region)]
             .into_iter()
             .flatten()
             .filter_map(|layout| mended(layout, triangles, &problem.constraint_vertices))
             .find(|layout| room.admits(layout).is_ok() && guard::all_positive_as_stored(layout, triangles))
     {
-        return Some(ChosenStart {
-            layout,
-            kind,
-            rest_area,
-            shrink: 1.0,
-        });
+        return Some(start(layout, 1.0));
     }
     if fit != Fit::InPlace
-        && let Some(start) = gathered(room, &placed, problem, triangles)
+        && let Some(layout) = gathered(room, &placed, problem, triangles)
     {
-        return Some(ChosenStart {
-            layout: start,
-            kind,
-            rest_area,
-            shrink: 1.0,
-        });
+        return Some(start(layout, 1.0));
     }
-    // Tried in turn: with one target, the largest shrink about it that
-    // keeps the box inside the region (a landmark near the region's border
-    // starts on its target); then each of `SHRINKS` about the targets'
-    // centre, moved the least into the region, and about the anchors.
-    let one_target = (problem.targets.len() == 1).then_some(targets_centre).flatten();
-    let widest = one_target.and_then(|c| Some((widest_shrink_inside((blo, bhi), c, (lo, hi))?, c, c)));
-    let tries = widest.into_iter().chain(SHRINKS.iter().flat_map(|&shrink| {
-        let near = targets_centre.map_or(Vec::new(), |c| {
-            vec![(c, c), (c, c + least_move_inside((blo, bhi), c, shrink, (lo, hi)))]
-        });
-        near.into_iter()
-            .chain(anchors.clone())
-            .map(move |(from, to)| (shrink, from, to))
-    }));
-    // A chart held to a texel density is as small as that makes it: it
-    // may not shrink below half of it.
+    // Step 1 where it lies is relaxed before anything is stored: double
+    // precision is enough (its thinnest triangles may be too thin for f32).
+    let unstored = kind == StartKind::StepOne && fit == Fit::InPlace;
+    let (shrink, layout) = shrunk_into_room(room, triangles, &placed, problem, unstored)?;
+    Some(start(layout, shrink))
+}
+
+/// `placed` shrunk into its room, as the first of these that fits: with
+/// one target, the largest shrink about it that keeps the box inside the
+/// region (a landmark near the region's border starts on its target);
+/// then each of [`SHRINKS`] about the targets' centre, in place or moved
+/// the least that brings the box inside the region (constrained vertices
+/// stay near their targets), then about the layout's own centre placed at
+/// points spread over the region. The shrink and the layout; `None` once
+/// it would span less than [`MIN_SPAN`] of the region (or, for a chart
+/// held to a texel density, half its span at it). `unstored`: fitting is
+/// judged in double precision.
+fn shrunk_into_room(
+    room: &Room,
+    triangles: &[[u32; 3]],
+    placed: &[DVec2],
+    problem: &StepProblem,
+    unstored: bool,
+) -> Option<(f64, Vec<DVec2>)> {
+    let (lo, hi) = room.setup().region.layout_box();
+    let (blo, bhi) = bounds(placed);
+    let span = (bhi - blo).length();
     let held = room.setup().density.is_some() && problem.targets.len() < 2;
     let least = if held {
-        (MIN_SPAN * (hi - lo).length()).min(0.5 * (bhi - blo).length())
+        (MIN_SPAN * (hi - lo).length()).min(0.5 * span)
     } else {
         MIN_SPAN * (hi - lo).length()
     };
-    for (shrink, from, to) in tries {
-        if (bhi - blo).length() * shrink < least {
-            if to == from && Some((shrink, from, to)) == widest {
-                continue;
-            }
-            return None;
-        }
+    // The room first: it looks at the boundary only.
+    let at = |shrink: f64, from: DVec2, to: DVec2| {
         let layout: Vec<DVec2> = placed.iter().map(|&p| to + (p - from) * shrink).collect();
-        // The room first: it looks at the boundary only. Step 1 where it
-        // lies is relaxed before anything is stored: double precision
-        // is enough (its thinnest triangles may be too thin for f32).
-        let fits = if kind == StartKind::StepOne && fit == Fit::InPlace {
+        let fits = if unstored {
             inside_region(room, &layout) && room.embeds(&layout) && guard::all_positive(&layout, triangles)
         } else {
             room.admits(&layout).is_ok() && guard::all_positive_as_stored(&layout, triangles)
         };
-        if fits {
-            return Some(ChosenStart {
-                layout,
-                kind,
-                rest_area,
-                shrink,
-            });
+        fits.then_some((shrink, layout))
+    };
+    let centre =
+        (!problem.targets.is_empty()).then(|| problem.targets.iter().sum::<DVec2>() / problem.targets.len() as f64);
+    if let (Some(c), 1) = (centre, problem.targets.len())
+        && let Some(s) = widest_shrink_inside((blo, bhi), c, (lo, hi))
+        && span * s >= least
+        && let Some(found) = at(s, c, c)
+    {
+        return Some(found);
+    }
+    let middle = 0.5 * (blo + bhi);
+    let mut anchors = vec![(middle, 0.5 * (lo + hi))];
+    for j in 0..5 {
+        for i in 0..5 {
+            anchors.push((
+                middle,
+                lo + (hi - lo) * DVec2::new((2 * i + 1) as f64, (2 * j + 1) as f64) / 10.0,
+            ));
+        }
+    }
+    for &shrink in &SHRINKS {
+        if span * shrink < least {
+            return None;
+        }
+        let near = centre.map_or(Vec::new(), |c| {
+            vec![(c, c), (c, c + least_move_inside((blo, bhi), c, shrink, (lo, hi)))]
+        });
+        if let Some(found) = near.iter().chain(&anchors).find_map(|&(from, to)| at(shrink, from, to)) {
+            return Some(found);
         }
     }
     None
