@@ -150,7 +150,9 @@ impl TrapCandidates {
     /// at the first.
     pub fn any_trapped(&self, n_loop: usize, corners: &[usize; 4]) -> bool {
         let sides = |i: usize| side_mask(i, n_loop, corners);
-        self.triangles.iter().any(|t| sides(t[0]) & sides(t[1]) & sides(t[2]) != 0)
+        self.triangles
+            .iter()
+            .any(|t| sides(t[0]) & sides(t[1]) & sides(t[2]) != 0)
             || self.chords.iter().any(|e| sides(e[0]) & sides(e[1]) != 0)
     }
 
