@@ -273,7 +273,11 @@ fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries 
     let pieces = prepared.opening.pieces.iter().map(|p| (p.id, Some(p.clone())));
     let items: Vec<(u32, Option<Arc<Chart>>)> = pieces.chain(charts).collect();
     let density = prepared.density(solver.layout());
-    let kept = KeptForLater::new(session, &items);
+    let resolved = (session.source())
+        .resolve(&session.asset().primitives, &prepared.welded)
+        .map(|(all, _)| all)
+        .unwrap_or_default();
+    let kept = KeptForLater::new(session, &resolved, &items);
     for (k, (id, piece)) in items.into_iter().enumerate() {
         let mut room = placed.clone();
         room.extend(kept.after(k));
@@ -312,7 +316,7 @@ fn solve_secondary(session: &ChartSession, solver: &ChartSolver) -> Secondaries 
                     Some(piece) => (piece, e.to_string()),
                     None => (Arc::new(prepared.welded.chart(id)), format!("chart {id}: {e}")),
                 };
-                let why = proof_for(session, &piece).unwrap_or(why);
+                let why = proof_for(&resolved, &piece).unwrap_or(why);
                 unsolved.push((piece, why));
             }
         }
@@ -338,18 +342,18 @@ struct KeptForLater {
 }
 
 impl KeptForLater {
-    fn new(session: &ChartSession, items: &[(u32, Option<Arc<Chart>>)]) -> Self {
+    /// Over `items` in solving order, `resolved` all of the file's
+    /// constraints.
+    fn new(session: &ChartSession, resolved: &[ResolvedConstraint], items: &[(u32, Option<Arc<Chart>>)]) -> Self {
         let prepared = session.prepared();
-        let resolved = (session.source())
-            .resolve(&session.asset().primitives, &prepared.welded)
-            .map(|(all, _)| all)
-            .unwrap_or_default();
         let facing = matches!(session.pick().form, Some(crate::cut::prepare::Form::Facing { .. }));
         let (mut targets, mut boxes) = (Vec::new(), Vec::new());
         for (id, piece) in items {
             let chart = piece.clone().unwrap_or_else(|| Arc::new(prepared.welded.chart(*id)));
-            let on: Vec<&ResolvedConstraint> = resolved.iter().filter(|c| chart.local_of(c.welded).is_some()).collect();
-            let t: Vec<DVec2> = on.iter().map(|c| crate::param::uv_to_xy(c.target_uv)).collect();
+            let t: Vec<DVec2> = (resolved.iter())
+                .filter(|c| chart.local_of(c.welded).is_some())
+                .map(|c| crate::param::uv_to_xy(c.target_uv))
+                .collect();
             let seen = facing && piece.is_some();
             boxes.push((!t.is_empty() && !seen).then(|| {
                 let (lo, hi) = crate::injective::bounds(&t);
@@ -377,29 +381,21 @@ fn box_triangles(lo: DVec2, hi: DVec2) -> [[DVec2; 3]; 2] {
     [[a, b, c], [a, c, d]]
 }
 
-/// Why `piece`'s landmarks cannot all be in place, when their targets
-/// alone prove it (three on a triangle mirror it, one lies inside a
-/// triangle of others, ...): the reason a user can act on, rather than
-/// how the piece's solve failed.
-fn proof_for(session: &ChartSession, piece: &Chart) -> Option<String> {
-    let (resolved, _) = session
-        .source()
-        .resolve(&session.asset().primitives, &session.prepared().welded)
-        .ok()?;
+/// Why `piece`'s landmarks (among `resolved`, all of the file's) cannot
+/// all be in place, when their targets alone prove it (three on a
+/// triangle mirror it, one lies inside a triangle of others, ...): the
+/// reason a user can act on, rather than how the piece's solve failed.
+fn proof_for(resolved: &[ResolvedConstraint], piece: &Chart) -> Option<String> {
     let n = piece.mesh.n_vertices();
     let (mut pins, mut index_of) = (vec![None; n], vec![None; n]);
-    for c in &resolved {
+    for c in resolved {
         if let Some(v) = piece.local_of(c.welded) {
             pins[v as usize] = Some(crate::param::uv_to_xy(c.target_uv));
             index_of[v as usize] = Some(c.index);
         }
     }
     let is_constraint: Vec<bool> = index_of.iter().map(Option::is_some).collect();
-    let mut edges: Vec<[u32; 2]> = (piece.mesh.triangles.iter())
-        .flat_map(|t| [0, 1, 2].map(|k| [t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])]))
-        .collect();
-    edges.sort_unstable();
-    edges.dedup();
+    let edges = crate::param::bar_net::unique_edges(&piece.mesh);
     // A boxed vertex is judged inside its neighbours' hull: a free piece
     // may have room outside it.
     let found = find_obstruction(&piece.mesh.triangles, &edges, &pins, &is_constraint, n)

@@ -40,10 +40,8 @@ pub struct StepOneTimes {
 pub fn map_boundary(prepared: &PreparedChart, source: &ConstraintSource) -> Result<BoundaryMap, Error> {
     let c = prepared;
     let on_square = c.domain.free().is_none();
-    let boundary = map_outer_boundary(&c.chart.mesh, &c.topology, &c.traps, c.corners).map_err(|e| match e {
-        BoundaryError::ThreeCorneredLoop if c.corners.is_none() => source.boundary_error(e.to_string()),
-        _ => source.corners_error(e.to_string()),
-    })?;
+    let boundary = map_outer_boundary(&c.chart.mesh, &c.topology, &c.traps, c.corners)
+        .map_err(|e| source.corners_error(e.to_string()))?;
     match boundary.shape {
         BoundaryShape::Triangle if on_square => Err(source
             .boundary_error(BoundaryError::ThreeCorneredLoop.to_string())
