@@ -178,12 +178,12 @@ fn prepare_on(
 ) -> Result<PreparedChart, Error> {
     let (all_constraints, welded_corners) = source.resolve(&asset.primitives, &welded)?;
     let (chart_id, secondary) = choose_chart(&all_constraints, &welded, asset, pick)?;
-    let constraints: Vec<ResolvedConstraint> = all_constraints
-        .into_iter()
+    let constraints: Vec<ResolvedConstraint> = (all_constraints.iter())
         .filter(|c| match &pick.piece {
             Some(piece) => piece.local_of(c.welded).is_some(),
             None => welded.chart_of_vertex[c.welded as usize] == Some(chart_id),
         })
+        .cloned()
         .collect();
     let seams = source.seams(&asset.primitives, &welded)?;
     let landmarks: Vec<u32> = constraints.iter().map(|c| c.welded).collect();
@@ -234,24 +234,26 @@ fn prepare_on(
         }
     });
     let decided_by = reserved.as_ref().unwrap_or(pick);
+    let photo_scale = (constraints.len() < 2)
+        .then(|| crate::domain::setup::photo_scale(&all_constraints, &welded))
+        .flatten();
     let mut domain = crate::domain::setup::decide(
         source,
         asset,
         &welded,
         &chart,
         &constraints,
-        (cut, rest_share),
+        (cut, rest_share, photo_scale),
         decided_by,
     )?;
-    if let (Some(Form::Facing { camera, sight, .. }), Domain::Free(setup)) = (&pick.form, &domain)
-        && let Some(layout) = crate::domain::start::projection_start((camera, *sight), &filled, &constraint_vertices)
-    {
-        domain = Domain::Free(Arc::new(
-            setup.starting_from(layout, crate::domain::start::StartKind::Projection),
-        ));
-    } else if let (None, Domain::Free(setup), [landmark]) = (&pick.form, &domain, &constraint_vertices[..])
-        && setup.island.is_none()
-        && let Some(layout) = photo_start(source, asset, &welded, &filled, (*landmark, constraints[0].target_uv))
+    if let Domain::Free(setup) = &domain
+        && let Some(layout) = camera_start(
+            pick,
+            setup,
+            &filled,
+            (&all_constraints, &welded),
+            (&constraints, &constraint_vertices),
+        )
     {
         domain = Domain::Free(Arc::new(
             setup.starting_from(layout, crate::domain::start::StartKind::Projection),
@@ -278,19 +280,40 @@ fn prepare_on(
     })
 }
 
-/// A chart with one landmark as the camera that the file's landmarks fit
-/// sees it (a photo's of the whole mesh), moved so that its landmark is
-/// on its target (`landmark`, `target` in texture coordinates): its size
-/// and turn as the photo shows it, where one target gives neither. `None`
-/// without three landmarks that fix a view, or when the view folds.
+/// The start of a free chart (`setup`) as a camera sees it: the view of
+/// the camera `pick` makes it as; else, for a chart with one landmark
+/// (`constraints` at the chart's `vertices`) not kept in its island, the
+/// photo's ([`photo_start`], from `all` of the file's constraints).
+fn camera_start(
+    pick: &Pick,
+    setup: &crate::free::FreeSetup,
+    filled: &FilledChart,
+    (all, welded): (&[ResolvedConstraint], &WeldedMesh),
+    (constraints, vertices): (&[ResolvedConstraint], &[u32]),
+) -> Option<Vec<DVec2>> {
+    match (&pick.form, vertices) {
+        (Some(Form::Facing { camera, sight, .. }), _) => {
+            crate::domain::start::projection_start((camera, *sight), filled, vertices)
+        }
+        (None, [landmark]) if setup.island.is_none() => {
+            photo_start(all, welded, filled, (*landmark, constraints[0].target_uv))
+        }
+        _ => None,
+    }
+}
+
+/// A chart with one landmark as the camera that `all` the file's
+/// landmarks fit sees it (a photo's of the whole mesh), moved so that its
+/// landmark is on its target (`landmark`, `target` in texture
+/// coordinates): its size and turn as the photo shows it, where one target
+/// gives neither. `None` without three landmarks that fix a view, or when
+/// the view folds.
 fn photo_start(
-    source: &ConstraintSource,
-    asset: &SourceAsset,
+    all: &[ResolvedConstraint],
     welded: &WeldedMesh,
     filled: &FilledChart,
     (landmark, target): (u32, DVec2),
 ) -> Option<Vec<DVec2>> {
-    let (all, _) = source.resolve(&asset.primitives, welded).ok()?;
     let points: Vec<glam::DVec3> = all.iter().map(|c| welded.mesh.positions[c.welded as usize]).collect();
     let targets: Vec<DVec2> = all.iter().map(|c| uv_to_xy(c.target_uv)).collect();
     let camera = crate::cut::facing::Camera::fit(&points, &targets)?;

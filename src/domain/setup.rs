@@ -46,11 +46,10 @@ pub struct Pick {
 const SCALE_SAMPLE: usize = 64;
 
 /// Texture length per mesh length that the file's targets give the mesh:
-/// the median over pairs of constraints (the first [`SCALE_SAMPLE`]) of
-/// their targets' distance over their vertices'. `None` with fewer than
-/// two constraints apart.
-fn photo_scale(source: &ConstraintSource, asset: &SourceAsset, welded: &WeldedMesh) -> Option<f64> {
-    let (all, _) = source.resolve(&asset.primitives, welded).ok()?;
+/// the median over pairs of constraints (`all` of them, the first
+/// `SCALE_SAMPLE`) of their targets' distance over their vertices'.
+/// `None` with fewer than two constraints apart.
+pub fn photo_scale(all: &[ResolvedConstraint], welded: &WeldedMesh) -> Option<f64> {
     let all = &all[..all.len().min(SCALE_SAMPLE)];
     let at = |c: &ResolvedConstraint| welded.mesh.positions[c.welded as usize];
     let mut ratios: Vec<f64> = (0..all.len())
@@ -73,7 +72,8 @@ const GROWTH_MARGIN: f64 = 0.01;
 /// The boundary setup of `chart`: `Square` when asked for (or when the
 /// chart has no UVs and no region is given), else free inside the given
 /// region, the texture, or the chart's island, with every other chart that
-/// has UVs as an obstacle.
+/// has UVs as an obstacle. A free chart with fewer than two targets is
+/// held to `photo_scale` ([`photo_scale`]), else to the pick's density.
 ///
 /// # Errors
 /// A region that is not a rectangle, or a target outside it (located at
@@ -84,7 +84,7 @@ pub fn decide(
     welded: &WeldedMesh,
     chart: &Chart,
     constraints: &[ResolvedConstraint],
-    (cut, rest_share): (bool, f64),
+    (cut, rest_share, photo_scale): (bool, f64, Option<f64>),
     pick: &Pick,
 ) -> Result<Domain, Error> {
     let (choice, given) = source.boundary();
@@ -155,7 +155,7 @@ pub fn decide(
     // Without two targets of its own, the scale the file's targets give
     // all the mesh (a photo's), else the first chart's.
     let density = (constraints.len() < 2)
-        .then(|| photo_scale(source, asset, welded))
+        .then_some(photo_scale)
         .flatten()
         .or(pick.density);
     Ok(Domain::Free(Arc::new(FreeSetup {
