@@ -103,7 +103,11 @@ fn random_disks_and_random_constraints_never_fold() {
             Status::Partial => {
                 partial += 1;
                 assert!(report.message.is_some());
-                assert!(report.constraints.iter().any(|c| !c.reached));
+                assert!(
+                    report.every_constraint().any(|c| !c.reached),
+                    "case {case}: partial with every constraint reached: {:?}",
+                    report.message
+                );
             }
             Status::Error => panic!("case {case}: {:?}", report.message),
         }
@@ -228,13 +232,21 @@ fn random_closed_meshes_and_random_landmarks_never_write_a_fold_or_an_overlap() 
             "{name}: every triangle has UVs"
         );
         assert_fold_free_and_one_to_one(&name, &mesh, &solved.corner_uvs);
-        if solved.report.status == Status::Partial {
+        // The landmarks' chart short of its targets (not only a piece
+        // solved beside it, whose stretch is its own).
+        let short = solved.report.constraints.iter().any(|c| !c.reached);
+        if solved.report.status == Status::Partial && short {
             // A partial layout stays usable: at most 3 times as stretched as
             // the chart's own shape (its free layout without landmarks).
             let yardstick = solved
                 .report
                 .stretch_own
-                .expect("a partial result names its yardstick")
+                .unwrap_or_else(|| {
+                    panic!(
+                        "{name}: a partial result names its yardstick\n{}",
+                        solved.report.explain.join("\n")
+                    )
+                })
                 .l2;
             let ratio = solved.report.stretch_final.l2 / yardstick;
             worst = worst.max(ratio);

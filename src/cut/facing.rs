@@ -112,6 +112,10 @@ pub enum Sight {
     /// of them is one-to-one exactly — a CAD part's facets, walls and
     /// bores, where a depth tolerance takes in what lies behind an edge.
     Whole,
+    /// Grown from the landmarks as one disk over what projects without
+    /// overlapping itself ([`super::grown`]): where the whole view folds
+    /// over itself, the part of it that is one-to-one.
+    Grown,
 }
 
 /// The triangles of `mesh` (manifold) the camera sees (as `sight` says;
@@ -122,7 +126,7 @@ pub enum Sight {
 pub fn facing_region(
     mesh: &TriMesh,
     (camera, sight): (&Camera, Sight),
-    landmarks: &[u32],
+    (landmarks, copies): (&[u32], &[u32]),
     room: (DVec2, DVec2),
     unseamable: &[[u32; 2]],
 ) -> Option<Vec<bool>> {
@@ -145,6 +149,18 @@ pub fn facing_region(
             // reaches out ([`crate::domain::start`]); a landmark on a long
             // facet that leaves the room is on no triangle within it.
             super::occlusion::seen_whole(mesh, &projected, &depth)
+        }
+        Sight::Grown => {
+            let within = within_room(mesh, &projected, room);
+            let view = super::grown::View {
+                mesh,
+                graph: &graph,
+                projected: &projected,
+                towards,
+                within: &within,
+                gap: ROOM_MARGIN * (room.1 - room.0).max_element(),
+            };
+            return super::grown::grown_region(&view, (landmarks, copies), unseamable);
         }
     };
     keep_polygons_out(&graph, unseamable, &mut seen);
@@ -438,7 +454,7 @@ mod tests {
             })
             .collect();
         assert!(!landmarks.is_empty());
-        let region = facing_region(&sphere, (&camera, Sight::Whole), &landmarks, room, &[]).expect("a part");
+        let region = facing_region(&sphere, (&camera, Sight::Whole), (&landmarks, &[]), room, &[]).expect("a part");
         let past = sphere
             .triangles
             .iter()
@@ -446,7 +462,7 @@ mod tests {
             .filter(|(t, kept)| **kept && t.iter().any(|&v| outside(v)))
             .count();
         assert!(past > sphere.n_triangles() / 8, "{past} triangles past the room");
-        let near = facing_region(&sphere, (&camera, Sight::Near), &landmarks, room, &[]).expect("a part");
+        let near = facing_region(&sphere, (&camera, Sight::Near), (&landmarks, &[]), room, &[]).expect("a part");
         let near_past = sphere
             .triangles
             .iter()
@@ -468,8 +484,14 @@ mod tests {
         let front: Vec<u32> = (0..sphere.n_vertices() as u32)
             .filter(|&v| sphere.positions[v as usize].y < -0.9)
             .collect();
-        let region =
-            facing_region(&sphere, (&camera, Sight::Near), &front, (DVec2::ZERO, DVec2::ONE), &[]).expect("a part");
+        let region = facing_region(
+            &sphere,
+            (&camera, Sight::Near),
+            (&front, &[]),
+            (DVec2::ZERO, DVec2::ONE),
+            &[],
+        )
+        .expect("a part");
         let kept = region.iter().filter(|&&k| k).count();
         assert!(kept > 0 && kept < sphere.n_triangles() / 2 + 40, "{kept} triangles");
         for (t, tri) in sphere.triangles.iter().enumerate().filter(|(t, _)| region[*t]) {
@@ -484,7 +506,7 @@ mod tests {
             facing_region(
                 &sphere,
                 (&mirrored, Sight::Near),
-                &front,
+                (&front, &[]),
                 (DVec2::ZERO, DVec2::ONE),
                 &[]
             ),

@@ -11,6 +11,7 @@ pub mod cones;
 pub mod cost;
 pub mod facing;
 pub mod graph;
+pub mod grown;
 pub mod handles;
 pub mod occlusion;
 pub mod prepare;

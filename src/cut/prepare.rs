@@ -88,6 +88,9 @@ impl Form {
             Form::Facing {
                 sight: Sight::Whole, ..
             } => "what the camera sees whole",
+            Form::Facing {
+                sight: Sight::Grown, ..
+            } => "what the camera sees one-to-one",
         }
     }
 }
@@ -131,11 +134,17 @@ pub fn make_solvable(
         }
         Form::Facing { camera, room, sight } => {
             let barred = local_pairs(&main, unseamable);
-            let landmarks = local_landmarks(&main);
-            let region = super::facing::facing_region(&main.mesh, (camera, *sight), &landmarks, *room, &barred)
+            let primary = local_landmarks(&main);
+            // The other copies of a landmark the repair made (a vertex where
+            // the file's sheets meet), taken in where the view allows.
+            let copies: Vec<u32> = (0..main.welded_ids.len() as u32)
+                .filter(|&v| landmarks.contains(&main.welded_ids[v as usize]) && !primary.contains(&v))
+                .collect();
+            let marks = (primary.as_slice(), copies.as_slice());
+            let region = super::facing::facing_region(&main.mesh, (camera, *sight), marks, *room, &barred)
                 .ok_or(SolvableError::NoPart { form: form.name() })?;
             Some(
-                super::separate::split_off(&main, &region, &landmarks)
+                super::separate::split_off(&main, &region, &primary)
                     .ok_or(SolvableError::NoPart { form: form.name() })?,
             )
         }

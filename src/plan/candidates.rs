@@ -176,7 +176,7 @@ pub fn next(chart: &Chart, tried: &[(Candidate, Ended)]) -> Option<Candidate> {
     if law.may_reshape() && law.boundary != Some(BoundaryChoice::Square) {
         let (points, targets): (Vec<_>, Vec<_>) = chart.landmarks.iter().copied().unzip();
         if let Some(camera) = Camera::fit(&points, &targets) {
-            for sight in [Sight::Near, Sight::Whole] {
+            for sight in [Sight::Near, Sight::Whole, Sight::Grown] {
                 list.push(Candidate {
                     form: Form::Facing {
                         camera,
