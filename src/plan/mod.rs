@@ -592,20 +592,9 @@ impl ChartPlan {
         if let Some((i, _)) = best {
             return self.choose(i, "it reached its targets with the least stretch");
         }
-        // None reached: the simplest, unless a later one is measurably
-        // closer. The disks grown one-to-one are kept only when they reach:
-        // short, their patchwork of small charts is no better a layout.
+        // None reached: the simplest, unless a later one is measurably closer.
         let mut closest: Option<(usize, f64)> = None;
-        let patchwork = |i: usize| {
-            matches!(
-                self.trials[i].key.form,
-                Form::Facing {
-                    sight: crate::cut::facing::Sight::Grown,
-                    ..
-                }
-            )
-        };
-        for &(i, _, residual, _) in solved.iter().filter(|s| !patchwork(s.0)) {
+        for &(i, _, residual, _) in &solved {
             if closest.is_none_or(|(_, r)| residual < BETTER * r) {
                 closest = Some((i, residual));
             }

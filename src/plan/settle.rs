@@ -27,40 +27,54 @@ pub fn settle(prepared: &PreparedChart, step_one: Option<&[DVec2]>, solver: &mut
     }
     let stretch = |l: &[DVec2]| crate::solver::own::stretch(prepared, l);
     let now = stretch(layout);
-    let Some((yardstick, candidates)) = own_shape(prepared, step_one, solver) else {
+    let Some(own) = own_shape(prepared, step_one, solver) else {
         return;
     };
-    let own = stretch(&yardstick);
-    solver.note_own_stretch(own);
-    let bound = crate::solver::SETTLE_FACTOR * own.l2;
+    let yardstick = stretch(&own.shape);
+    solver.note_own_stretch(yardstick);
+    let bound = crate::solver::SETTLE_FACTOR * yardstick.l2;
     let storable = |l: &[DVec2]| crate::guard::all_positive_as_stored(l, &prepared.filled.mesh.triangles);
     if now.l2 <= bound && storable(solver.layout()) {
         return;
     }
-    let best = candidates
+    let best = own
+        .fitted
         .into_iter()
         .map(|c| (stretch(&c).l2, c))
         .filter(|(l2, _)| l2.is_finite())
         .find(|(l2, _)| *l2 <= bound)
-        .or_else(|| Some((stretch(&yardstick).l2, yardstick)).filter(|(l2, y)| l2.is_finite() && storable(y)));
+        .or_else(|| {
+            own.centred
+                .map(|c| (stretch(&c).l2, c))
+                .filter(|(l2, c)| l2.is_finite() && storable(c))
+        });
     if let Some((_, layout)) = best {
         solver.settle_for(layout, now);
     }
 }
 
-/// The chart's own shape: the yardstick layout (its free layout without
-/// landmarks, centred in its region, or step 1's square) and the
-/// placements to try first (that shape fitted to the targets), each
-/// fold-free as stored and admitted by its room; `None` when there is
-/// none.
-fn own_shape(
-    prepared: &PreparedChart,
-    step_one: Option<&[DVec2]>,
-    solver: &ChartSolver,
-) -> Option<(Vec<DVec2>, Vec<Vec<DVec2>>)> {
+/// The chart's own shape and where it may be written instead.
+struct OwnShape {
+    /// The yardstick layout: its free layout without landmarks (centred
+    /// in its region), or step 1's square.
+    shape: Vec<DVec2>,
+    /// That shape fitted to the targets, when its room admits it.
+    fitted: Option<Vec<DVec2>>,
+    /// That shape centred in its region, when its room admits it.
+    centred: Option<Vec<DVec2>>,
+}
+
+/// The chart's own shape ([`OwnShape`]), each placement fold-free as
+/// stored and admitted by its room; `None` when there is none.
+fn own_shape(prepared: &PreparedChart, step_one: Option<&[DVec2]>, solver: &ChartSolver) -> Option<OwnShape> {
     let f = &prepared.filled;
     let Some(free) = solver.free() else {
-        return Some((step_one?.to_vec(), Vec::new()));
+        let shape = step_one?.to_vec();
+        return Some(OwnShape {
+            centred: Some(shape.clone()),
+            shape,
+            fitted: None,
+        });
     };
     let base = crate::solver::own::free_layout(prepared, solver.options())?;
     let room = &free.domain.room;
@@ -74,9 +88,6 @@ fn own_shape(
         .iter()
         .map(|&p| 0.5 * (lo + hi) + (p - 0.5 * (blo + bhi)) * k)
         .collect();
-    if !fits(&centred) {
-        return None;
-    }
     let shape = Shape::of(f);
     let fitted = fit_into_room(
         room,
@@ -88,5 +99,9 @@ fn own_shape(
     )
     .map(|c| c.layout)
     .filter(|l| fits(l));
-    Some((centred, fitted.into_iter().collect()))
+    Some(OwnShape {
+        fitted,
+        centred: fits(&centred).then(|| centred.clone()),
+        shape: centred,
+    })
 }
