@@ -13,7 +13,7 @@ use crate::complete::energy::RestTriangle;
 use crate::complete::newton::NewtonSystem;
 use crate::cut::facing::Sight;
 pub use crate::free::StartKind;
-use crate::free::room::Room;
+use crate::free::room::{Room, Violation};
 use crate::guard;
 use crate::injective::bounds;
 use crate::param::bar_net::FilledChart;
@@ -399,6 +399,7 @@ pub fn fit_into_room(
         && let Some(layout) = [boxed_in(&placed, problem, region), drawn_in(&placed, region)]
             .into_iter()
             .flatten()
+            .chain(uncrossed(room, &placed, triangles, &problem.constraint_vertices))
             .filter_map(|layout| mended(layout, triangles, &problem.constraint_vertices))
             .find(|layout| room.admits(layout).is_ok() && guard::all_positive_as_stored(layout, triangles))
     {
@@ -480,6 +481,46 @@ fn shrunk_into_room(
         });
         if let Some(found) = near.iter().chain(&anchors).find_map(|&(from, to)| at(shrink, from, to)) {
             return Some(found);
+        }
+    }
+    None
+}
+
+/// Rounds of [`uncrossed`] at most.
+const UNCROSS_ROUNDS: usize = 32;
+
+/// A camera's view whose outline crosses itself (a fan opened out over a
+/// neighbour, a sliver untangled across the outline), the corners of each
+/// crossing pair of edges other than the `landmarks` drawn halfway to
+/// their neighbours' mean, round by round, while every triangle stays
+/// positive: `None` when it needs no uncrossing, or does not come clear.
+fn uncrossed(room: &Room, layout: &[DVec2], triangles: &[[u32; 3]], landmarks: &[u32]) -> Option<Vec<DVec2>> {
+    let Err(Violation::SelfCrossing { .. }) = room.admits(layout) else {
+        return None;
+    };
+    let pinned = super::unfold::pinned(layout.len(), landmarks);
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); layout.len()];
+    for t in triangles {
+        for k in 0..3 {
+            neighbours[t[k] as usize].push(t[(k + 1) % 3]);
+            neighbours[t[k] as usize].push(t[(k + 2) % 3]);
+        }
+    }
+    let mut layout = layout.to_vec();
+    for _ in 0..UNCROSS_ROUNDS {
+        let (first, second) = match room.admits(&layout) {
+            Ok(()) => return Some(layout),
+            Err(Violation::SelfCrossing { first, second }) => (first, second),
+            Err(_) => return None,
+        };
+        let before = layout.clone();
+        for v in first.into_iter().chain(second).filter(|&v| !pinned[v as usize]) {
+            let around = &neighbours[v as usize];
+            let mean = around.iter().map(|&w| before[w as usize]).sum::<DVec2>() / around.len().max(1) as f64;
+            layout[v as usize] = 0.5 * (before[v as usize] + mean);
+        }
+        if layout == before || !guard::all_positive(&layout, triangles) {
+            return None;
         }
     }
     None
@@ -838,6 +879,44 @@ pub fn fill_region(room: &Room, layout: &mut [DVec2], shape: &Shape, pivot: Opti
 mod tests {
     use super::*;
     use crate::testing::grid_mesh;
+
+    #[test]
+    fn a_view_whose_tip_crosses_its_own_outline_is_drawn_back_clear() {
+        // A strip bent into a ring open by a few degrees, its last outer
+        // corner pushed across the gap onto the strip's first end.
+        let strip = grid_mesh(16, 2);
+        let centre = DVec2::splat(0.5);
+        let mut layout: Vec<DVec2> = strip
+            .positions
+            .iter()
+            .map(|p| {
+                let (angle, radius) = (p.x * 6.1, 0.3 - 0.1 * p.y);
+                centre + radius * DVec2::new(angle.cos(), angle.sin())
+            })
+            .collect();
+        let tip = 15;
+        layout[tip] = centre + 0.3 * DVec2::new(0.08f64.cos(), 0.08f64.sin());
+        assert!(guard::all_positive(&layout, &strip.triangles), "a fold-free start");
+        let topology = crate::mesh::topology::Topology::build(&strip).expect("a disk");
+        let setup = crate::free::FreeSetup {
+            region: crate::param::region::Region::TEXTURE,
+            source: crate::free::RegionSource::Texture,
+            obstacles: std::sync::Arc::new(crate::free::Obstacles::default()),
+            island: None,
+            given: None,
+            density: None,
+        };
+        let room = Room::new(std::sync::Arc::new(setup), &topology, &strip.triangles);
+        assert!(matches!(room.admits(&layout), Err(Violation::SelfCrossing { .. })));
+        let landmarks = [0, 20];
+        let clear = uncrossed(&room, &layout, &strip.triangles, &landmarks).expect("drawn back");
+        assert!(room.admits(&clear).is_ok() && guard::all_positive(&clear, &strip.triangles));
+        for l in landmarks {
+            assert_eq!(clear[l as usize], layout[l as usize], "a landmark stays");
+        }
+        // A layout already clear needs no uncrossing.
+        assert_eq!(uncrossed(&room, &clear, &strip.triangles, &landmarks), None);
+    }
 
     #[test]
     fn the_widest_shrink_about_a_target_near_the_border_just_fits() {
