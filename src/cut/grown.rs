@@ -520,20 +520,19 @@ impl Grid {
         }
     }
 
-    /// The cells a projected triangle's box covers.
-    fn cells_of(&self, tri: [DVec2; 3]) -> impl Iterator<Item = usize> + '_ {
+    /// The cells a box (`lo`, `hi`) covers.
+    fn cells_of(&self, (lo, hi): (DVec2, DVec2)) -> impl Iterator<Item = usize> + '_ {
         let at = |p: DVec2| {
             let q = ((p - self.lo) / self.cell).max(DVec2::ZERO);
             ((q.x as usize).min(self.nx - 1), (q.y as usize).min(self.ny - 1))
         };
-        let (x0, y0) = at(tri[0].min(tri[1]).min(tri[2]));
-        let (x1, y1) = at(tri[0].max(tri[1]).max(tri[2]));
+        let ((x0, y0), (x1, y1)) = (at(lo), at(hi));
         (y0..=y1).flat_map(move |y| (x0..=x1).map(move |x| y * self.nx + x))
     }
 
     fn insert(&mut self, view: &View, t: u32) {
         let tri = view.mesh.triangles[t as usize].map(|v| view.projected[v as usize]);
-        let cells: Vec<usize> = self.cells_of(tri).collect();
+        let cells: Vec<usize> = self.cells_of(box_of(tri, 0.0)).collect();
         cells.into_iter().for_each(|k| self.cells[k].push(t));
     }
 
@@ -543,9 +542,8 @@ impl Grid {
     fn clear_of(&self, view: &View, t: u32, touch: &dyn Fn(u32) -> bool) -> bool {
         let project = |s: u32| view.mesh.triangles[s as usize].map(|v| view.projected[v as usize]);
         let tri = project(t);
-        let widened = [tri[0] - view.gap, tri[1] + view.gap, tri[2]];
         let mut near: Vec<u32> = self
-            .cells_of(widened)
+            .cells_of(box_of(tri, view.gap))
             .flat_map(|k| self.cells[k].iter().copied())
             .collect();
         near.sort_unstable();
@@ -553,6 +551,12 @@ impl Grid {
         near.into_iter()
             .all(|s| s == t || apart(tri, project(s), if touch(s) { 0.0 } else { view.gap }))
     }
+}
+
+/// The box of a projected triangle, widened by `gap` on every side.
+fn box_of(tri: [DVec2; 3], gap: f64) -> (DVec2, DVec2) {
+    let (lo, hi) = (tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]));
+    (lo - DVec2::splat(gap), hi + DVec2::splat(gap))
 }
 
 /// Whether two projected triangles are `gap` apart (for no gap, their
