@@ -12,8 +12,10 @@
 //! towards the camera, inside the room and overlaps nothing taken or
 //! held for a landmark, and only when it meets the disk along one path of
 //! edges (so the disk stays a disk: no hole is closed, no pinch made). The
-//! triangles around every landmark are taken whatever their projection (a
-//! landmark is never on a seam), and the disk must reach them all.
+//! triangles around every landmark are one unit, taken whatever their
+//! projection (a landmark is never on a seam). A landmark the first disk
+//! does not reach starts a disk of its own, kept a gap from the others:
+//! each is a piece of its own, solved beside the first.
 
 use super::graph::{EdgeGraph, NONE};
 use crate::mesh::TriMesh;
