@@ -947,7 +947,7 @@ impl PreparedChart {
             form: piece.as_ref().and(form.cloned()),
             boundary: piece.as_ref().map(|_| crate::pins::BoundaryChoice::Free),
             piece,
-            density,
+            order: crate::domain::setup::Order::Beside(density),
         }
     }
 }

@@ -35,11 +35,31 @@ pub struct Pick {
     /// solve's chart ([`crate::chart::Opening::pieces`]): solved with its own landmarks
     /// instead of the whole chart.
     pub piece: Option<Arc<Chart>>,
-    /// For the pieces and charts solved beside a first chart, its texel
-    /// density (texture length per mesh length): one with fewer than two
-    /// targets is laid out at most at it, and none leaves a strip for the
-    /// rest. `None` for a first chart.
-    pub density: Option<f64>,
+    /// The solve's first chart, or one solved beside it.
+    pub order: Order,
+}
+
+/// Whether a chart is the solve's first or one solved beside it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Order {
+    /// The first chart: it leaves a strip for the rest.
+    #[default]
+    First,
+    /// A piece or chart solved beside the first: it leaves no strip for
+    /// the rest, and one with fewer than two targets is laid out at most
+    /// at the first chart's texel density (texture length per mesh
+    /// length; `None` when that has no finite value).
+    Beside(Option<f64>),
+}
+
+impl Order {
+    /// The texel density a chart beside the first is held to.
+    pub fn density(self) -> Option<f64> {
+        match self {
+            Order::First => None,
+            Order::Beside(density) => density,
+        }
+    }
 }
 
 /// At most this many constraints are paired for [`photo_scale`].
@@ -94,7 +114,7 @@ pub fn decide(
     // A chart solved beside a first one leaves no strip for the rest: the
     // rest is packed around them all, and the strip would cut its room
     // short of the size the targets give it.
-    let strip = if pick.density.is_some() { 0.0 } else { rest_share };
+    let strip = if pick.order == Order::First { rest_share } else { 0.0 };
     let uvs = welded_uvs(asset, welded);
     let island: Option<Vec<DVec2>> = chart
         .welded_ids
@@ -157,7 +177,7 @@ pub fn decide(
     let density = (constraints.len() < 2)
         .then_some(photo_scale)
         .flatten()
-        .or(pick.density);
+        .or(pick.order.density());
     Ok(Domain::Free(Arc::new(FreeSetup {
         region,
         source: source_kind,

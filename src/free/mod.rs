@@ -154,7 +154,7 @@ pub struct FreeSetup {
     /// fit the room.
     pub given: Option<GivenStart>,
     /// The texel density a chart with fewer than two targets is held to
-    /// ([`crate::domain::setup::Pick::density`]).
+    /// ([`crate::domain::setup::Order::Beside`], or a photo's scale).
     pub density: Option<f64>,
 }
 
