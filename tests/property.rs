@@ -232,10 +232,7 @@ fn random_closed_meshes_and_random_landmarks_never_write_a_fold_or_an_overlap() 
             "{name}: every triangle has UVs"
         );
         assert_fold_free_and_one_to_one(&name, &mesh, &solved.corner_uvs);
-        // The landmarks' chart short of its targets (not only a piece
-        // solved beside it, whose stretch is its own).
-        let short = solved.report.constraints.iter().any(|c| !c.reached);
-        if solved.report.status == Status::Partial && short {
+        if solved.report.status == Status::Partial {
             // A partial layout stays usable: at most 3 times as stretched as
             // the chart's own shape (its free layout without landmarks).
             let yardstick = solved
