@@ -107,8 +107,7 @@ pub fn newton_pattern(
     movable: &[u32],
     order: Option<&[u32]>,
 ) -> Result<NewtonPattern, SparseError> {
-    let mut free = vec![false; filled.mesh.n_vertices()];
-    movable.iter().for_each(|&v| free[v as usize] = true);
+    let free = crate::mesh::marked(filled.mesh.n_vertices(), movable);
     NewtonPattern::new(&filled.mesh.triangles, &free, order)
 }
 

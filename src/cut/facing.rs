@@ -199,8 +199,7 @@ fn seen_near(
     // passes behind another part at a corner, leans past the room (a CAD
     // part's long facet) or faces the camera only by its own normal, those
     // seen at their centre and turned towards the camera take it in.
-    let mut is_landmark = vec![false; mesh.n_vertices()];
-    landmarks.iter().for_each(|&l| is_landmark[l as usize] = true);
+    let is_landmark = crate::mesh::marked(mesh.n_vertices(), landmarks);
     let mut held = vec![false; mesh.n_vertices()];
     for (tri, _) in mesh.triangles.iter().zip(&seen).filter(|(_, s)| **s) {
         tri.iter().for_each(|&v| held[v as usize] = true);
@@ -376,8 +375,7 @@ fn landmarks_part(graph: &EdgeGraph, mesh: &TriMesh, chosen: &[bool], landmarks:
             parts.union(f[0] as usize, f[1] as usize);
         }
     }
-    let mut is_landmark = vec![false; mesh.n_vertices()];
-    landmarks.iter().for_each(|&l| is_landmark[l as usize] = true);
+    let is_landmark = crate::mesh::marked(mesh.n_vertices(), landmarks);
     let (mut touched, mut holding) = (vec![false; mesh.n_vertices()], vec![false; n_t]);
     for (t, tri) in mesh.triangles.iter().enumerate().filter(|(t, _)| chosen[*t]) {
         for &v in tri.iter().filter(|&&v| is_landmark[v as usize]) {

@@ -115,8 +115,7 @@ impl<'a> Growth<'a> {
             loose: vec![false; view.mesh.n_vertices()],
             forced_at: vec![Vec::new(); view.mesh.n_vertices()],
         };
-        let mut is_landmark = vec![false; view.mesh.n_vertices()];
-        landmarks.iter().for_each(|&l| is_landmark[l as usize] = true);
+        let is_landmark = crate::mesh::marked(view.mesh.n_vertices(), landmarks);
         for &u in forced {
             growth.forced[u as usize] = true;
             for &t in &units.members[u as usize] {
@@ -298,8 +297,7 @@ impl Units {
         let n_t = view.mesh.triangles.len();
         let mut joined = UnionFind::new(n_t);
         let mut first_around = vec![NONE; view.mesh.n_vertices()];
-        let mut is_landmark = vec![false; view.mesh.n_vertices()];
-        landmarks.iter().for_each(|&l| is_landmark[l as usize] = true);
+        let is_landmark = crate::mesh::marked(view.mesh.n_vertices(), landmarks);
         for (t, tri) in view.mesh.triangles.iter().enumerate() {
             for &v in tri.iter().filter(|&&v| is_landmark[v as usize]) {
                 match first_around[v as usize] {
@@ -344,8 +342,7 @@ impl Units {
     /// The units around the landmarks, sorted; `NONE` among them when a
     /// landmark is on no triangle.
     fn around(&self, mesh: &TriMesh, landmarks: &[u32]) -> Vec<u32> {
-        let mut is_landmark = vec![false; mesh.n_vertices()];
-        landmarks.iter().for_each(|&l| is_landmark[l as usize] = true);
+        let is_landmark = crate::mesh::marked(mesh.n_vertices(), landmarks);
         let mut on_one = vec![false; mesh.n_vertices()];
         let mut out: Vec<u32> = Vec::new();
         for (t, tri) in mesh.triangles.iter().enumerate() {

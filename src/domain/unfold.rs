@@ -191,9 +191,7 @@ const MAX_VALENCE: usize = 32;
 /// Which of `n` vertices are `landmarks`: those [`settle`] and the
 /// untangle keep where they are.
 pub fn pinned(n: usize, landmarks: &[u32]) -> Vec<bool> {
-    let mut out = vec![false; n];
-    landmarks.iter().for_each(|&v| out[v as usize] = true);
-    out
+    crate::mesh::marked(n, landmarks)
 }
 
 /// Moves a corner of every non-positive triangle of `layout` (a sliver

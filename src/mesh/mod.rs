@@ -32,6 +32,13 @@ impl TriMesh {
     }
 }
 
+/// Which of `n` vertices are among `ids`.
+pub fn marked(n: usize, ids: &[u32]) -> Vec<bool> {
+    let mut out = vec![false; n];
+    ids.iter().for_each(|&v| out[v as usize] = true);
+    out
+}
+
 /// 3D area of triangle `t` of `mesh`.
 pub fn triangle_area_3d(mesh: &TriMesh, t: [u32; 3]) -> f64 {
     let [a, b, c] = t.map(|i| mesh.positions[i as usize]);

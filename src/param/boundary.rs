@@ -105,9 +105,7 @@ impl BoundaryMap {
 
     /// Per vertex of a chart of `n_vertices`, whether it is on the outer loop.
     pub fn on_loop(&self, n_vertices: usize) -> Vec<bool> {
-        let mut on = vec![false; n_vertices];
-        self.loop_vertices.iter().for_each(|&v| on[v as usize] = true);
-        on
+        crate::mesh::marked(n_vertices, &self.loop_vertices)
     }
 }
 
