@@ -246,18 +246,11 @@ fn untangle(layout: &mut [DVec2], triangles: &[[u32; 3]], pinned: &[bool]) -> bo
     let Some(mut vertices) = bad(layout) else {
         return true;
     };
-    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); layout.len()];
-    for t in triangles {
-        for k in 0..3 {
-            neighbours[t[k] as usize].push(t[(k + 1) % 3]);
-            neighbours[t[k] as usize].push(t[(k + 2) % 3]);
-        }
-    }
+    let around = Around::new(layout.len(), triangles);
     for _ in 0..UNTANGLE_ROUNDS {
         for &v in &vertices {
-            let around = &neighbours[v as usize];
-            if !around.is_empty() {
-                layout[v as usize] = around.iter().map(|&w| layout[w as usize]).sum::<DVec2>() / around.len() as f64;
+            if let Some(mean) = around.mean(v, layout) {
+                layout[v as usize] = mean;
             }
         }
         match bad(layout) {
@@ -495,35 +488,53 @@ const UNCROSS_ROUNDS: usize = 32;
 /// their neighbours' mean, round by round, while every triangle stays
 /// positive: `None` when it needs no uncrossing, or does not come clear.
 fn uncrossed(room: &Room, layout: &[DVec2], triangles: &[[u32; 3]], landmarks: &[u32]) -> Option<Vec<DVec2>> {
-    let Err(Violation::SelfCrossing { .. }) = room.admits(layout) else {
+    let mut verdict = room.admits(layout);
+    let Err(Violation::SelfCrossing { .. }) = verdict else {
         return None;
     };
     let pinned = super::unfold::pinned(layout.len(), landmarks);
-    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); layout.len()];
-    for t in triangles {
-        for k in 0..3 {
-            neighbours[t[k] as usize].push(t[(k + 1) % 3]);
-            neighbours[t[k] as usize].push(t[(k + 2) % 3]);
-        }
-    }
+    let around = Around::new(layout.len(), triangles);
     let mut layout = layout.to_vec();
     for _ in 0..UNCROSS_ROUNDS {
-        let (first, second) = match room.admits(&layout) {
+        let (first, second) = match verdict {
             Ok(()) => return Some(layout),
             Err(Violation::SelfCrossing { first, second }) => (first, second),
             Err(_) => return None,
         };
         let before = layout.clone();
         for v in first.into_iter().chain(second).filter(|&v| !pinned[v as usize]) {
-            let around = &neighbours[v as usize];
-            let mean = around.iter().map(|&w| before[w as usize]).sum::<DVec2>() / around.len().max(1) as f64;
-            layout[v as usize] = 0.5 * (before[v as usize] + mean);
+            if let Some(mean) = around.mean(v, &before) {
+                layout[v as usize] = 0.5 * (before[v as usize] + mean);
+            }
         }
         if layout == before || !guard::all_positive(&layout, triangles) {
             return None;
         }
+        verdict = room.admits(&layout);
     }
     None
+}
+
+/// Each vertex's neighbours, once for every triangle they share.
+struct Around(Vec<Vec<u32>>);
+
+impl Around {
+    fn new(n: usize, triangles: &[[u32; 3]]) -> Self {
+        let mut around = vec![Vec::new(); n];
+        for t in triangles {
+            for k in 0..3 {
+                around[t[k] as usize].push(t[(k + 1) % 3]);
+                around[t[k] as usize].push(t[(k + 2) % 3]);
+            }
+        }
+        Around(around)
+    }
+
+    /// The mean of `v`'s neighbours in `layout`; `None` on no triangle.
+    fn mean(&self, v: u32, layout: &[DVec2]) -> Option<DVec2> {
+        let around = &self.0[v as usize];
+        (!around.is_empty()).then(|| around.iter().map(|&w| layout[w as usize]).sum::<DVec2>() / around.len() as f64)
+    }
 }
 
 /// `layout` with the few triangles a squeeze turned over nudged positive
