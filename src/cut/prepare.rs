@@ -95,6 +95,18 @@ impl Form {
     }
 }
 
+/// The vertices of `chart` that copy one of the `landmarks` (welded ids)
+/// besides its `primary` local vertex: where the repair split a vertex at
+/// which the file's sheets meet.
+fn other_copies(chart: &Chart, landmarks: &[u32], primary: &[u32]) -> Vec<u32> {
+    let mut welded = landmarks.to_vec();
+    welded.sort_unstable();
+    let is_primary = crate::mesh::marked(chart.welded_ids.len(), primary);
+    (0..chart.welded_ids.len() as u32)
+        .filter(|&v| !is_primary[v as usize] && welded.binary_search(&chart.welded_ids[v as usize]).is_ok())
+        .collect()
+}
+
 /// `chart` repaired and made a disk as `form` says, seams kept off
 /// `landmarks` and off the `unseamable` edges (polygon diagonals); seams,
 /// landmarks and edges as welded ids. When the repair splits the chart
@@ -135,11 +147,7 @@ pub fn make_solvable(
         Form::Facing { camera, room, sight } => {
             let barred = local_pairs(&main, unseamable);
             let primary = local_landmarks(&main);
-            // The other copies of a landmark the repair made (a vertex where
-            // the file's sheets meet), taken in where the view allows.
-            let copies: Vec<u32> = (0..main.welded_ids.len() as u32)
-                .filter(|&v| landmarks.contains(&main.welded_ids[v as usize]) && !primary.contains(&v))
-                .collect();
+            let copies = other_copies(&main, landmarks, &primary);
             let marks = (primary.as_slice(), copies.as_slice());
             let region = super::facing::facing_region(&main.mesh, (camera, *sight), marks, *room, &barred)
                 .ok_or(SolvableError::NoPart { form: form.name() })?;
