@@ -596,6 +596,13 @@ mod tests {
         }
     }
 
+    /// A mesh seen from above (+z), all of it within the room: its edge
+    /// graph, its projection and the room test.
+    fn from_above(mesh: &TriMesh) -> (EdgeGraph, Vec<DVec2>, Vec<bool>) {
+        let projected = mesh.positions.iter().map(|p| p.truncate()).collect();
+        (EdgeGraph::new(mesh), projected, vec![true; mesh.triangles.len()])
+    }
+
     #[test]
     fn apart_allows_touching_and_refuses_overlap() {
         let a = [DVec2::ZERO, DVec2::X, DVec2::Y];
@@ -621,9 +628,7 @@ mod tests {
     #[test]
     fn a_sphere_seen_from_above_grows_a_disk_that_projects_one_to_one() {
         let sphere = uv_sphere(24, 36);
-        let graph = EdgeGraph::new(&sphere);
-        let projected: Vec<DVec2> = sphere.positions.iter().map(|p| p.truncate()).collect();
-        let within = vec![true; sphere.triangles.len()];
+        let (graph, projected, within) = from_above(&sphere);
         let view = view_of(&sphere, &graph, &projected, &within);
         let top = (0..sphere.n_vertices() as u32)
             .filter(|&v| sphere.positions[v as usize].z > 0.5)
@@ -642,21 +647,11 @@ mod tests {
         }
         assert!(chosen.len() * 3 > sphere.triangles.len(), "most of the upper half");
         // A disk: V - E + F = 1, and one-to-one: no two overlap.
-        let mut local = vec![NONE; sphere.n_vertices()];
-        let mut positions = Vec::new();
-        let triangles = chosen
-            .iter()
-            .map(|t| {
-                t.map(|v| {
-                    if local[v as usize] == NONE {
-                        local[v as usize] = positions.len() as u32;
-                        positions.push(sphere.positions[v as usize]);
-                    }
-                    local[v as usize]
-                })
-            })
-            .collect();
-        let topo = crate::mesh::topology::Topology::build(&TriMesh { positions, triangles }).expect("a disk");
+        let part = crate::testing::compact(TriMesh {
+            positions: sphere.positions.clone(),
+            triangles: chosen.clone(),
+        });
+        let topo = crate::mesh::topology::Topology::build(&part).expect("a disk");
         assert_eq!(topo.holes().count(), 0);
         for (i, s) in chosen.iter().enumerate() {
             for t in &chosen[i + 1..] {
@@ -672,9 +667,7 @@ mod tests {
     #[test]
     fn a_landmark_on_the_far_side_is_a_disk_of_its_own_triangles() {
         let sphere = uv_sphere(12, 18);
-        let graph = EdgeGraph::new(&sphere);
-        let projected: Vec<DVec2> = sphere.positions.iter().map(|p| p.truncate()).collect();
-        let within = vec![true; sphere.triangles.len()];
+        let (graph, projected, within) = from_above(&sphere);
         let view = view_of(&sphere, &graph, &projected, &within);
         let find =
             |f: &dyn Fn(f64) -> bool| (0..sphere.n_vertices() as u32).find(|&v| f(sphere.positions[v as usize].z));
@@ -692,8 +685,7 @@ mod tests {
         // A landmark on no triangle is on no disk.
         let mut lone = sphere.clone();
         lone.positions.push(DVec3::ZERO);
-        let graph = EdgeGraph::new(&lone);
-        let projected: Vec<DVec2> = lone.positions.iter().map(|p| p.truncate()).collect();
+        let (graph, projected, within) = from_above(&lone);
         let view = view_of(&lone, &graph, &projected, &within);
         let unused = lone.n_vertices() as u32 - 1;
         assert_eq!(grown_region(&view, (&[top, unused], &[]), &[]), None);
