@@ -252,17 +252,27 @@ pub fn strictly_inside(q: DVec2, t: [DVec2; 3]) -> bool {
 /// them: every directed edge whose reverse no triangle uses, each once
 /// (an edge used twice in one direction counts once).
 pub fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<Edge> {
-    let mut directed: Vec<Edge> = triangles
+    use rayon::slice::ParallelSliceMut;
+    // Each directed edge as its undirected key and whether it runs from the
+    // lower end: sorted, an edge's uses lie together (no search per edge).
+    let mut uses: Vec<(u64, bool)> = triangles
         .iter()
         .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        .map(|[a, b]| ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), a < b))
         .collect();
-    directed.sort_unstable();
-    directed.dedup();
-    directed
-        .iter()
-        .filter(|e| directed.binary_search(&[e[1], e[0]]).is_err())
-        .copied()
-        .collect()
+    uses.par_sort_unstable();
+    uses.dedup();
+    let mut out: Vec<Edge> = uses
+        .chunk_by(|x, y| x.0 == y.0)
+        .filter(|run| run.len() == 1 && run[0].0 >> 32 != run[0].0 & 0xffff_ffff)
+        .map(|run| {
+            let (key, up) = run[0];
+            let (lo, hi) = ((key >> 32) as u32, key as u32);
+            if up { [lo, hi] } else { [hi, lo] }
+        })
+        .collect();
+    out.par_sort_unstable();
+    out
 }
 
 /// Where the charts of an atlas overlap (see [`atlas_overlaps`]).

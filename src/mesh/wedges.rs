@@ -83,7 +83,7 @@ fn sorted_half_edges(mesh: &TriMesh) -> Vec<HalfEdge> {
             })
         })
         .collect();
-    half.sort_unstable();
+    rayon::slice::ParallelSliceMut::par_sort_unstable(&mut half[..]);
     half
 }
 
