@@ -11,7 +11,7 @@
 //! `λ_t = 2 − 2 (I₂ − J) / J³` along `T = R₉₀ Q / √2`, with `Q` the rotation of
 //! `F`'s polar decomposition. Projection is one rank-1 correction.
 
-use glam::{DVec2, DVec3};
+use glam::{DMat2, DVec2, DVec3};
 
 /// Rest shape of one triangle: `R⁻¹` (row-major) and its weight (area).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -109,22 +109,46 @@ pub fn triangle_terms(rest: &RestTriangle, x: [DVec2; 3]) -> Option<(f64, [f64; 
 /// of one triangle with respect to corner `k` alone (the others held): a
 /// vertex's share of [`triangle_terms`], for local sweeps. `None` when folded.
 pub fn corner_terms(rest: &RestTriangle, x: [DVec2; 3], k: usize) -> Option<(f64, DVec2, [f64; 3])> {
-    let (value, g, h) = psi_terms(jacobian(rest, x))?;
-    let d = rest.inv_rest;
-    // ∂F_ij/∂x_k,i = c_j (see `pull_back`).
-    let c = [[-(d[0] + d[2]), -(d[1] + d[3])], [d[0], d[1]], [d[2], d[3]]][k];
+    let f = jacobian(rest, x);
+    let (a, b, c, d) = (f[0], f[1], f[2], f[3]);
+    let j = a * d - b * c;
+    if j <= 0.0 {
+        return None;
+    }
+    let dm = rest.inv_rest;
+    // ∂F_ij/∂x_k,i = e_j (see `pull_back`): a 4-vector `v` of F's order
+    // seen by corner k is (e·v[0..2], e·v[2..4]).
+    let e = [[-(dm[0] + dm[2]), -(dm[1] + dm[3])], [dm[0], dm[1]], [dm[2], dm[3]]][k];
+    let seen = |v: [f64; 4]| DVec2::new(e[0] * v[0] + e[1] * v[1], e[0] * v[2] + e[1] * v[3]);
+    let i2 = a * a + b * b + c * c + d * d;
+    let (inv_j2, inv_j3) = (1.0 / (j * j), 1.0 / (j * j * j));
+    let (fs, gs) = (seen(f), seen([d, -c, -b, a]));
+    // The terms of `psi_terms`' H_F seen by one corner: 2(1+J⁻²) I,
+    // −4J⁻³ (f gᵀ + g fᵀ), 6 I₂ J⁻⁴ g gᵀ; H_J adds nothing (the area is
+    // linear in one corner), and the twist mode is projected as there.
+    let mut hess = DMat2::from_diagonal(DVec2::splat(2.0 * (1.0 + inv_j2) * (e[0] * e[0] + e[1] * e[1])))
+        - 4.0 * inv_j3 * (outer(fs, gs) + outer(gs, fs))
+        + 6.0 * i2 * inv_j2 * inv_j2 * outer(gs, gs);
+    let lambda_twist = 2.0 - 2.0 * (i2 - j) * inv_j3;
+    if lambda_twist < 0.0 {
+        let r = ((a + d) * (a + d) + (c - b) * (c - b)).sqrt();
+        let (co, s) = ((a + d) / r, (c - b) / r);
+        let ts = seen([-s, -co, co, -s]) / std::f64::consts::SQRT_2;
+        hess -= lambda_twist * outer(ts, ts);
+    }
     let w = rest.weight;
-    let grad = DVec2::new(c[0] * g[0] + c[1] * g[1], c[0] * g[2] + c[1] * g[3]) * w;
-    let block = |i: usize, l: usize| {
-        let mut s = 0.0;
-        for (j, cj) in c.iter().enumerate() {
-            for (m, cm) in c.iter().enumerate() {
-                s += cj * cm * h[(2 * i + j) * 4 + 2 * l + m];
-            }
-        }
-        w * s
-    };
-    Some((w * value, grad, [block(0, 0), block(0, 1), block(1, 1)]))
+    let grad = (2.0 * (1.0 + inv_j2) * fs - 2.0 * i2 * inv_j3 * gs) * w;
+    let value = i2 * (1.0 + inv_j2);
+    Some((
+        w * value,
+        grad,
+        [w * hess.x_axis.x, w * hess.y_axis.x, w * hess.y_axis.y],
+    ))
+}
+
+/// `p qᵀ`.
+fn outer(p: DVec2, q: DVec2) -> DMat2 {
+    DMat2::from_cols(p * q.x, p * q.y)
 }
 
 /// ψ per unit area at `F`, its gradient and its Hessian (vec order a, b,
