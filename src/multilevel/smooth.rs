@@ -30,6 +30,11 @@ const GAIN: f64 = 1e-3;
 /// this is one of the worst: its vertices and their neighbours sweep on.
 const WORST_PSI: f64 = 40.0;
 
+/// A vertex whose step lowers its star's energy by more than this share
+/// wakes its neighbours for the next sweep; one that stays quieter, with
+/// quiet neighbours, is not swept again.
+const LIVELY: f64 = 1e-5;
+
 /// Sweeps of the vertices around the worst triangles, at most.
 const WORST_SWEEPS: u32 = 40;
 
@@ -111,13 +116,27 @@ pub fn smooth(
         ..SmoothStats::default()
     };
     let mut last = stats.energy_before;
+    // Vertices whose star changed enough since they last moved; the rest
+    // would barely move (a step depends only on the star's corners).
+    let mut next = vec![true; layout.len()];
     while stats.sweeps < max_sweeps {
+        let mut now_active = std::mem::replace(&mut next, vec![false; layout.len()]);
         for class in &classes {
-            let moved: Vec<(u32, DVec2)> = class
+            let moved: Vec<(u32, DVec2, bool)> = class
                 .par_iter()
-                .filter_map(|&v| Some((v, sweep.relaxed(v as usize, layout)?)))
+                .filter(|&&v| now_active[v as usize])
+                .filter_map(|&v| {
+                    let (p, gain, e0) = sweep.relaxed_gain(v as usize, layout)?;
+                    Some((v, p, gain > LIVELY * e0))
+                })
                 .collect();
-            moved.into_iter().for_each(|(v, p)| layout[v as usize] = p);
+            for (v, p, lively) in moved {
+                layout[v as usize] = p;
+                if lively {
+                    sweep.mark_star(v, &mut now_active);
+                    sweep.mark_star(v, &mut next);
+                }
+            }
         }
         if let Some(room) = room {
             for &v in &loop_vertices {
@@ -249,9 +268,22 @@ impl Sweep<'_> {
             .collect()
     }
 
+    /// Marks `v` and the other corners of its star.
+    fn mark_star(&self, v: u32, mark: &mut [bool]) {
+        for &t in self.stars.of(v as usize) {
+            self.triangles[t as usize].iter().for_each(|&w| mark[w as usize] = true);
+        }
+    }
+
     /// Where one vertex's projected Newton step on its star's energy takes
     /// it; `None` if it stays.
     fn relaxed(&self, v: usize, layout: &[DVec2]) -> Option<DVec2> {
+        self.relaxed_gain(v, layout).map(|(q, _, _)| q)
+    }
+
+    /// [`Self::relaxed`], with how much the star's energy fell and what it
+    /// was.
+    fn relaxed_gain(&self, v: usize, layout: &[DVec2]) -> Option<(DVec2, f64, f64)> {
         let star = self.stars.of(v);
         let p = layout[v];
         let (mut e0, mut g, mut h) = (0.0, DVec2::ZERO, [0.0; 3]);
@@ -267,8 +299,9 @@ impl Sweep<'_> {
         let mut alpha = (0.9 * self.safe_step(v, p, d, layout)).min(1.0);
         for _ in 0..10 {
             let q = p + d * alpha;
-            if self.star_energy(v, q, layout) < e0 && self.keeps_positive(v, q, layout) {
-                return Some(q);
+            let e = self.star_energy(v, q, layout);
+            if e < e0 && self.keeps_positive(v, q, layout) {
+                return Some((q, e0 - e, e0));
             }
             alpha *= 0.5;
         }
@@ -369,17 +402,27 @@ mod tests {
     fn a_corners_terms_are_its_share_of_the_triangles() {
         let mesh = grid_mesh(3, 3);
         let rest = rest_shapes(&mesh.positions, &mesh.triangles, mesh.n_triangles(), 0.01);
-        let x = [DVec2::new(0.1, 0.0), DVec2::new(0.9, 0.2), DVec2::new(0.3, 0.7)];
-        let (e, g, h) = triangle_terms(&rest[0], x).unwrap();
-        for k in 0..3 {
-            let (ek, gk, hk) = corner_terms(&rest[0], x, k).unwrap();
-            assert!((ek - e).abs() < 1e-12 * e.abs());
-            assert!((gk - DVec2::new(g[2 * k], g[2 * k + 1])).length() < 1e-9 * (1.0 + gk.length()));
-            let (r, c) = (2 * k, 2 * k + 1);
-            for (got, want) in hk.iter().zip([h[r * 6 + r], h[r * 6 + c], h[c * 6 + c]]) {
-                assert!((got - want).abs() < 1e-9 * (1.0 + want.abs()), "{got} {want}");
+        // A fair triangle, and one pressed flat (its twist mode projected).
+        let mut twisted = 0;
+        for x in [
+            [DVec2::new(0.1, 0.0), DVec2::new(0.9, 0.2), DVec2::new(0.3, 0.7)],
+            [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.1), DVec2::new(0.6, 0.15)],
+        ] {
+            let (e, g, h) = triangle_terms(&rest[0], x).unwrap();
+            let f = jacobian(&rest[0], x);
+            let j = f[0] * f[3] - f[1] * f[2];
+            twisted += usize::from(2.0 - 2.0 * (f.iter().map(|v| v * v).sum::<f64>() - j) / (j * j * j) < 0.0);
+            for k in 0..3 {
+                let (ek, gk, hk) = corner_terms(&rest[0], x, k).unwrap();
+                assert!((ek - e).abs() < 1e-12 * e.abs());
+                assert!((gk - DVec2::new(g[2 * k], g[2 * k + 1])).length() < 1e-9 * (1.0 + gk.length()));
+                let (r, c) = (2 * k, 2 * k + 1);
+                for (got, want) in hk.iter().zip([h[r * 6 + r], h[r * 6 + c], h[c * 6 + c]]) {
+                    assert!((got - want).abs() < 1e-9 * (1.0 + want.abs()), "{got} {want}");
+                }
             }
         }
+        assert_eq!(twisted, 1);
     }
 
     #[test]
