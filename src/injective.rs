@@ -258,13 +258,15 @@ pub fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<Edge> {
     let mut uses: Vec<(u64, bool)> = triangles
         .iter()
         .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        // An edge from a vertex to itself is its own reverse.
+        .filter(|[a, b]| a != b)
         .map(|[a, b]| ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), a < b))
         .collect();
     uses.par_sort_unstable();
     uses.dedup();
     let mut out: Vec<Edge> = uses
         .chunk_by(|x, y| x.0 == y.0)
-        .filter(|run| run.len() == 1 && run[0].0 >> 32 != run[0].0 & 0xffff_ffff)
+        .filter(|run| run.len() == 1)
         .map(|run| {
             let (key, up) = run[0];
             let (lo, hi) = ((key >> 32) as u32, key as u32);

@@ -129,11 +129,8 @@ pub fn corner_terms(rest: &RestTriangle, x: [DVec2; 3], k: usize) -> Option<(f64
     let mut hess = DMat2::from_diagonal(DVec2::splat(2.0 * (1.0 + inv_j2) * (e[0] * e[0] + e[1] * e[1])))
         - 4.0 * inv_j3 * (outer(fs, gs) + outer(gs, fs))
         + 6.0 * i2 * inv_j2 * inv_j2 * outer(gs, gs);
-    let lambda_twist = 2.0 - 2.0 * (i2 - j) * inv_j3;
-    if lambda_twist < 0.0 {
-        let r = ((a + d) * (a + d) + (c - b) * (c - b)).sqrt();
-        let (co, s) = ((a + d) / r, (c - b) / r);
-        let ts = seen([-s, -co, co, -s]) / std::f64::consts::SQRT_2;
+    if let Some((lambda_twist, t)) = twist_mode(f, i2, j) {
+        let ts = seen(t);
         hess -= lambda_twist * outer(ts, ts);
     }
     let w = rest.weight;
@@ -144,6 +141,21 @@ pub fn corner_terms(rest: &RestTriangle, x: [DVec2; 3], k: usize) -> Option<(f64
         grad,
         [w * hess.x_axis.x, w * hess.y_axis.x, w * hess.y_axis.y],
     ))
+}
+
+/// The twist mode of `F` (invariants `i2` = I₂, `j` = J) when its
+/// eigenvalue `λ_t = 2 − 2 (I₂ − J) / J³` is negative: `λ_t` and
+/// `T = R₉₀ Q / √2` (vec order a, b, c, d), Q the rotation of F's polar
+/// decomposition, `[[a + d, b − c], [c − b, a + d]] / r`, r² = I₂ + 2J > 0.
+pub(crate) fn twist_mode(f: [f64; 4], i2: f64, j: f64) -> Option<(f64, [f64; 4])> {
+    let (a, b, c, d) = (f[0], f[1], f[2], f[3]);
+    let lambda_twist = 2.0 - 2.0 * (i2 - j) / (j * j * j);
+    if lambda_twist >= 0.0 {
+        return None;
+    }
+    let r = ((a + d) * (a + d) + (c - b) * (c - b)).sqrt();
+    let (co, s) = ((a + d) / r, (c - b) / r);
+    Some((lambda_twist, [-s, -co, co, -s].map(|x| x / std::f64::consts::SQRT_2)))
 }
 
 /// `p qᵀ`.
@@ -186,13 +198,7 @@ fn psi_terms(f: [f64; 4]) -> Option<(f64, [f64; 4], [f64; 16])> {
     h[12] -= hj;
     h[6] += hj;
     h[9] += hj;
-    // Twist mode projection. Q, the rotation of F's polar decomposition, is
-    // [[a + d, b − c], [c − b, a + d]] / r with r² = I₂ + 2J > 0; T = R₉₀ Q / √2.
-    let lambda_twist = 2.0 - 2.0 * (i2 - j) / j3;
-    if lambda_twist < 0.0 {
-        let r = ((a + d) * (a + d) + (c - b) * (c - b)).sqrt();
-        let (co, s) = ((a + d) / r, (c - b) / r);
-        let t = [-s, -co, co, -s].map(|x| x / std::f64::consts::SQRT_2);
+    if let Some((lambda_twist, t)) = twist_mode(f, i2, j) {
         for r in 0..4 {
             for q in 0..4 {
                 h[r * 4 + q] -= lambda_twist * t[r] * t[q];

@@ -395,7 +395,7 @@ fn newton_direction(g: DVec2, h: [f64; 3]) -> Option<DVec2> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::complete::energy::{rest_shapes, triangle_terms};
+    use crate::complete::energy::{rest_shapes, triangle_terms, twist_mode};
     use crate::testing::{Rng, grid_mesh, smooth_warp};
 
     #[test]
@@ -411,7 +411,7 @@ mod tests {
             let (e, g, h) = triangle_terms(&rest[0], x).unwrap();
             let f = jacobian(&rest[0], x);
             let j = f[0] * f[3] - f[1] * f[2];
-            twisted += usize::from(2.0 - 2.0 * (f.iter().map(|v| v * v).sum::<f64>() - j) / (j * j * j) < 0.0);
+            twisted += usize::from(twist_mode(f, f.iter().map(|v| v * v).sum(), j).is_some());
             for k in 0..3 {
                 let (ek, gk, hk) = corner_terms(&rest[0], x, k).unwrap();
                 assert!((ek - e).abs() < 1e-12 * e.abs());
